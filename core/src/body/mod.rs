@@ -1,0 +1,18 @@
+//! The articulated body: SMPL's 24-joint skeleton, shape blend shapes, pose correctives,
+//! forward kinematics and linear blend skinning. One `BodyModel` serves both the embedded open
+//! body (MakeHuman CC0) and a user's own SMPL `.npz`.
+
+
+pub mod kinematics;
+pub mod load;
+pub mod model;
+pub mod params;
+pub mod skeleton;
+pub mod skinning;
+
+
+pub use kinematics::{forward_kinematics, Bones};
+pub use model::{BodyModel, PosedBody};
+pub use params::BodyParams;
+pub use skeleton::{BodyPart, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS};
+pub use skinning::{blend_transform, skin_normal, skin_point, unskin_point, Weights};

@@ -1,0 +1,125 @@
+//! Triangle meshes and point clouds: the currency between stages.
+
+pub mod io;
+pub mod topology;
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+/// An indexed triangle mesh. Faces are counter-clockwise seen from outside.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TriMesh {
+    pub positions: Vec<Vec3>,
+    pub faces: Vec<[u32; 3]>,
+}
+
+/// Points with optional unit normals (depth points, canonical points).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PointCloud {
+    pub points: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+}
+
+impl TriMesh {
+    pub fn new(positions: Vec<Vec3>, faces: Vec<[u32; 3]>) -> Self {
+        TriMesh { positions, faces }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.faces.is_empty()
+    }
+
+    pub fn triangle(&self, f: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.faces[f];
+        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
+    }
+
+    /// Unit face normals (zero for degenerate faces).
+    pub fn face_normals(&self) -> Vec<Vec3> {
+        (0..self.faces.len())
+            .map(|f| {
+                let [a, b, c] = self.triangle(f);
+                (b - a).cross(c - a).normalize_or_zero()
+            })
+            .collect()
+    }
+
+    /// Area-weighted unit vertex normals.
+    pub fn vertex_normals(&self) -> Vec<Vec3> {
+        let mut normals = vec![Vec3::ZERO; self.positions.len()];
+        for (f, face) in self.faces.iter().enumerate() {
+            let [a, b, c] = self.triangle(f);
+            let n = (b - a).cross(c - a); // length = 2 * area
+            for &v in face {
+                normals[v as usize] += n;
+            }
+        }
+        normals.iter().map(|n| n.normalize_or_zero()).collect()
+    }
+
+    /// Axis-aligned bounds (min, max); `None` for an empty mesh.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        bounds(&self.positions)
+    }
+
+    /// Signed volume (positive for a closed mesh with outward faces).
+    pub fn signed_volume(&self) -> f32 {
+        (0..self.faces.len())
+            .map(|f| {
+                let [a, b, c] = self.triangle(f);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    pub fn surface_area(&self) -> f32 {
+        (0..self.faces.len())
+            .map(|f| {
+                let [a, b, c] = self.triangle(f);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum()
+    }
+}
+
+/// Axis-aligned bounds of a point set.
+pub fn bounds(points: &[Vec3]) -> Option<(Vec3, Vec3)> {
+    let first = *points.first()?;
+    Some(points.iter().fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p))))
+}
+
+impl PointCloud {
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    pub(crate) fn unit_cube() -> TriMesh {
+        let p = (0..8)
+            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32))
+            .collect();
+        let f = vec![
+            [0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
+            [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5],
+        ];
+        TriMesh::new(p, f)
+    }
+
+    #[test]
+    fn cube_volume_area_and_outward_normals() {
+        let cube = unit_cube();
+        assert!((cube.signed_volume() - 1.0).abs() < 1e-6);
+        assert!((cube.surface_area() - 6.0).abs() < 1e-6);
+        let centre = Vec3::splat(0.5);
+        for (v, n) in cube.positions.iter().zip(cube.vertex_normals()) {
+            assert!(n.dot(*v - centre) > 0.0, "normal points inward at {v}");
+        }
+    }
+}

@@ -1,0 +1,97 @@
+//! Connectivity: connected components and clean-up of extracted meshes.
+
+use super::TriMesh;
+
+/// Label each face with its connected component (faces sharing a vertex are connected).
+/// Returns (face labels, number of components).
+pub fn face_components(mesh: &TriMesh) -> (Vec<u32>, usize) {
+    let n = mesh.positions.len();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
+        }
+        x
+    }
+    for &[a, b, c] in &mesh.faces {
+        for (u, v) in [(a, b), (b, c)] {
+            let (ru, rv) = (find(&mut parent, u), find(&mut parent, v));
+            if ru != rv {
+                parent[ru.max(rv) as usize] = ru.min(rv);
+            }
+        }
+    }
+    let mut label_of_root = vec![u32::MAX; n];
+    let mut count = 0u32;
+    let labels = mesh
+        .faces
+        .iter()
+        .map(|&[a, _, _]| {
+            let r = find(&mut parent, a) as usize;
+            if label_of_root[r] == u32::MAX {
+                label_of_root[r] = count;
+                count += 1;
+            }
+            label_of_root[r]
+        })
+        .collect();
+    (labels, count as usize)
+}
+
+/// Keep only the connected component with the most faces, dropping unused vertices.
+pub fn largest_component(mesh: &TriMesh) -> TriMesh {
+    let (labels, count) = face_components(mesh);
+    if count <= 1 {
+        return mesh.clone();
+    }
+    let mut sizes = vec![0usize; count];
+    for &l in &labels {
+        sizes[l as usize] += 1;
+    }
+    let best = (0..count).max_by_key(|&c| sizes[c]).unwrap_or(0) as u32;
+    let faces: Vec<[u32; 3]> =
+        mesh.faces.iter().zip(&labels).filter(|(_, l)| **l == best).map(|(f, _)| *f).collect();
+    compact(&mesh.positions, &faces)
+}
+
+/// Drop vertices no face uses and renumber.
+pub fn compact(positions: &[glam::Vec3], faces: &[[u32; 3]]) -> TriMesh {
+    let mut remap = vec![u32::MAX; positions.len()];
+    let mut kept = Vec::new();
+    let faces = faces
+        .iter()
+        .map(|f| {
+            f.map(|v| {
+                if remap[v as usize] == u32::MAX {
+                    remap[v as usize] = kept.len() as u32;
+                    kept.push(positions[v as usize]);
+                }
+                remap[v as usize]
+            })
+        })
+        .collect();
+    TriMesh::new(kept, faces)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn largest_component_keeps_bigger_piece() {
+        let mut positions = Vec::new();
+        let mut faces = Vec::new();
+        // A two-triangle quad and a separate single triangle.
+        positions.extend([Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)]);
+        faces.extend([[0, 1, 2], [1, 3, 2]]);
+        positions.extend([Vec3::splat(5.0), Vec3::new(6.0, 5.0, 5.0), Vec3::new(5.0, 6.0, 5.0)]);
+        faces.push([4, 5, 6]);
+        let mesh = TriMesh::new(positions, faces);
+        assert_eq!(face_components(&mesh).1, 2);
+        let big = largest_component(&mesh);
+        assert_eq!(big.faces.len(), 2);
+        assert_eq!(big.positions.len(), 4);
+    }
+}
