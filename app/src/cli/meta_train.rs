@@ -1,0 +1,8 @@
+//! `avatar-studio meta-train` (not implemented yet).
+
+#[derive(clap::Args)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    super::not_yet("meta-train")
+}

@@ -1,0 +1,1 @@
+//! Canonicalization: diffused skinning field, inverse skinning by root finding, canonical normalisation.

@@ -1,0 +1,1 @@
+//! Evaluation: MetaAvatar's metrics (Dp, Df, NC), IoU, Chamfer, protocols and reports.

@@ -1,0 +1,1 @@
+//! Export: animated binary glTF of an avatar, OBJ/PLY sequences.

@@ -1,0 +1,1 @@
+//! Synthetic clothed humans: outfits, pose-dependent clothing deformation, depth rendering, ground truth.

@@ -1,0 +1,1 @@
+//! The neural avatar (MetaAvatar): meta-learned SDF and hypernetwork, fitting and posing.
