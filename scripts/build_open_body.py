@@ -78,10 +78,12 @@ HEIGHT_RANGE_M = (1.45, 2.0)
 
 # Joint-regressor fit.
 JREG_RADIUS_M = 0.08
-JREG_RADIUS_STEP_M = 0.01
+JREG_RADIUS_STEP_M = 0.02
+JREG_RADIUS_MAX_M = 0.30
+JREG_MAX_L2 = 0.5
 JREG_MIN_VERTS_FULL = 60
 JREG_MIN_VERTS_LOW = 40
-JREG_RIDGE = 1e-12
+JREG_RIDGE = 1e-13
 
 NPZ_DATE = (1980, 1, 1, 0, 0, 0)
 
@@ -459,38 +461,55 @@ def project_points(points, verts, tris, candidates=64):
 
 # --------------------------------------------------------------------------- J_regressor
 
-def fit_joint_regressor(v_template, shapedirs, joints, joint_dirs, min_verts):
-    """Dense (24,V) regressor: rows sum to 1 and reproduce the joints for the neutral
-    body and for each full-strength shape direction (hence for any beta)."""
-    nj, nv = joints.shape[0], v_template.shape[0]
+def fit_joint_regressor(v_template, shapedirs, weights, joints, joint_dirs, min_verts):
+    """Dense (24,V) regressor: each row sums to 1 and reproduces the joint for the
+    neutral body and for each full-strength shape direction (hence for any beta).
+
+    Row j uses the vertices within a radius of joint j whose dominant skinning joint is
+    j, its parent or one of its children.  Among those it takes the minimum-norm
+    deviation from a smooth distance falloff that meets the 1 + 3 + 3K constraints.
+    The MakeHuman joint cubes do not always move with the surrounding skin (e.g. the
+    knee under the height targets), so small supports need large +/- weights; the
+    radius grows until the row's L2 norm is small (noise gain) or the cap is hit."""
+    nj = joints.shape[0]
     K = shapedirs.shape[2]
-    Jreg = np.zeros((nj, nv))
+    dominant = np.argmax(weights, 1)
+    Jreg = np.zeros((nj, v_template.shape[0]))
     info = []
     for j in range(nj):
+        allowed = {j} | {c for c in range(nj) if SMPL_PARENTS[c] == j}
+        if SMPL_PARENTS[j] >= 0:
+            allowed.add(SMPL_PARENTS[j])
+        mask = np.isin(dominant, sorted(allowed))
         d = np.linalg.norm(v_template - joints[j], axis=1)
+        best = None
         r = JREG_RADIUS_M
-        while np.count_nonzero(d <= r) < min_verts:
+        while r <= JREG_RADIUS_MAX_M + 1e-9:
+            idx = np.nonzero(mask & (d <= r))[0]
+            if len(idx) >= min_verts:
+                w0 = (1.0 - (d[idx] / r) ** 2) ** 2 + 1e-3
+                w0 /= w0.sum()
+                A = np.concatenate(
+                    [np.ones((1, len(idx))), (v_template[idx] - joints[j]).T]
+                    + [shapedirs[idx, :, k].T for k in range(K)], 0)
+                b = np.concatenate([np.array([1.0, 0.0, 0.0, 0.0])]
+                                   + [joint_dirs[k, j] for k in range(K)])
+                AAt = A @ A.T
+                lam = JREG_RIDGE * np.trace(AAt) / len(AAt)
+                w = w0 + A.T @ np.linalg.solve(AAt + lam * np.eye(len(AAt)), b - A @ w0)
+                l2 = float(np.linalg.norm(w))
+                if best is None or l2 < best[2]:
+                    best = (idx, w, l2, r)
+                if l2 <= JREG_MAX_L2:
+                    break
             r += JREG_RADIUS_STEP_M
-        idx = np.nonzero(d <= r)[0]
-        # prior: smooth falloff towards the sphere's edge
-        w0 = (1.0 - (d[idx] / r) ** 2) ** 2 + 1e-3
-        w0 /= w0.sum()
-        rows = [np.ones((1, len(idx)))]
-        rhs = [np.ones(1)]
-        rows.append((v_template[idx] - joints[j]).T)
-        rhs.append(np.zeros(3))
-        for k in range(K):
-            rows.append(shapedirs[idx, :, k].T)
-            rhs.append(joint_dirs[k, j])
-        A = np.concatenate(rows, 0)
-        b = np.concatenate(rhs, 0)
-        # minimum deviation from the prior subject to A w = b (with a tiny ridge)
-        AAt = A @ A.T
-        lam = JREG_RIDGE * np.trace(AAt) / len(AAt)
-        w = w0 + A.T @ np.linalg.solve(AAt + lam * np.eye(len(AAt)), b - A @ w0)
+        if best is None:
+            raise SystemExit("joint %d: not enough vertices for the regressor" % j)
+        idx, w, l2, r = best
         Jreg[j, idx] = w
-        info.append({"radius_m": r, "count": len(idx),
-                     "min_w": float(w.min()), "max_w": float(w.max())})
+        info.append({"joint": SMPL_JOINT_NAMES[j], "radius_m": round(r, 3),
+                     "vertices": int(len(idx)), "l1": float(np.abs(w).sum()),
+                     "l2": l2, "min_w": float(w.min()), "max_w": float(w.max())})
     return Jreg, info
 
 
@@ -701,7 +720,7 @@ def main():
     tpose_info, K = B["tpose_info"], B["K"]
 
     # 6. joint regressor
-    Jreg, jinfo = fit_joint_regressor(v_posed, shapedirs, J, Jdirs, JREG_MIN_VERTS_FULL)
+    Jreg, jinfo = fit_joint_regressor(v_posed, shapedirs, W24, J, Jdirs, JREG_MIN_VERTS_FULL)
     jerr = joint_fit_error(Jreg, v_posed, shapedirs, J, Jdirs)
 
     # 7. low-poly variant: closest-point projection in the rest shape of that mesh
@@ -721,7 +740,7 @@ def main():
     if lp_vol < 0:
         lp_tris = lp_tris[:, ::-1].copy()
         lp_vol = -lp_vol
-    lp_Jreg, lp_jinfo = fit_joint_regressor(lp_v, lp_sd, J, Jdirs, JREG_MIN_VERTS_LOW)
+    lp_Jreg, lp_jinfo = fit_joint_regressor(lp_v, lp_sd, lp_W, J, Jdirs, JREG_MIN_VERTS_LOW)
     lp_jerr = joint_fit_error(lp_Jreg, lp_v, lp_sd, J, Jdirs)
 
     # shape limits: keep the height within HEIGHT_RANGE_M for gender -1 .. 1
