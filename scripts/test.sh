@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Runs every test of Avatar Studio. Installs what the tests need first (Debian/Ubuntu, as root
+# or with sudo): lavapipe (software Vulkan) for the studio's screenshot tests, Node.js for the
+# Khronos glTF validator. The cargo target directory lives outside the checkout so that
+# repeated runs (and CI on the same machine) reuse the build.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/avatar-studio/target}"
+export WGPU_BACKEND="${WGPU_BACKEND:-vulkan}"
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp/avatar-studio-runtime}"
+mkdir -p "$XDG_RUNTIME_DIR" && chmod 0700 "$XDG_RUNTIME_DIR"
+
+missing=()
+[ -e /usr/share/vulkan/icd.d/lvp_icd.x86_64.json ] || [ -n "$(ls /usr/share/vulkan/icd.d/lvp_icd.*.json 2>/dev/null)" ] || missing+=(mesa-vulkan-drivers libvulkan1)
+command -v node >/dev/null || missing+=(nodejs)
+command -v npm >/dev/null || missing+=(npm)
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "installing system packages: ${missing[*]}"
+  SUDO=""; [ "$(id -u)" = 0 ] || SUDO="sudo"
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+if [ -f tests/gltf-validator/package-lock.json ] && [ ! -d tests/gltf-validator/node_modules ]; then
+  npm ci --prefix tests/gltf-validator --no-audit --no-fund --loglevel=error
+fi
+
+cargo test --workspace --locked "$@"
