@@ -8,12 +8,9 @@ pub enum Error {
     #[error("{path}: {message}")]
     InvalidFile { path: PathBuf, message: String },
     /// The operating system refused a read or write.
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// (The cause is part of the message rather than a `source`, so error chains print it once.)
+    #[error("{path}: {cause}")]
+    Io { path: PathBuf, cause: std::io::Error },
     /// Bad arguments or inconsistent in-memory data (no file involved).
     #[error("{0}")]
     Invalid(String),
@@ -24,7 +21,7 @@ impl Error {
         Error::InvalidFile { path: path.as_ref().to_path_buf(), message: message.into() }
     }
     pub fn io(path: impl AsRef<Path>, source: std::io::Error) -> Self {
-        Error::Io { path: path.as_ref().to_path_buf(), source }
+        Error::Io { path: path.as_ref().to_path_buf(), cause: source }
     }
     pub fn invalid(message: impl Into<String>) -> Self {
         Error::Invalid(message.into())

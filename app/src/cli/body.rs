@@ -26,7 +26,8 @@ pub struct Args {
 pub fn load_model(model: Option<&PathBuf>, lowpoly: bool) -> anyhow::Result<BodyModel> {
     Ok(match model {
         Some(path) => BodyModel::load_npz(path)?,
-        None => anyhow::bail!("the embedded open body is not built into this version yet; pass --model (lowpoly: {lowpoly})"),
+        None if lowpoly => avatar_core::body::open_body_lowpoly(),
+        None => avatar_core::body::open_body(),
     })
 }
 
@@ -59,10 +60,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 pub fn summary() -> anyhow::Result<()> {
-    let Ok(model) = load_model(None, false) else {
-        println!("Avatar Studio {}: run `avatar-studio --help` for the commands", env!("CARGO_PKG_VERSION"));
-        return Ok(());
-    };
+    let model = avatar_core::body::open_body_ref();
     let rest = model.pose(&BodyParams::default());
     let (lo, hi) = avatar_core::mesh::bounds(&rest.vertices).unwrap_or_default();
     println!("Avatar Studio {}", env!("CARGO_PKG_VERSION"));

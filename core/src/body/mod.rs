@@ -2,7 +2,7 @@
 //! forward kinematics and linear blend skinning. One `BodyModel` serves both the embedded open
 //! body (MakeHuman CC0) and a user's own SMPL `.npz`.
 
-
+pub mod embedded;
 pub mod kinematics;
 pub mod load;
 pub mod model;
@@ -10,7 +10,7 @@ pub mod params;
 pub mod skeleton;
 pub mod skinning;
 
-
+pub use embedded::{open_body, open_body_lowpoly, open_body_lowpoly_ref, open_body_ref};
 pub use kinematics::{forward_kinematics, Bones};
 pub use model::{BodyModel, PosedBody};
 pub use params::BodyParams;
