@@ -1,5 +1,7 @@
 //! Triangle meshes and point clouds: the currency between stages.
 
+pub mod bvh;
+pub mod extract;
 pub mod io;
 pub mod topology;
 

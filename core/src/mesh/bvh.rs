@@ -1,0 +1,463 @@
+//! Bounding-volume hierarchy over a triangle mesh: closest point on the surface
+//! (point-to-triangle distance, the Df metric) and ray casting (first hit or every hit).
+//!
+//! Built once per mesh by median splits along the longest axis of the triangle centroids,
+//! at most `LEAF_SIZE` triangles a leaf. Queries are read-only, so one `Bvh` can be shared
+//! between threads.
+
+use super::TriMesh;
+use glam::Vec3;
+
+const LEAF_SIZE: usize = 4;
+/// Deep enough for any tree built by median splits of up to 2^40 triangles.
+const STACK: usize = 64;
+
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    min: Vec3,
+    max: Vec3,
+    /// Leaf: first triangle. Interior: index of the right child (the left one is next).
+    first: u32,
+    /// Leaf: number of triangles (> 0). Interior: 0.
+    count: u32,
+}
+
+/// A BVH over the faces of one mesh (positions are copied: the mesh may be dropped).
+#[derive(Debug, Clone)]
+pub struct Bvh {
+    nodes: Vec<Node>,
+    /// Triangles in tree order.
+    tris: Vec<[Vec3; 3]>,
+    /// Original face index of each triangle in tree order.
+    face_ids: Vec<u32>,
+}
+
+/// Closest point of the surface to a query point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClosestHit {
+    pub point: Vec3,
+    pub distance: f32,
+    /// Index into the mesh's faces.
+    pub face: u32,
+}
+
+/// A ray-triangle intersection at `origin + t * dir`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayHit {
+    pub t: f32,
+    pub face: u32,
+    /// Barycentric coordinates of the hit: point = (1-u-v) a + u b + v c.
+    pub u: f32,
+    pub v: f32,
+    /// Whether the ray enters through the front side (against the face normal).
+    pub front: bool,
+}
+
+impl Bvh {
+    /// Build over every face of `mesh`. An empty mesh gives an empty tree whose queries
+    /// return `None`.
+    pub fn build(mesh: &TriMesh) -> Bvh {
+        Self::from_triangles((0..mesh.faces.len()).map(|f| mesh.triangle(f)).collect())
+    }
+
+    /// Build over a triangle soup; face ids are the indices into `tris`.
+    pub fn from_triangles(tris: Vec<[Vec3; 3]>) -> Bvh {
+        let n = tris.len();
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let centroids: Vec<Vec3> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+        let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
+        if n > 0 {
+            build_node(&tris, &centroids, &mut order, 0, &mut nodes);
+        }
+        let sorted = order.iter().map(|&i| tris[i as usize]).collect();
+        Bvh { nodes, tris: sorted, face_ids: order }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.tris.is_empty()
+    }
+
+    pub fn num_triangles(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// Bounds of the whole mesh, `None` when empty.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        self.nodes.first().map(|n| (n.min, n.max))
+    }
+
+    /// Closest point on the surface to `q`, `None` for an empty mesh.
+    pub fn closest_point(&self, q: Vec3) -> Option<ClosestHit> {
+        self.closest_point_within(q, f32::INFINITY)
+    }
+
+    /// Closest point on the surface within `max_distance` of `q` (exclusive).
+    pub fn closest_point_within(&self, q: Vec3, max_distance: f32) -> Option<ClosestHit> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let mut best_d2 = max_distance * max_distance;
+        let mut best: Option<(Vec3, u32)> = None;
+        let mut stack = [0u32; STACK];
+        let mut top = 0usize;
+        let mut node_index = 0u32;
+        loop {
+            let node = &self.nodes[node_index as usize];
+            if node.count > 0 {
+                let start = node.first as usize;
+                for i in start..start + node.count as usize {
+                    let [a, b, c] = self.tris[i];
+                    let p = closest_point_on_triangle(q, a, b, c);
+                    let d2 = p.distance_squared(q);
+                    if d2 < best_d2 {
+                        best_d2 = d2;
+                        best = Some((p, i as u32));
+                    }
+                }
+            } else {
+                let (l, r) = (node_index + 1, node.first);
+                let dl = box_distance_squared(q, &self.nodes[l as usize]);
+                let dr = box_distance_squared(q, &self.nodes[r as usize]);
+                let (near, d_near, far, d_far) = if dl <= dr { (l, dl, r, dr) } else { (r, dr, l, dl) };
+                if d_far < best_d2 {
+                    stack[top] = far;
+                    top += 1;
+                }
+                if d_near < best_d2 {
+                    node_index = near;
+                    continue;
+                }
+            }
+            // Pop the next node that can still beat the best distance.
+            loop {
+                if top == 0 {
+                    return best.map(|(point, i)| ClosestHit {
+                        point,
+                        distance: best_d2.sqrt(),
+                        face: self.face_ids[i as usize],
+                    });
+                }
+                top -= 1;
+                let candidate = stack[top];
+                if box_distance_squared(q, &self.nodes[candidate as usize]) < best_d2 {
+                    node_index = candidate;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Nearest intersection of the ray `origin + t dir` with `t` in `(t_min, t_max)`.
+    /// Both sides of every triangle are hit; `front` tells which.
+    pub fn ray_cast(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Option<RayHit> {
+        let mut best: Option<RayHit> = None;
+        self.traverse_ray(origin, dir, t_min, t_max, |bvh, i, limit| {
+            let [a, b, c] = bvh.tris[i];
+            match ray_triangle(origin, dir, a, b, c) {
+                Some((t, u, v, front)) if t > t_min && t < limit => {
+                    best = Some(RayHit { t, face: bvh.face_ids[i], u, v, front });
+                    t
+                }
+                _ => limit,
+            }
+        });
+        best
+    }
+
+    /// Every intersection of the ray with `t` in `(t_min, t_max)`, sorted by `t`.
+    pub fn ray_hits(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Vec<RayHit> {
+        let mut hits = Vec::new();
+        self.traverse_ray(origin, dir, t_min, t_max, |bvh, i, limit| {
+            let [a, b, c] = bvh.tris[i];
+            if let Some((t, u, v, front)) = ray_triangle(origin, dir, a, b, c) {
+                if t > t_min && t < t_max {
+                    hits.push(RayHit { t, face: bvh.face_ids[i], u, v, front });
+                }
+            }
+            limit
+        });
+        hits.sort_by(|a, b| a.t.total_cmp(&b.t));
+        hits
+    }
+
+    /// Walk every leaf whose box the ray enters before the current limit; `visit` tests one
+    /// triangle and returns the (possibly shrunk) limit.
+    fn traverse_ray<F>(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32, mut visit: F)
+    where
+        F: FnMut(&Bvh, usize, f32) -> f32,
+    {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let inv = Vec3::ONE / dir; // infinities are handled by the slab test
+        let mut limit = t_max;
+        let mut stack = [0u32; STACK];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let node = &self.nodes[stack[top] as usize];
+            if !ray_box(origin, inv, node, t_min, limit) {
+                continue;
+            }
+            if node.count > 0 {
+                let start = node.first as usize;
+                for i in start..start + node.count as usize {
+                    limit = visit(self, i, limit);
+                }
+            } else {
+                stack[top] += 1; // left child follows its parent
+                stack[top + 1] = node.first;
+                top += 2;
+            }
+        }
+    }
+}
+
+fn build_node(tris: &[[Vec3; 3]], centroids: &[Vec3], order: &mut [u32], offset: usize, nodes: &mut Vec<Node>) -> usize {
+    let (mut min, mut max) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    let (mut cmin, mut cmax) = (min, max);
+    for &i in order.iter() {
+        for p in tris[i as usize] {
+            min = min.min(p);
+            max = max.max(p);
+        }
+        let c = centroids[i as usize];
+        cmin = cmin.min(c);
+        cmax = cmax.max(c);
+    }
+    let index = nodes.len();
+    nodes.push(Node { min, max, first: offset as u32, count: order.len() as u32 });
+    let extent = cmax - cmin;
+    // NaN extents (corrupt positions) compare false and end in a leaf.
+    if order.len() <= LEAF_SIZE || !(extent.max_element() > 0.0) {
+        return index;
+    }
+    let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+    let mid = order.len() / 2;
+    order.select_nth_unstable_by(mid, |&a, &b| centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]));
+    let (left, right) = order.split_at_mut(mid);
+    build_node(tris, centroids, left, offset, nodes);
+    let right_index = build_node(tris, centroids, right, offset + mid, nodes);
+    nodes[index].first = right_index as u32;
+    nodes[index].count = 0;
+    index
+}
+
+fn box_distance_squared(q: Vec3, node: &Node) -> f32 {
+    let d = (node.min - q).max(q - node.max).max(Vec3::ZERO);
+    d.length_squared()
+}
+
+/// Slab test: does the ray meet the box for some t in [t_min, t_max]?
+fn ray_box(origin: Vec3, inv: Vec3, node: &Node, t_min: f32, t_max: f32) -> bool {
+    let t0 = (node.min - origin) * inv;
+    let t1 = (node.max - origin) * inv;
+    // 0 * inf = NaN when the origin lies on a slab plane of an axis-parallel ray; min/max
+    // with NaN return the other operand, which keeps such rays (conservative).
+    let near = t0.min(t1).max_element().max(t_min);
+    let far = t0.max(t1).min_element().min(t_max);
+    near <= far
+}
+
+/// Two-sided ray/triangle intersection (edge-plane determinant form): returns
+/// (t, u, v, front) where front means the ray travels against the face normal.
+pub fn ray_triangle(origin: Vec3, dir: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Option<(f32, f32, f32, bool)> {
+    let e1 = b - a;
+    let e2 = c - a;
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < f32::MIN_POSITIVE {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    let s = origin - a;
+    let u = s.dot(p) * inv_det;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = dir.dot(q) * inv_det;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv_det;
+    // det > 0 means dir . (e1 x e2) < 0: the ray runs against the normal (front side).
+    Some((t, u, v, det > 0.0))
+}
+
+/// Closest point to `p` on the triangle (a, b, c), by the Voronoi region of `p`
+/// (vertex, edge or face). Degenerate triangles fall back to the closest edge point.
+pub fn closest_point_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = ab.dot(ap);
+    let d2 = ac.dot(ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let d3 = ab.dot(bp);
+    let d4 = ac.dot(bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let t = d1 / (d1 - d3);
+        return a + ab * t;
+    }
+    let cp = p - c;
+    let d5 = ab.dot(cp);
+    let d6 = ac.dot(cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let t = d2 / (d2 - d6);
+        return a + ac * t;
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return b + (c - b) * t;
+    }
+    let denom = va + vb + vc;
+    if !(denom.abs() > f32::MIN_POSITIVE) {
+        // Degenerate (collinear) triangle: nearest of the three edges.
+        return [segment_closest(p, a, b), segment_closest(p, b, c), segment_closest(p, c, a)]
+            .into_iter()
+            .min_by(|x, y| x.distance_squared(p).total_cmp(&y.distance_squared(p)))
+            .unwrap_or(a);
+    }
+    let v = vb / denom;
+    let w = vc / denom;
+    a + ab * v + ac * w
+}
+
+fn segment_closest(p: Vec3, a: Vec3, b: Vec3) -> Vec3 {
+    let d = b - a;
+    let len2 = d.length_squared();
+    if len2 <= 0.0 {
+        return a;
+    }
+    a + d * ((p - a).dot(d) / len2).clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn random_soup(rng: &mut ChaCha8Rng, n: usize) -> Vec<[Vec3; 3]> {
+        (0..n)
+            .map(|_| {
+                let c = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+                let mut v = || c + Vec3::new(rng.random_range(-0.2..0.2), rng.random_range(-0.2..0.2), rng.random_range(-0.2..0.2));
+                [v(), v(), v()]
+            })
+            .collect()
+    }
+
+    /// Reference distance: minimise over a fine barycentric sampling of the triangle, then
+    /// over its edges; an upper bound that is within the sampling step of the truth.
+    fn sampled_distance(p: Vec3, [a, b, c]: [Vec3; 3]) -> f32 {
+        let n = 200;
+        let mut best = f32::INFINITY;
+        for i in 0..=n {
+            for j in 0..=(n - i) {
+                let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+                best = best.min((a + (b - a) * u + (c - a) * v).distance(p));
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn closest_point_on_triangle_matches_dense_sampling() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for _ in 0..200 {
+            let tri = random_soup(&mut rng, 1)[0];
+            let p = Vec3::new(rng.random_range(-1.5..1.5), rng.random_range(-1.5..1.5), rng.random_range(-1.5..1.5));
+            let q = closest_point_on_triangle(p, tri[0], tri[1], tri[2]);
+            let exact = q.distance(p);
+            let sampled = sampled_distance(p, tri);
+            // The closest point must lie on the triangle and no sample may be closer.
+            assert!(exact <= sampled + 1e-5, "closest point {exact} farther than a sample {sampled}");
+            assert!(sampled - exact < 0.01, "closest point {exact} too close vs samples {sampled}");
+            let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
+            assert!((q - tri[0]).dot(n).abs() < 1e-4, "closest point off the triangle plane");
+        }
+    }
+
+    #[test]
+    fn bvh_closest_point_equals_brute_force() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let tris = random_soup(&mut rng, 500);
+        let bvh = Bvh::from_triangles(tris.clone());
+        for _ in 0..500 {
+            let q = Vec3::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0));
+            let hit = bvh.closest_point(q).unwrap();
+            let (brute_face, brute) = tris
+                .iter()
+                .enumerate()
+                .map(|(f, t)| (f, closest_point_on_triangle(q, t[0], t[1], t[2]).distance(q)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap();
+            assert!((hit.distance - brute).abs() < 1e-6, "bvh {} vs brute {brute}", hit.distance);
+            assert!((hit.point.distance(q) - hit.distance).abs() < 1e-5);
+            // Ties aside, the face must be the brute-force one.
+            let t = tris[hit.face as usize];
+            assert!((closest_point_on_triangle(q, t[0], t[1], t[2]).distance(q) - tris_dist(&tris, brute_face, q)).abs() < 1e-6);
+        }
+        assert!(bvh.closest_point_within(Vec3::splat(10.0), 1.0).is_none());
+        assert!(Bvh::from_triangles(Vec::new()).closest_point(Vec3::ZERO).is_none());
+    }
+
+    fn tris_dist(tris: &[[Vec3; 3]], f: usize, q: Vec3) -> f32 {
+        let t = tris[f];
+        closest_point_on_triangle(q, t[0], t[1], t[2]).distance(q)
+    }
+
+    #[test]
+    fn bvh_rays_equal_brute_force() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let tris = random_soup(&mut rng, 300);
+        let bvh = Bvh::from_triangles(tris.clone());
+        for _ in 0..300 {
+            let o = Vec3::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0));
+            let d = (Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) - o * 0.3)
+                .normalize();
+            let mut brute: Vec<f32> = tris
+                .iter()
+                .filter_map(|t| ray_triangle(o, d, t[0], t[1], t[2]).map(|h| h.0))
+                .filter(|&t| t > 0.0 && t < 100.0)
+                .collect();
+            brute.sort_by(f32::total_cmp);
+            let hits = bvh.ray_hits(o, d, 0.0, 100.0);
+            assert_eq!(hits.len(), brute.len());
+            for (h, t) in hits.iter().zip(&brute) {
+                assert!((h.t - t).abs() < 1e-6);
+            }
+            let first = bvh.ray_cast(o, d, 0.0, 100.0).map(|h| h.t);
+            assert_eq!(first, brute.first().copied());
+        }
+        // Axis-parallel rays (infinite inverse components) work too.
+        let hits = bvh.ray_hits(Vec3::new(0.1, 0.2, -5.0), Vec3::Z, 0.0, 100.0);
+        let brute = tris.iter().filter(|t| ray_triangle(Vec3::new(0.1, 0.2, -5.0), Vec3::Z, t[0], t[1], t[2]).is_some_and(|h| h.0 > 0.0)).count();
+        assert_eq!(hits.len(), brute);
+    }
+
+    #[test]
+    fn ray_reports_front_and_back_side() {
+        // Triangle in z = 0 with normal +z.
+        let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        let down = ray_triangle(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, a, b, c).unwrap();
+        assert!(down.3 && (down.0 - 1.0).abs() < 1e-6);
+        let up = ray_triangle(Vec3::new(0.2, 0.2, -1.0), Vec3::Z, a, b, c).unwrap();
+        assert!(!up.3);
+        assert!(ray_triangle(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z, a, b, c).is_none());
+    }
+}
