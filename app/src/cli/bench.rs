@@ -1,8 +1,85 @@
-//! `avatar-studio bench` (not implemented yet).
+//! `avatar-studio bench`: the speed targets, measured side by side in one run and printed as a
+//! Markdown report (these machines are noisy: compare ratios within one report).
+
+use avatar_core::body::{BodyModel, BodyParams};
+use glam::Vec3;
+use std::path::PathBuf;
+use std::time::Instant;
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Only run sections whose name contains this text (body, ...).
+    #[arg(long)]
+    only: Option<String>,
+    /// Also write the report to this Markdown file.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    super::not_yet("bench")
+/// Time `f` over `reps` repetitions after one warm-up; returns the median in seconds.
+pub fn median_seconds(reps: usize, mut f: impl FnMut()) -> f64 {
+    f();
+    let mut times: Vec<f64> = (0..reps.max(1))
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64()
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn walking_pose(t: f32) -> BodyParams {
+    let mut p = BodyParams::default();
+    let s = (t * std::f32::consts::TAU).sin();
+    p.pose[1] = Vec3::new(-0.5 * s, 0.0, 0.0);
+    p.pose[2] = Vec3::new(0.5 * s, 0.0, 0.0);
+    p.pose[4] = Vec3::new(0.6 * s.max(0.0), 0.0, 0.0);
+    p.pose[5] = Vec3::new(0.6 * (-s).max(0.0), 0.0, 0.0);
+    p.pose[16] = Vec3::new(0.0, 0.0, -1.2);
+    p.pose[17] = Vec3::new(0.0, 0.0, 1.2);
+    p
+}
+
+fn body_section() -> String {
+    let npz = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/body/open_body.npz"));
+    let mut out = String::from("## body\n\n| what | median | note |\n|---|---|---|\n");
+    if let Ok(bytes) = npz {
+        let load = median_seconds(5, || {
+            let _ = BodyModel::from_npz_bytes(&bytes, "bench").expect("embedded body loads");
+        });
+        out += &format!("| load the open body (13.4k vertices) from npz | {:.1} ms | target: well under 1 s |\n", load * 1e3);
+    }
+    for (name, model) in [("full", avatar_core::body::open_body_ref()), ("low-poly", avatar_core::body::open_body_lowpoly_ref())] {
+        let mut i = 0;
+        let t = median_seconds(20, || {
+            i += 1;
+            std::hint::black_box(model.pose(&walking_pose(i as f32 * 0.05)));
+        });
+        out += &format!("| pose {name} body ({} vertices): shape + FK + LBS | {:.2} ms | |\n", model.num_vertices(), t * 1e3);
+    }
+    out
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section)];
+    let mut report = format!(
+        "# Avatar Studio benchmarks\n\n{} threads, profile {}, `avatar-studio bench`\n\n",
+        std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        if cfg!(debug_assertions) { "dev (debug assertions)" } else { "release" }
+    );
+    for (name, section) in sections {
+        if args.only.as_deref().is_some_and(|o| !name.contains(o)) {
+            continue;
+        }
+        let text = section();
+        print!("{text}\n");
+        report += &text;
+        report += "\n";
+    }
+    if let Some(path) = &args.out {
+        avatar_core::io::write_bytes_atomic(path, report.as_bytes())?;
+    }
+    Ok(())
 }
