@@ -1,0 +1,237 @@
+//! Opening a capture folder: every frame read, checked, back-projected, oriented and cropped.
+//! Bad frames become per-frame warnings that name the frame, the file and the problem; the
+//! good frames stay usable. Only a capture with no usable frame is an error.
+
+use super::depth_png::{read_depth_png, read_mask_png};
+use super::manifest::{CaptureManifest, FrameRecord};
+use super::points::{backproject, crop_to_body, estimate_normals, CropOptions, CropReport};
+use crate::body::{open_body_ref, BodyModel, BodyParams};
+use crate::error::{Error, Result};
+use crate::mesh::bvh::Bvh;
+use glam::{Mat4, Vec3};
+use rayon::prelude::*;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Depth beyond this (metres, median over the valid pixels) is a unit error, not a person.
+pub const MAX_PLAUSIBLE_DEPTH: f32 = 10.0;
+/// Depth below this (metres, median) is a unit error too (metres stored at millimetre scale).
+pub const MIN_PLAUSIBLE_DEPTH: f32 = 0.2;
+/// Fewer valid pixels than this fraction: the image is "mostly zero".
+pub const MIN_VALID_FRACTION: f32 = 0.005;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaptureOptions {
+    pub crop: CropOptions,
+    /// Neighbours for the PCA normals.
+    pub normal_neighbours: usize,
+    /// Keep only these frame indices (in manifest order); `None` = all.
+    pub frames: Option<Vec<usize>>,
+}
+
+impl Default for CaptureOptions {
+    fn default() -> Self {
+        CaptureOptions { crop: CropOptions::default(), normal_neighbours: 16, frames: None }
+    }
+}
+
+/// A usable frame: the person's oriented points in world (body) space and the fitting.
+#[derive(Debug, Clone)]
+pub struct CaptureFrame {
+    /// Index in the manifest.
+    pub index: usize,
+    pub depth_file: PathBuf,
+    pub params: BodyParams,
+    pub camera_to_world: Mat4,
+    pub points: Vec<Vec3>,
+    /// Unit normals facing the camera.
+    pub normals: Vec<Vec3>,
+    /// Pixel index (v * width + u) of each point.
+    pub pixels: Vec<u32>,
+    pub crop: CropReport,
+}
+
+impl CaptureFrame {
+    pub fn camera_center(&self) -> Vec3 {
+        self.camera_to_world.w_axis.truncate()
+    }
+}
+
+/// Why a frame was skipped.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameError {
+    pub index: usize,
+    pub file: PathBuf,
+    pub reason: String,
+}
+
+impl fmt::Display for FrameError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "frame {} ({}): {}", self.index, self.file.display(), self.reason)
+    }
+}
+
+pub struct Capture {
+    pub dir: PathBuf,
+    pub manifest: CaptureManifest,
+    pub body: Arc<BodyModel>,
+    pub frames: Vec<CaptureFrame>,
+    pub warnings: Vec<FrameError>,
+}
+
+impl fmt::Debug for Capture {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Capture")
+            .field("dir", &self.dir)
+            .field("frames", &self.frames.len())
+            .field("warnings", &self.warnings)
+            .finish()
+    }
+}
+
+impl Capture {
+    pub fn open(dir: impl AsRef<Path>) -> Result<Capture> {
+        Self::open_with(dir, &CaptureOptions::default())
+    }
+
+    pub fn open_with(dir: impl AsRef<Path>, options: &CaptureOptions) -> Result<Capture> {
+        let dir = dir.as_ref();
+        let dir = if dir.is_file() { dir.parent().unwrap_or(Path::new(".")) } else { dir };
+        let manifest = CaptureManifest::load(dir)?;
+        let body = load_body_model(dir, &manifest.body_model)?;
+        let selected: Vec<usize> = match &options.frames {
+            Some(list) => {
+                if let Some(&bad) = list.iter().find(|&&i| i >= manifest.frames.len()) {
+                    return Err(Error::invalid(format!(
+                        "{}: frame {bad} requested but the capture has {} frames",
+                        dir.display(),
+                        manifest.frames.len()
+                    )));
+                }
+                list.clone()
+            }
+            None => (0..manifest.frames.len()).collect(),
+        };
+        let results: Vec<std::result::Result<CaptureFrame, FrameError>> = selected
+            .par_iter()
+            .map(|&i| load_frame(dir, &manifest, &manifest.frames[i], i, &body, options))
+            .collect();
+        let mut frames = Vec::new();
+        let mut warnings = Vec::new();
+        for r in results {
+            match r {
+                Ok(f) => frames.push(f),
+                Err(e) => warnings.push(e),
+            }
+        }
+        if frames.is_empty() {
+            let reasons: Vec<String> = warnings.iter().take(5).map(|w| w.to_string()).collect();
+            return Err(Error::file(
+                dir.join(super::manifest::MANIFEST_FILE),
+                format!("no usable frame in the capture ({} skipped): {}", warnings.len(), reasons.join("; ")),
+            ));
+        }
+        Ok(Capture { dir: dir.to_path_buf(), manifest, body, frames, warnings })
+    }
+
+    /// All frames' points (world space), concatenated.
+    pub fn total_points(&self) -> usize {
+        self.frames.iter().map(|f| f.points.len()).sum()
+    }
+}
+
+/// `"open_body"` -> the embedded body; anything else is an SMPL npz relative to the folder.
+pub fn load_body_model(dir: &Path, name: &str) -> Result<Arc<BodyModel>> {
+    if name.is_empty() || name == "open_body" {
+        return Ok(Arc::new(open_body_ref().clone()));
+    }
+    let path = if Path::new(name).is_absolute() { PathBuf::from(name) } else { dir.join(name) };
+    Ok(Arc::new(BodyModel::load_npz(&path)?))
+}
+
+fn load_frame(
+    dir: &Path,
+    manifest: &CaptureManifest,
+    record: &FrameRecord,
+    index: usize,
+    body: &BodyModel,
+    options: &CaptureOptions,
+) -> std::result::Result<CaptureFrame, FrameError> {
+    let depth_file = dir.join(&record.depth);
+    let fail = |reason: String| FrameError { index, file: depth_file.clone(), reason };
+    // The fitting first: a frame without one is useless whatever its image holds.
+    let params = record.params().map_err(|e| fail(format!("body fitting: {e}")))?;
+    let camera_to_world = record.camera_to_world().map_err(|e| fail(e.to_string()))?;
+    let depth = read_depth_png(&depth_file, manifest.depth_scale).map_err(|e| fail(strip_path(&e, &depth_file)))?;
+    let intr = &manifest.intrinsics;
+    if (depth.width, depth.height) != (intr.width, intr.height) {
+        return Err(fail(format!(
+            "image is {}x{} but the intrinsics say {}x{}",
+            depth.width, depth.height, intr.width, intr.height
+        )));
+    }
+    check_units(&depth.metres, manifest.depth_scale).map_err(fail)?;
+    let mask = match &record.mask {
+        None => None,
+        Some(m) => {
+            let path = dir.join(m);
+            let (w, h, mask) = read_mask_png(&path).map_err(|e| fail(format!("mask: {e}")))?;
+            if (w, h) != (depth.width, depth.height) {
+                return Err(fail(format!("mask {} is {w}x{h}, the depth image {}x{}", path.display(), depth.width, depth.height)));
+            }
+            Some(mask)
+        }
+    };
+    let (points, pixels) = backproject(&depth, intr, camera_to_world, mask.as_deref());
+    let posed = body.pose(&params);
+    let bvh = Bvh::build(&body.mesh(posed.vertices));
+    // World up: the body's rest up axis (Y) carried by the root orientation is not the floor's
+    // up; captures are in a Y-up world, like the body model.
+    let (kept, crop) = crop_to_body(&points, &bvh, Vec3::Y, &options.crop).map_err(|e| fail(e.to_string()))?;
+    if kept.is_empty() {
+        return Err(fail(format!(
+            "no depth point lies within {:.0} cm of the fitted body ({} points, all background): is this frame's fitting right?",
+            options.crop.max_distance * 100.0,
+            points.len()
+        )));
+    }
+    let points: Vec<Vec3> = kept.iter().map(|&i| points[i]).collect();
+    let pixels: Vec<u32> = kept.iter().map(|&i| pixels[i]).collect();
+    let normals = estimate_normals(&points, camera_to_world.w_axis.truncate(), options.normal_neighbours);
+    Ok(CaptureFrame { index, depth_file, params, camera_to_world, points, normals, pixels, crop })
+}
+
+/// The frame error already names the file; keep only the problem.
+fn strip_path(e: &Error, path: &Path) -> String {
+    let s = e.to_string();
+    let prefix = format!("{}: ", path.display());
+    s.strip_prefix(&prefix).map(str::to_string).unwrap_or(s)
+}
+
+/// Depth mostly zero, or a median beyond 10 m / below 20 cm, is a unit problem.
+fn check_units(metres: &[f32], depth_scale: f32) -> std::result::Result<(), String> {
+    let mut valid: Vec<f32> = metres.iter().copied().filter(|&z| z > 0.0).collect();
+    let fraction = valid.len() as f32 / metres.len().max(1) as f32;
+    if fraction < MIN_VALID_FRACTION {
+        return Err(format!(
+            "depth is zero almost everywhere ({:.2}% of pixels have a value): empty or not a depth image",
+            fraction * 100.0
+        ));
+    }
+    let mid = valid.len() / 2;
+    let median = *valid.select_nth_unstable_by(mid, f32::total_cmp).1;
+    if median > MAX_PLAUSIBLE_DEPTH {
+        return Err(format!(
+            "median depth is {median:.1} m (beyond {MAX_PLAUSIBLE_DEPTH} m) at depth_scale {depth_scale}: wrong units? \
+             depth_scale is PNG units per metre (1000 for millimetres, 5000 for TUM)"
+        ));
+    }
+    if median < MIN_PLAUSIBLE_DEPTH {
+        return Err(format!(
+            "median depth is {median:.3} m (closer than {MIN_PLAUSIBLE_DEPTH} m) at depth_scale {depth_scale}: wrong units? \
+             depth_scale is PNG units per metre (1000 for millimetres, 5000 for TUM)"
+        ));
+    }
+    Ok(())
+}
