@@ -54,9 +54,9 @@ pub struct FrameRecord {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mask: Option<String>,
     /// 72 axis-angle values (SMPL joint order); `None` = the frame has no fitting.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "nullable_numbers")]
     pub pose: Option<Vec<f32>>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "nullable_numbers_vec")]
     pub shape: Vec<f32>,
     #[serde(default)]
     pub translation: Option<[f32; 3]>,
@@ -100,6 +100,17 @@ impl FrameRecord {
     pub fn set_camera_to_world(&mut self, m: Mat4) {
         self.camera_to_world = Some(m.transpose().to_cols_array());
     }
+}
+
+/// JSON has no NaN: tools write `null` for it. Read `null` as NaN so that the frame, not the
+/// whole manifest, is refused, with a message naming the value.
+fn nullable_numbers<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Option<Vec<f32>>, D::Error> {
+    let v: Option<Vec<Option<f32>>> = Deserialize::deserialize(d)?;
+    Ok(v.map(|v| v.into_iter().map(|x| x.unwrap_or(f32::NAN)).collect()))
+}
+
+fn nullable_numbers_vec<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Vec<f32>, D::Error> {
+    Ok(nullable_numbers(d)?.unwrap_or_default())
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

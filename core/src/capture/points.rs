@@ -119,7 +119,8 @@ pub fn crop_to_body(points: &[Vec3], body: &Bvh, up: Vec3, options: &CropOptions
     let floor = if options.remove_floor {
         let lowest = lo.dot(up).min(near.iter().map(|&i| points[i].dot(up)).fold(f32::INFINITY, f32::min));
         let candidates: Vec<Vec3> = near.iter().map(|&i| points[i]).filter(|p| p.dot(up) < lowest + 0.12).collect();
-        fit_floor_plane(&candidates, up, options.floor_tolerance)
+        // Without enough floor in view for RANSAC, the floor is the plane under the body's soles.
+        fit_floor_plane(&candidates, up, options.floor_tolerance).or(Some((up, lo.dot(up))))
     } else {
         None
     };
@@ -140,10 +141,10 @@ pub fn crop_to_body(points: &[Vec3], body: &Bvh, up: Vec3, options: &CropOptions
     Ok((kept, report))
 }
 
-/// A plane n.x = d nearly perpendicular to `up` supported by at least 200 points (and a
-/// quarter of the candidates), by seeded RANSAC; `None` when there is no floor.
+/// A plane n.x = d nearly perpendicular to `up` supported by at least 50 points (and a
+/// tenth of the candidates), by seeded RANSAC; `None` when there is no floor.
 fn fit_floor_plane(candidates: &[Vec3], up: Vec3, tolerance: f32) -> Option<(Vec3, f32)> {
-    if candidates.len() < 200 {
+    if candidates.len() < 50 {
         return None;
     }
     let mut rng = ChaCha8Rng::seed_from_u64(0x5eed_f100);
@@ -167,7 +168,7 @@ fn fit_floor_plane(candidates: &[Vec3], up: Vec3, tolerance: f32) -> Option<(Vec
             best = Some((n, d, support));
         }
     }
-    best.filter(|&(_, _, s)| s >= 200 && s * 4 >= candidates.len()).map(|(n, d, _)| (n, d))
+    best.filter(|&(_, _, s)| s >= 50 && s * 10 >= candidates.len()).map(|(n, d, _)| (n, d))
 }
 
 #[cfg(test)]
