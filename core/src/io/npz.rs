@@ -155,7 +155,8 @@ fn fortran_to_c(data: &[f64], shape: &[usize]) -> Vec<f64> {
     out
 }
 
-/// Write float32 arrays to an npz archive (used by tests and tools that produce model files).
+/// Write float32 arrays to an npz archive (atomic). Byte-reproducible: fixed zip timestamps,
+/// no compression, so the same arrays always give the same file.
 pub fn write_f32_npz(path: impl AsRef<Path>, arrays: &[(&str, Vec<usize>, Vec<f32>)]) -> Result<()> {
     use npyz::WriterBuilder;
     let path = path.as_ref();
@@ -166,7 +167,7 @@ pub fn write_f32_npz(path: impl AsRef<Path>, arrays: &[(&str, Vec<usize>, Vec<f3
             for (name, shape, data) in arrays {
                 let shape: Vec<u64> = shape.iter().map(|&d| d as u64).collect();
                 let mut writer = npz
-                    .array::<f32>(name, Default::default())?
+                    .array::<f32>(name, npz_entry_options())?
                     .default_dtype()
                     .shape(&shape)
                     .begin_nd()?;
@@ -176,6 +177,12 @@ pub fn write_f32_npz(path: impl AsRef<Path>, arrays: &[(&str, Vec<usize>, Vec<f3
         }
         std::io::Write::write_all(w, &buf.into_inner())
     })
+}
+
+fn npz_entry_options() -> npyz::zip::write::FileOptions {
+    npyz::zip::write::FileOptions::default()
+        .compression_method(npyz::zip::CompressionMethod::Stored)
+        .last_modified_time(npyz::zip::DateTime::default())
 }
 
 #[cfg(test)]

@@ -1,0 +1,59 @@
+//! A contact sheet: every outfit at a few poses, shaded, in one PNG (for docs and eyeballing).
+
+use super::camera::{look_at, PinholeCamera};
+use super::deform::{canonical_surface, pose_surface, PoseFeatures};
+use super::outfit::{ClothedTemplate, Outfit};
+use super::raster::{render_depth, NO_TRIANGLE};
+use crate::body::{BodyModel, BodyParams};
+use crate::error::{Error, Result};
+use crate::mesh::TriMesh;
+use glam::Vec3;
+use std::path::Path;
+
+const TILE_W: u32 = 150;
+const TILE_H: u32 = 210;
+
+/// Grey Lambert shading of a mesh seen by `cam` (background white).
+fn shade(cam: &PinholeCamera, eye: Vec3, target: Vec3, mesh: &TriMesh) -> Vec<u8> {
+    let c2w = look_at(eye, target);
+    let render = render_depth(cam, c2w, &mesh.positions, &mesh.faces);
+    let normals = mesh.face_normals();
+    let light = (eye - target).normalize() + Vec3::new(0.3, 0.6, 0.0);
+    let light = light.normalize();
+    render
+        .triangle
+        .iter()
+        .map(|&t| if t == NO_TRIANGLE { 255 } else { (40.0 + 200.0 * normals[t as usize].dot(light).abs()) as u8 })
+        .collect()
+}
+
+/// Rows = outfits, columns = poses. Writes an 8-bit greyscale PNG (atomic).
+pub fn write_contact_sheet(path: &Path, body: &BodyModel, betas: &[f32], outfits: &[Outfit], poses: &[BodyParams]) -> Result<()> {
+    let cam = PinholeCamera { fx: 230.0, fy: 230.0, cx: TILE_W as f32 / 2.0, cy: TILE_H as f32 / 2.0, width: TILE_W, height: TILE_H, near: 0.5, far: 10.0 };
+    let (w, h) = (TILE_W * poses.len() as u32, TILE_H * outfits.len() as u32);
+    let mut img = vec![255u8; (w * h) as usize];
+    for (r, &outfit) in outfits.iter().enumerate() {
+        let template = ClothedTemplate::build(body, betas, outfit);
+        for (c, p) in poses.iter().enumerate() {
+            let posed_body = body.pose(p);
+            let canonical = canonical_surface(&template, &PoseFeatures::of(&posed_body.bones), 0);
+            let posed = pose_surface(&template, &canonical, &posed_body.bones);
+            let mesh = TriMesh::new(posed, template.faces.clone());
+            let (lo, hi) = mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+            let target = (lo + hi) * 0.5;
+            // A three-quarter view so that panels and folds show.
+            let eye = target + Vec3::new(1.2, 0.3, 2.6);
+            let tile = shade(&cam, eye, target, &mesh);
+            for y in 0..TILE_H {
+                for x in 0..TILE_W {
+                    img[((r as u32 * TILE_H + y) * w + c as u32 * TILE_W + x) as usize] = tile[(y * TILE_W + x) as usize];
+                }
+            }
+        }
+    }
+    let buf: image::GrayImage = image::ImageBuffer::from_raw(w, h, img).expect("sized above");
+    let mut bytes = Vec::new();
+    buf.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .map_err(|e| Error::file(path, format!("cannot encode PNG: {e}")))?;
+    crate::io::write_bytes_atomic(path, &bytes)
+}
