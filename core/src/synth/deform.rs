@@ -55,7 +55,7 @@ fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
 /// 90 degrees of flexion (metres).
 const FOLD_WAVELENGTH: f32 = 0.045;
 const FOLD_BAND: f32 = 0.07;
-const FOLD_DEPTH: f32 = 0.018;
+const FOLD_DEPTH: f32 = 0.025;
 
 /// The clothed surface in canonical space for this pose (same vertex order as the template).
 /// `phase_seed` shifts the folds per subject so two subjects do not wrinkle identically.
