@@ -118,7 +118,7 @@ fn clothing_depends_visibly_on_the_pose() {
         let floor = if outfit == Outfit::TshirtShorts { 0.015 } else { 0.02 };
         assert!(max > floor, "{}: max {max} m", outfit.name());
         if outfit.spec().panel.is_some() {
-            assert!(max > 0.05, "{}: panel moved only {max} m", outfit.name());
+            assert!(max > 0.03, "{}: panel moved only {max} m", outfit.name());
         }
         assert!(mean > 0.0005, "{}: mean {mean} m", outfit.name());
         // The same pose twice gives the same surface (deterministic).
