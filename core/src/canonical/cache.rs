@@ -1,0 +1,124 @@
+//! On-disk cache of skinning fields, keyed by a hash of the body's rest surface and the build
+//! options. Stored compactly: the 6 largest weights of each node (joint u8 + weight u16).
+//! A corrupt or stale cache file is rebuilt, never trusted and never a panic.
+
+use super::field::{FieldOptions, SkinningField};
+use crate::body::{BodyModel, NUM_JOINTS};
+use crate::error::{Error, Result};
+use glam::Vec3;
+use std::hash::{Hash, Hasher};
+use std::path::{Path, PathBuf};
+
+const MAGIC: &[u8; 4] = b"ASSF";
+const VERSION: u32 = 1;
+const TOP: usize = 6;
+
+/// Default cache folder: `$XDG_CACHE_HOME/avatar-studio/fields` or `~/.cache/avatar-studio/fields`.
+pub fn default_cache_dir() -> Option<PathBuf> {
+    let base = std::env::var_os("XDG_CACHE_HOME").map(PathBuf::from).or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
+    Some(base.join("avatar-studio").join("fields"))
+}
+
+fn key(rest: &[Vec3], faces: &[[u32; 3]], options: &FieldOptions) -> u64 {
+    // FNV-1a over the exact bytes: stable across runs and platforms (unlike DefaultHasher seeds).
+    struct Fnv(u64);
+    impl Hasher for Fnv {
+        fn finish(&self) -> u64 {
+            self.0
+        }
+        fn write(&mut self, bytes: &[u8]) {
+            for b in bytes {
+                self.0 = (self.0 ^ *b as u64).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+    }
+    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+    for p in rest {
+        p.to_array().map(f32::to_bits).hash(&mut h);
+    }
+    faces.hash(&mut h);
+    (options.cells_along_height, options.margin.to_bits(), options.fixed_band.to_bits(), options.smoothing_iterations).hash(&mut h);
+    VERSION.hash(&mut h);
+    h.finish()
+}
+
+/// The field for this body shape: from the cache when present and valid, else built and cached.
+/// Returns the field and a warning when a cache file had to be discarded.
+pub fn cached_field(body: &BodyModel, rest: &[Vec3], options: &FieldOptions, cache_dir: Option<&Path>) -> Result<(SkinningField, Option<String>)> {
+    let Some(dir) = cache_dir else {
+        return Ok((SkinningField::build(body, rest, options)?, None));
+    };
+    let path = dir.join(format!("skinning-field-{:016x}.bin", key(rest, &body.faces, options)));
+    let mut warning = None;
+    if path.exists() {
+        match read_field(&path) {
+            Ok(f) => return Ok((f, None)),
+            Err(e) => warning = Some(format!("discarded a bad skinning-field cache ({e}); rebuilding")),
+        }
+    }
+    let field = SkinningField::build(body, rest, options)?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    // Caching is an optimisation: failing to write the cache is not an error for the user.
+    if let Err(e) = write_field(&path, &field) {
+        warning = Some(format!("could not write the skinning-field cache: {e}"));
+    }
+    Ok((field, warning))
+}
+
+pub fn write_field(path: &Path, f: &SkinningField) -> Result<()> {
+    let mut out = Vec::with_capacity(64 + f.num_nodes() * TOP * 3);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    for d in f.dims {
+        out.extend_from_slice(&(d as u32).to_le_bytes());
+    }
+    for v in f.origin.to_array().into_iter().chain([f.cell]) {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    for w in f.weights.chunks_exact(NUM_JOINTS) {
+        let mut idx: Vec<usize> = (0..NUM_JOINTS).collect();
+        idx.sort_by(|&a, &b| w[b].total_cmp(&w[a]));
+        for &j in &idx[..TOP] {
+            out.push(j as u8);
+            out.extend_from_slice(&((w[j].clamp(0.0, 1.0) * 65535.0).round() as u16).to_le_bytes());
+        }
+    }
+    crate::io::write_bytes_atomic(path, &out)
+}
+
+pub fn read_field(path: &Path) -> Result<SkinningField> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bad = |m: &str| Error::file(path, m.to_string());
+    if bytes.len() < 36 || &bytes[..4] != MAGIC {
+        return Err(bad("not a skinning-field cache file"));
+    }
+    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
+    let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
+    if u32_at(4) != VERSION {
+        return Err(bad("skinning-field cache of another version"));
+    }
+    let dims = [u32_at(8) as usize, u32_at(12) as usize, u32_at(16) as usize];
+    let origin = Vec3::new(f32_at(20), f32_at(24), f32_at(28));
+    let cell = f32_at(32);
+    let n = dims.iter().product::<usize>();
+    if dims.iter().any(|&d| d < 2 || d > 4096) || !(cell > 0.0) || !origin.is_finite() || bytes.len() != 36 + n * TOP * 3 {
+        return Err(bad("truncated or inconsistent skinning-field cache"));
+    }
+    let mut weights = vec![0f32; n * NUM_JOINTS];
+    for (i, node) in bytes[36..].chunks_exact(TOP * 3).enumerate() {
+        let mut sum = 0.0;
+        for e in node.chunks_exact(3) {
+            let j = e[0] as usize;
+            if j >= NUM_JOINTS {
+                return Err(bad("joint index out of range in the skinning-field cache"));
+            }
+            let w = u16::from_le_bytes([e[1], e[2]]) as f32 / 65535.0;
+            weights[i * NUM_JOINTS + j] += w;
+            sum += w;
+        }
+        if sum > 0.0 {
+            weights[i * NUM_JOINTS..(i + 1) * NUM_JOINTS].iter_mut().for_each(|w| *w /= sum);
+        }
+    }
+    Ok(SkinningField { origin, cell, dims, weights })
+}

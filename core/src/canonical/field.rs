@@ -1,0 +1,168 @@
+//! The diffused skinning field (FITE, Eq. 4-6): the body's skinning weights extended into the
+//! 3D space around the canonical body. On the surface it equals the body's weights; along the
+//! surface normal it does not change (each cell takes the weights of its nearest surface
+//! point); away from the surface it is smoothed by diffusion so that the field has no seams
+//! where the nearest surface point jumps (between the legs, under the arms). Each joint's
+//! field is clamped to [0, 1] and renormalised. Stored on a regular grid and queried
+//! trilinearly.
+
+use crate::body::{BodyModel, Weights, NUM_JOINTS};
+use crate::error::{Error, Result};
+use crate::mesh::bvh::Bvh;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// How the field is built.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FieldOptions {
+    /// Cells along the body's height (the other axes use the same cell size).
+    pub cells_along_height: usize,
+    /// Space around the body covered by the grid (metres): loose clothing lives there.
+    pub margin: f32,
+    /// Cells closer than this many cell sizes to the surface keep their nearest-point weights.
+    pub fixed_band: f32,
+    /// Diffusion (Jacobi) iterations for the cells further out.
+    pub smoothing_iterations: usize,
+}
+
+impl Default for FieldOptions {
+    fn default() -> Self {
+        FieldOptions { cells_along_height: 128, margin: 0.35, fixed_band: 1.5, smoothing_iterations: 24 }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct SkinningField {
+    pub origin: Vec3,
+    pub cell: f32,
+    pub dims: [usize; 3],
+    /// Dense weights, `NUM_JOINTS` per grid node, x fastest.
+    pub weights: Vec<f32>,
+}
+
+impl SkinningField {
+    /// Build around a body's rest surface (`rest` = shaped canonical vertices of `body`).
+    pub fn build(body: &BodyModel, rest: &[Vec3], options: &FieldOptions) -> Result<SkinningField> {
+        if rest.len() != body.weights.len() {
+            return Err(Error::invalid(format!("{} rest vertices for {} skinning weights", rest.len(), body.weights.len())));
+        }
+        let (lo, hi) = crate::mesh::bounds(rest).ok_or_else(|| Error::invalid("empty body"))?;
+        let (lo, hi) = (lo - Vec3::splat(options.margin), hi + Vec3::splat(options.margin));
+        let cell = (hi.y - lo.y) / options.cells_along_height.max(8) as f32;
+        let dims = [0, 1, 2].map(|a| (((hi[a] - lo[a]) / cell).ceil() as usize + 1).max(2));
+        let mesh = body.mesh(rest.to_vec());
+        let bvh = Bvh::build(&mesh);
+        let n = dims[0] * dims[1] * dims[2];
+        // 1. Nearest surface point of every node: barycentric blend of its triangle's weights
+        //    (exactly the body's weights on the surface, constant along the normal).
+        let mut dist = vec![0f32; n];
+        let mut weights = vec![0f32; n * NUM_JOINTS];
+        weights.par_chunks_mut(NUM_JOINTS).zip(dist.par_iter_mut()).enumerate().for_each(|(i, (w, d))| {
+            let p = node_position(lo, cell, dims, i);
+            let hit = bvh.closest_point(p).expect("non-empty body");
+            *d = hit.distance;
+            let f = mesh.faces[hit.face as usize].map(|k| k as usize);
+            let b = barycentric(hit.point, rest[f[0]], rest[f[1]], rest[f[2]]);
+            for j in 0..NUM_JOINTS {
+                w[j] = b.x * body.weights[f[0]][j] + b.y * body.weights[f[1]][j] + b.z * body.weights[f[2]][j];
+            }
+        });
+        // 2. Diffuse away from the surface (6-neighbour Jacobi), near-surface nodes fixed.
+        let fixed: Vec<bool> = dist.iter().map(|&d| d <= options.fixed_band * cell).collect();
+        let mut next = weights.clone();
+        let stride = [1, dims[0], dims[0] * dims[1]];
+        for _ in 0..options.smoothing_iterations {
+            next.par_chunks_mut(NUM_JOINTS).enumerate().for_each(|(i, out)| {
+                if fixed[i] {
+                    out.copy_from_slice(&weights[i * NUM_JOINTS..(i + 1) * NUM_JOINTS]);
+                    return;
+                }
+                let idx = [i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1])];
+                let mut acc = [0f32; NUM_JOINTS];
+                let mut count = 0.0;
+                for a in 0..3 {
+                    for s in [-1i64, 1] {
+                        let c = idx[a] as i64 + s;
+                        if c < 0 || c >= dims[a] as i64 {
+                            continue;
+                        }
+                        let k = (i as i64 + s * stride[a] as i64) as usize;
+                        for j in 0..NUM_JOINTS {
+                            acc[j] += weights[k * NUM_JOINTS + j];
+                        }
+                        count += 1.0;
+                    }
+                }
+                for j in 0..NUM_JOINTS {
+                    out[j] = acc[j] / count;
+                }
+            });
+            std::mem::swap(&mut weights, &mut next);
+        }
+        // 3. Clamp each joint's field to [0, 1] and renormalise.
+        weights.par_chunks_mut(NUM_JOINTS).for_each(|w| {
+            let mut sum = 0.0;
+            for v in w.iter_mut() {
+                *v = v.clamp(0.0, 1.0);
+                sum += *v;
+            }
+            if sum > 0.0 {
+                w.iter_mut().for_each(|v| *v /= sum);
+            } else {
+                w[0] = 1.0;
+            }
+        });
+        Ok(SkinningField { origin: lo, cell, dims, weights })
+    }
+
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let size = Vec3::new((self.dims[0] - 1) as f32, (self.dims[1] - 1) as f32, (self.dims[2] - 1) as f32) * self.cell;
+        (self.origin, self.origin + size)
+    }
+
+    pub fn contains(&self, p: Vec3) -> bool {
+        let (lo, hi) = self.bounds();
+        p.cmpge(lo).all() && p.cmple(hi).all()
+    }
+
+    /// Trilinear weights at `p` (clamped to the grid).
+    pub fn weights_at(&self, p: Vec3) -> Weights {
+        let g = ((p - self.origin) / self.cell).max(Vec3::ZERO);
+        let mut out = [0f32; NUM_JOINTS];
+        let i0 = [0, 1, 2].map(|a| (g[a].floor() as usize).min(self.dims[a] - 2));
+        let t = Vec3::new(g.x - i0[0] as f32, g.y - i0[1] as f32, g.z - i0[2] as f32).clamp(Vec3::ZERO, Vec3::ONE);
+        for corner in 0..8 {
+            let o = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
+            let w = (if o[0] == 1 { t.x } else { 1.0 - t.x }) * (if o[1] == 1 { t.y } else { 1.0 - t.y }) * (if o[2] == 1 { t.z } else { 1.0 - t.z });
+            if w == 0.0 {
+                continue;
+            }
+            let k = (i0[0] + o[0]) + self.dims[0] * ((i0[1] + o[1]) + self.dims[1] * (i0[2] + o[2]));
+            for j in 0..NUM_JOINTS {
+                out[j] += w * self.weights[k * NUM_JOINTS + j];
+            }
+        }
+        out
+    }
+
+    pub fn num_nodes(&self) -> usize {
+        self.dims[0] * self.dims[1] * self.dims[2]
+    }
+}
+
+fn node_position(origin: Vec3, cell: f32, dims: [usize; 3], i: usize) -> Vec3 {
+    let (x, y, z) = (i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1]));
+    origin + Vec3::new(x as f32, y as f32, z as f32) * cell
+}
+
+pub(crate) fn barycentric(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let (v0, v1, v2) = (b - a, c - a, p - a);
+    let (d00, d01, d11, d20, d21) = (v0.dot(v0), v0.dot(v1), v1.dot(v1), v2.dot(v0), v2.dot(v1));
+    let denom = d00 * d11 - d01 * d01;
+    if denom.abs() < 1e-20 {
+        return Vec3::new(1.0, 0.0, 0.0);
+    }
+    let v = ((d11 * d20 - d01 * d21) / denom).clamp(0.0, 1.0);
+    let w = ((d00 * d21 - d01 * d20) / denom).clamp(0.0, 1.0 - v);
+    Vec3::new(1.0 - v - w, v, w)
+}

@@ -1,0 +1,150 @@
+//! Canonicalization: the diffused field equals the body's weights on the surface, root finding
+//! recovers known canonical points under library poses, forward-then-inverse round trips, the
+//! normalisation, the cache.
+
+use avatar_core::body::{open_body_ref, BodyParams, NUM_JOINTS};
+use avatar_core::canonical::*;
+use avatar_core::motion::clip_by_name;
+use glam::Vec3;
+
+fn small() -> FieldOptions {
+    FieldOptions { cells_along_height: 80, ..FieldOptions::default() }
+}
+
+fn canon() -> Canonicalizer<'static> {
+    Canonicalizer::new(open_body_ref(), &[], &small(), None).unwrap()
+}
+
+#[test]
+fn field_equals_body_weights_on_the_surface_and_sums_to_one() {
+    let c = canon();
+    let body = open_body_ref();
+    let mut errs: Vec<f32> = (0..c.rest.len())
+        .step_by(7)
+        .map(|v| {
+            let w = c.field.weights_at(c.rest[v]);
+            let s: f32 = w.iter().sum();
+            assert!((s - 1.0).abs() < 1e-4, "weights sum {s}");
+            assert!(w.iter().all(|&x| (0.0..=1.0 + 1e-6).contains(&x)));
+            (0..NUM_JOINTS).map(|j| (w[j] - body.weights[v][j]).abs()).sum::<f32>() / 2.0
+        })
+        .collect();
+    errs.sort_by(f32::total_cmp);
+    let median = errs[errs.len() / 2];
+    let p90 = errs[errs.len() * 9 / 10];
+    // Half the L1 distance = the weight mass that differs. The grid (2.9 cm cells here) blurs
+    // it a little at the joints only.
+    assert!(median < 0.03, "median {median}");
+    assert!(p90 < 0.15, "p90 {p90}");
+    // Along the normal, nothing changes (within the near-surface band).
+    let normals = body.mesh(c.rest.clone()).vertex_normals();
+    let mut along: Vec<f32> = (0..c.rest.len())
+        .step_by(11)
+        .map(|v| {
+            let a = c.field.weights_at(c.rest[v] + normals[v] * 0.01);
+            let b = c.field.weights_at(c.rest[v] + normals[v] * 0.03);
+            (0..NUM_JOINTS).map(|j| (a[j] - b[j]).abs()).sum::<f32>() / 2.0
+        })
+        .collect();
+    along.sort_by(f32::total_cmp);
+    assert!(along[along.len() / 2] < 0.02, "{}", along[along.len() / 2]);
+}
+
+fn library_poses() -> Vec<BodyParams> {
+    let mut out = Vec::new();
+    for name in ["walk", "squat", "raise_arms", "kick"] {
+        let clip = clip_by_name(name).unwrap();
+        out.push(clip.frames[clip.len() / 3].clone());
+        out.push(clip.frames[2 * clip.len() / 3].clone());
+    }
+    out
+}
+
+#[test]
+fn root_finding_recovers_known_canonical_points() {
+    let c = canon();
+    let body = open_body_ref();
+    let normals = body.mesh(c.rest.clone()).vertex_normals();
+    // Points on and off the body (up to 10 cm out, like clothing), skipping hands and feet.
+    let pts: Vec<(Vec3, Vec3)> = (0..c.rest.len())
+        .step_by(53)
+        .filter(|&v| !matches!(avatar_core::body::skinning::dominant_joint(&body.weights[v]), 7 | 8 | 10 | 11 | 20 | 21 | 22 | 23))
+        .enumerate()
+        .map(|(k, v)| (c.rest[v] + normals[v] * (0.1 * (k % 5) as f32 / 4.0), normals[v]))
+        .collect();
+    let (mut ok, mut total) = (0, 0);
+    for p in library_poses() {
+        let posed = body.pose(&p);
+        let posed_pts: Vec<Vec3> = pts.iter().map(|(x, _)| forward_point(&c.field, &posed.bones.transforms, *x)).collect();
+        let posed_normals: Vec<Vec3> = pts.iter().map(|(_, n)| *n).collect();
+        let frame = canonicalize_points(&c.field, &posed.bones, &posed.vertices, &body.weights, &posed_pts, &posed_normals, &c.options, None);
+        for (k, &src) in frame.source.iter().enumerate() {
+            total += 1;
+            if (frame.points[k] - pts[src].0).length() < 0.002 {
+                ok += 1;
+            }
+        }
+        assert!(frame.points.len() as f32 > 0.95 * pts.len() as f32, "{} of {} solved", frame.points.len(), pts.len());
+    }
+    assert!(ok as f32 > 0.95 * total as f32, "{ok} of {total} roots within 2 mm of the truth");
+}
+
+#[test]
+fn forward_then_inverse_round_trip_of_a_mesh() {
+    let c = canon();
+    let body = open_body_ref();
+    let p = &library_poses()[1];
+    let posed = body.pose(p);
+    let canonical = body.mesh(c.rest.clone());
+    let skinned = forward_skin_mesh(&c.field, &posed.bones, &canonical);
+    // The field-skinned body is close to the body's own LBS (same weights on the surface).
+    let mut d: Vec<f32> = skinned.positions.iter().zip(&posed.vertices).map(|(a, b)| (*a - *b).length()).collect();
+    d.sort_by(f32::total_cmp);
+    assert!(d[d.len() / 2] < 0.005, "median {}", d[d.len() / 2]);
+    let sample: Vec<usize> = (0..skinned.positions.len()).step_by(97).collect();
+    let pts: Vec<Vec3> = sample.iter().map(|&i| skinned.positions[i]).collect();
+    let ns = vec![Vec3::Y; pts.len()];
+    let frame = canonicalize_points(&c.field, &posed.bones, &posed.vertices, &body.weights, &pts, &ns, &c.options, None);
+    let back = frame.source.iter().zip(&frame.points).filter(|(s, x)| (**x - c.rest[sample[**s]]).length() < 0.002).count();
+    assert!(back as f32 > 0.95 * pts.len() as f32, "{back} of {}", pts.len());
+    assert_eq!(frame.dropped, 0);
+}
+
+#[test]
+fn normalisation_round_trip_and_range() {
+    let c = canon();
+    let n = c.normalisation;
+    let mut extent: f32 = 0.0;
+    for p in &c.rest {
+        let q = n.to_unit(*p);
+        extent = extent.max(q.abs().max_element());
+        assert!((n.from_unit(q) - *p).length() < 1e-5);
+    }
+    assert!((extent - 0.909).abs() < 0.01, "body spans +-{extent}");
+}
+
+#[test]
+fn cache_round_trip_and_corrupt_cache_rebuilt() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = open_body_ref();
+    let rest = body.shaped_vertices(&[]);
+    let opts = FieldOptions { cells_along_height: 40, smoothing_iterations: 4, ..FieldOptions::default() };
+    let (a, w) = cached_field(body, &rest, &opts, Some(dir.path())).unwrap();
+    assert!(w.is_none());
+    let (b, w) = cached_field(body, &rest, &opts, Some(dir.path())).unwrap();
+    assert!(w.is_none());
+    assert_eq!(a.dims, b.dims);
+    for p in rest.iter().step_by(31) {
+        let (wa, wb) = (a.weights_at(*p), b.weights_at(*p));
+        let diff: f32 = (0..NUM_JOINTS).map(|j| (wa[j] - wb[j]).abs()).sum();
+        assert!(diff < 0.05, "cached field differs by {diff}");
+    }
+    let file = std::fs::read_dir(dir.path()).unwrap().next().unwrap().unwrap().path();
+    let bytes = std::fs::read(&file).unwrap();
+    std::fs::write(&file, &bytes[..bytes.len() / 2]).unwrap();
+    let (_, w) = cached_field(body, &rest, &opts, Some(dir.path())).unwrap();
+    assert!(w.unwrap().contains("truncated"));
+    // And the rebuilt cache is good again.
+    let (_, w) = cached_field(body, &rest, &opts, Some(dir.path())).unwrap();
+    assert!(w.is_none());
+}
