@@ -62,8 +62,29 @@ fn body_section() -> String {
     out
 }
 
+fn capture_section() -> String {
+    use avatar_core::capture::Capture;
+    use avatar_core::synth::{generate_capture, Outfit, SynthJob};
+    let mut out = String::from("## capture\n\n| what | median | note |\n|---|---|---|\n");
+    let dir = std::env::temp_dir().join(format!("avatar-studio-bench-capture-{}", std::process::id()));
+    let mut job = SynthJob::new(1, Outfit::LongsleeveTrousers, avatar_core::motion::clip_by_name("walk").expect("library clip"));
+    job.frames = Some(8);
+    job.write_ground_truth = false;
+    let t = Instant::now();
+    if let Err(e) = generate_capture(&dir, avatar_core::body::open_body_ref(), &job) {
+        return out + &format!("| synth failed | | {e} |\n");
+    }
+    out += &format!("| synthesize 8 frames (250x250) with the clothed body | {:.1} ms/frame | |\n", t.elapsed().as_secs_f64() * 1e3 / 8.0);
+    let secs = median_seconds(3, || {
+        std::hint::black_box(Capture::open(&dir).expect("bench capture opens"));
+    });
+    out += &format!("| open a capture: read, back-project, crop, PCA normals (250x250) | {:.1} ms/frame | |\n", secs * 1e3 / 8.0);
+    let _ = std::fs::remove_dir_all(&dir);
+    out
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section)];
+    let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section), ("capture", capture_section), ("canonical", avatar_core::canonical::report::bench_report)];
     let mut report = format!(
         "# Avatar Studio benchmarks\n\n{} threads, profile {}, `avatar-studio bench`\n\n",
         std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),

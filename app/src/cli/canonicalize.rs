@@ -1,8 +1,56 @@
-//! `avatar-studio canonicalize` (not implemented yet).
+//! `avatar-studio canonicalize`: map a capture's depth points to the canonical (unposed) space
+//! and write them as a point cloud with normals.
+
+use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions};
+use avatar_core::capture::{Capture, CaptureOptions};
+use avatar_core::mesh::{io::write_point_cloud, PointCloud};
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Capture folder (with capture.json).
+    capture: PathBuf,
+    /// Output point cloud (.ply with normals).
+    #[arg(long)]
+    out: PathBuf,
+    /// Use only the first N usable frames.
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Cells of the skinning field along the body's height.
+    #[arg(long, default_value_t = 128)]
+    field_cells: usize,
+    /// Do not read or write the skinning-field cache.
+    #[arg(long)]
+    no_cache: bool,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    super::not_yet("canonicalize")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let capture = Capture::open_with(&args.capture, &CaptureOptions::default())?;
+    for w in &capture.warnings {
+        eprintln!("warning: {w}");
+    }
+    let frames: Vec<_> = capture.frames.iter().take(args.frames.unwrap_or(usize::MAX)).collect();
+    let betas = frames[0].params.betas.clone();
+    let options = FieldOptions { cells_along_height: args.field_cells.clamp(16, 512), ..FieldOptions::default() };
+    let cache = if args.no_cache { None } else { default_cache_dir() };
+    let canon = Canonicalizer::new(&capture.body, &betas, &options, cache.as_deref())?;
+    if let Some(w) = &canon.cache_warning {
+        eprintln!("warning: {w}");
+    }
+    let mut cloud = PointCloud { points: Vec::new(), normals: Vec::new() };
+    for f in frames {
+        let c = canon.frame(f);
+        eprintln!(
+            "frame {}: {} points canonicalized, {} dropped by the 2 cm filter, {} without a root",
+            f.index,
+            c.points.len(),
+            c.dropped,
+            c.unsolved
+        );
+        cloud.points.extend(c.points);
+        cloud.normals.extend(c.normals);
+    }
+    write_point_cloud(&args.out, &cloud)?;
+    println!("wrote {} canonical points to {}", cloud.points.len(), args.out.display());
+    Ok(())
 }

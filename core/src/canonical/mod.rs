@@ -6,6 +6,7 @@ pub mod cache;
 pub mod canonicalize;
 pub mod field;
 pub mod normalise;
+pub mod report;
 pub mod root_finding;
 
 pub use cache::{cached_field, default_cache_dir};
