@@ -84,7 +84,7 @@ fn capture_section() -> String {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section), ("capture", capture_section), ("canonical", avatar_core::canonical::report::bench_report)];
+    let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section), ("capture", capture_section), ("canonical", avatar_core::canonical::report::bench_report), ("eval", avatar_core::eval::runner::bench_report)];
     let mut report = format!(
         "# Avatar Studio benchmarks\n\n{} threads, profile {}, `avatar-studio bench`\n\n",
         std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),

@@ -1,5 +1,14 @@
-//! Evaluation: MetaAvatar's metrics (Dp, Df, NC), IoU, Chamfer, protocols and reports.
+//! Evaluation: MetaAvatar's metrics (Dp, Df, NC), IoU, Chamfer, the protocols on held-out
+//! synthetic subjects and the reports. See docs/evaluation.md.
 
+pub mod dataset;
 pub mod metrics;
 pub mod occupancy;
+pub mod predictor;
+pub mod protocol;
+pub mod runner;
 pub mod sampling;
+
+pub use predictor::{FitData, NakedBody, Predictor};
+pub use protocol::{Protocol, Shots};
+pub use runner::{run, EvalConfig, Report, RowResult};
