@@ -1,0 +1,223 @@
+//! The animated glTF export: a fixed-topology canonical mesh extracted once at the reference
+//! (rest) pose, skinned to the 24-joint skeleton, the pose-dependent clothing as PCA morph
+//! targets, and per-joint rotation, root translation and morph-weight animation (LINEAR at the
+//! clip's frame rate).
+
+use super::glb::{GlbBuilder, ARRAY_BUFFER};
+use super::morph::{compress, MorphTargets};
+use super::source::AvatarSource;
+use crate::body::{blend_transform, BodyParams, Weights, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS};
+use crate::error::{Error, Result};
+use crate::mesh::TriMesh;
+use crate::motion::MotionClip;
+use glam::{Quat, Vec3};
+use rayon::prelude::*;
+use serde_json::json;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportOptions {
+    /// At most this many morph targets, the constant compensation target included.
+    pub max_targets: usize,
+    /// Newton steps projecting the reference vertices onto each pose's surface.
+    pub newton_steps: usize,
+}
+
+impl Default for ExportOptions {
+    fn default() -> Self {
+        ExportOptions { max_targets: 64, newton_steps: 3 }
+    }
+}
+
+/// The exported data (kept for round-trip checks and reports) and the GLB bytes.
+pub struct Exported {
+    pub glb: Vec<u8>,
+    pub rest: TriMesh,
+    pub joints: Vec<[u8; 4]>,
+    pub weights: Vec<[f32; 4]>,
+    pub morphs: MorphTargets,
+    /// The studio's posed mesh of every frame (forward skinning of the projected surface with
+    /// the avatar's full skinning weights): what the file must reproduce.
+    pub posed: Vec<Vec<Vec3>>,
+    pub frames: usize,
+    pub fps: f32,
+    /// Largest PCA reconstruction error of a vertex delta over all frames (metres).
+    pub max_compression_error: f32,
+}
+
+/// The 4 largest weights, renormalised so that their float32 sum is 1 as strictly as the
+/// validator checks (the residual is folded into the largest weight); unused slots get joint 0.
+pub fn top4(w: &Weights) -> ([u8; 4], [f32; 4]) {
+    let mut idx: Vec<usize> = (0..NUM_JOINTS).collect();
+    idx.sort_by(|&a, &b| w[b].total_cmp(&w[a]).then(a.cmp(&b)));
+    let sum: f64 = idx[..4].iter().map(|&j| w[j].max(0.0) as f64).sum();
+    let mut joints = [0u8; 4];
+    let mut weights = [0f32; 4];
+    for k in 0..4 {
+        let v = if sum > 0.0 { w[idx[k]].max(0.0) as f64 / sum } else if k == 0 { 1.0 } else { 0.0 };
+        weights[k] = v as f32;
+        if weights[k] > 0.0 {
+            joints[k] = idx[k] as u8;
+        }
+    }
+    let residual = 1.0f32 - weights.iter().sum::<f32>();
+    weights[0] += residual;
+    (joints, weights)
+}
+
+/// Keep quaternions on one hemisphere from key to key so LINEAR slerp takes the short path.
+fn continuous(qs: &mut [Quat]) {
+    for i in 1..qs.len() {
+        if qs[i].dot(qs[i - 1]) < 0.0 {
+            qs[i] = -qs[i];
+        }
+    }
+}
+
+pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &ExportOptions) -> Result<Exported> {
+    if clip.is_empty() {
+        return Err(Error::invalid(format!("motion clip {:?} has no frames", clip.name)));
+    }
+    if !(clip.fps.is_finite() && clip.fps > 0.0) {
+        return Err(Error::invalid(format!("motion clip {:?} has frame rate {}", clip.name, clip.fps)));
+    }
+    clip.validate()?;
+    let body = source.body();
+    let betas = source.betas().to_vec();
+    let reference = BodyParams { betas: betas.clone(), ..Default::default() };
+    let rest = source.canonical_mesh(&reference)?;
+    if rest.positions.is_empty() || rest.faces.is_empty() {
+        return Err(Error::invalid("the avatar's canonical mesh is empty"));
+    }
+    let full_weights = source.skinning_weights(&rest.positions);
+    let (joints, weights): (Vec<[u8; 4]>, Vec<[f32; 4]>) = full_weights.iter().map(top4).unzip();
+    let params: Vec<BodyParams> = clip.frames.iter().map(|p| BodyParams { betas: betas.clone(), ..p.clone() }).collect();
+    // Each frame: project the reference vertices onto that pose's surface.
+    let projected: Vec<Vec<Vec3>> = params.par_iter().map(|p| source.project(p, &rest.positions, options.newton_steps)).collect::<Result<_>>()?;
+    let posed: Vec<Vec<Vec3>> = params
+        .par_iter()
+        .zip(&projected)
+        .map(|(p, x)| {
+            let bones = body.pose(p).bones;
+            let w = source.skinning_weights(x);
+            x.iter().zip(&w).map(|(v, w)| blend_transform(&bones.transforms, w).transform_point3(*v)).collect()
+        })
+        .collect();
+    // The deltas are taken in bind space *with the exported 4-weight skinning*: un-skin the
+    // studio's posed mesh with the file's weights. The morph targets then also absorb the
+    // truncation to 4 influences, and the file reproduces the posed mesh up to compression.
+    let deltas: Vec<Vec<Vec3>> = params
+        .par_iter()
+        .zip(&posed)
+        .map(|(p, target)| {
+            let bones = body.pose(p).bones;
+            target
+                .iter()
+                .zip(joints.iter().zip(&weights))
+                .zip(&rest.positions)
+                .map(|((y, (j, w)), r)| {
+                    let mut m = glam::Mat4::ZERO;
+                    for k in 0..4 {
+                        m += bones.transforms[j[k] as usize] * w[k];
+                    }
+                    m.inverse().transform_point3(*y) - *r
+                })
+                .collect()
+        })
+        .collect();
+    let morphs = compress(&deltas, options.max_targets.max(1));
+    let max_compression_error = (0..deltas.len())
+        .into_par_iter()
+        .map(|f| morphs.delta(f).iter().zip(&deltas[f]).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max))
+        .reduce(|| 0.0, f32::max);
+
+    let rest_joints = body.rest_joints(&betas);
+    let mut b = GlbBuilder::default();
+    let flat = |v: &[Vec3]| v.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>();
+    let position = b.floats(&flat(&rest.positions), "VEC3", 3, Some(ARRAY_BUFFER), true);
+    let normal = b.floats(&flat(&rest.vertex_normals()), "VEC3", 3, Some(ARRAY_BUFFER), false);
+    let joints_acc = b.joints_u8(&joints);
+    let weights_acc = b.floats(&weights.iter().flatten().copied().collect::<Vec<_>>(), "VEC4", 4, Some(ARRAY_BUFFER), false);
+    let indices = b.indices_u32(&rest.faces.iter().flatten().copied().collect::<Vec<_>>());
+    let targets: Vec<serde_json::Value> =
+        morphs.all_targets().iter().map(|t| json!({"POSITION": b.floats(&flat(t), "VEC3", 3, Some(ARRAY_BUFFER), true)})).collect();
+    let target_names: Vec<String> = std::iter::once("compensation".to_string()).chain((0..morphs.targets.len()).map(|k| format!("pca_{k:02}"))).collect();
+    // Inverse bind matrices: a translation by -J, written as exact constants.
+    let ibm: Vec<f32> = rest_joints.iter().flat_map(|j| [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -j.x, -j.y, -j.z, 1.0]).collect();
+    let ibm_acc = b.floats(&ibm, "MAT4", 16, None, false);
+
+    let n = params.len();
+    let times: Vec<f32> = (0..n).map(|f| f as f32 / clip.fps).collect();
+    let input = b.floats(&times, "SCALAR", 1, None, true);
+    let mut samplers = Vec::new();
+    let mut channels = Vec::new();
+    for j in 0..NUM_JOINTS {
+        let mut qs: Vec<Quat> = params.iter().map(|p| Quat::from_scaled_axis(p.pose[j]).normalize()).collect();
+        continuous(&mut qs);
+        let out = b.floats(&qs.iter().flat_map(|q| q.to_array()).collect::<Vec<_>>(), "VEC4", 4, None, false);
+        samplers.push(json!({"input": input, "output": out, "interpolation": "LINEAR"}));
+        channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": j, "path": "rotation"}}));
+    }
+    let root_t: Vec<f32> = params.iter().flat_map(|p| (rest_joints[0] + p.trans).to_array()).collect();
+    let out = b.floats(&root_t, "VEC3", 3, None, false);
+    samplers.push(json!({"input": input, "output": out, "interpolation": "LINEAR"}));
+    channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": 0, "path": "translation"}}));
+    let morph_w: Vec<f32> = (0..n).flat_map(|f| morphs.all_weights(f)).collect();
+    let out = b.floats(&morph_w, "SCALAR", 1, None, false);
+    samplers.push(json!({"input": input, "output": out, "interpolation": "LINEAR"}));
+    channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": NUM_JOINTS, "path": "weights"}}));
+
+    let nodes: Vec<serde_json::Value> = (0..NUM_JOINTS)
+        .map(|j| {
+            let parent = SMPL_PARENTS[j];
+            let t = if parent < 0 { rest_joints[0] + params[0].trans } else { rest_joints[j] - rest_joints[parent as usize] };
+            let children: Vec<usize> = (0..NUM_JOINTS).filter(|&c| SMPL_PARENTS[c] == j as i32).collect();
+            let q = Quat::from_scaled_axis(params[0].pose[j]).normalize();
+            let mut node = json!({"name": JOINT_NAMES[j], "translation": t.to_array(), "rotation": q.to_array()});
+            if !children.is_empty() {
+                node["children"] = json!(children);
+            }
+            node
+        })
+        .chain(std::iter::once(json!({"name": "avatar", "mesh": 0, "skin": 0})))
+        .collect();
+    let doc = json!({
+        "asset": {"version": "2.0", "generator": "Avatar Studio"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, NUM_JOINTS]}],
+        "nodes": nodes,
+        "skins": [{"joints": (0..NUM_JOINTS).collect::<Vec<_>>(), "inverseBindMatrices": ibm_acc, "skeleton": 0}],
+        "meshes": [{
+            "name": "avatar",
+            "primitives": [{
+                "attributes": {"POSITION": position, "NORMAL": normal, "JOINTS_0": joints_acc, "WEIGHTS_0": weights_acc},
+                "indices": indices,
+                "targets": targets,
+            }],
+            "weights": morphs.all_weights(0),
+            "extras": {"targetNames": target_names},
+        }],
+        "animations": [{"name": clip.name, "samplers": samplers, "channels": channels}],
+    });
+    Ok(Exported {
+        glb: b.finish(doc),
+        rest,
+        joints,
+        weights,
+        morphs,
+        posed,
+        frames: n,
+        fps: clip.fps,
+        max_compression_error,
+    })
+}
+
+/// The plain alternative: the studio's posed mesh of every frame as OBJ or PLY files
+/// (`frame_000000.obj`, ...), written atomically.
+pub fn write_mesh_sequence(exported: &Exported, dir: &std::path::Path, extension: &str) -> Result<usize> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    for (f, v) in exported.posed.iter().enumerate() {
+        let mesh = TriMesh::new(v.clone(), exported.rest.faces.clone());
+        crate::mesh::io::write_mesh(dir.join(format!("frame_{f:06}.{extension}")), &mesh)?;
+    }
+    Ok(exported.posed.len())
+}
