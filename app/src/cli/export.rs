@@ -1,8 +1,99 @@
-//! `avatar-studio export` (not implemented yet).
+//! `avatar-studio export`: an animated binary glTF (or an OBJ/PLY sequence) of an avatar
+//! playing a motion clip.
+
+use anyhow::{bail, Context};
+use avatar_core::canonical::FieldOptions;
+use avatar_core::export::{export_glb, write_mesh_sequence, ExportOptions, SyntheticAvatar};
+use avatar_core::motion::{clip_by_name, clip_names, MotionClip};
+use avatar_core::synth::Outfit;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// The avatar (NAME.avatar from `avatar-studio fit`). Without it, a synthetic avatar (see
+    /// --synthetic-outfit) is exported.
+    avatar: Option<PathBuf>,
+    /// Motion clip: a library name (walk, squat, ...) or a clip file (.json, AMASS .npz).
+    #[arg(long)]
+    motion: String,
+    /// Output: a .glb file, or a folder for --format obj|ply.
+    #[arg(long)]
+    out: PathBuf,
+    /// glb (default), obj or ply (a mesh per frame).
+    #[arg(long, default_value = "glb")]
+    format: String,
+    /// Export only the first N frames of the clip.
+    #[arg(long)]
+    frames: Option<usize>,
+    /// At most this many morph targets (the constant compensation target included).
+    #[arg(long, default_value_t = 64)]
+    targets: usize,
+    /// Outfit of the synthetic avatar.
+    #[arg(long, default_value = "longsleeve_trousers")]
+    synthetic_outfit: String,
+    /// Shape seed of the synthetic avatar (2024 = the demo capture's subject).
+    #[arg(long, default_value_t = 2024)]
+    synthetic_subject: u64,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    super::not_yet("export")
+pub fn load_clip(name: &str) -> anyhow::Result<MotionClip> {
+    if let Some(c) = clip_by_name(name) {
+        return Ok(c);
+    }
+    let path = Path::new(name);
+    if !path.exists() {
+        bail!("unknown motion {name:?}: not a file, and the library has {}", clip_names().join(", "));
+    }
+    Ok(match path.extension().and_then(|e| e.to_str()) {
+        Some("npz") => avatar_core::motion::amass::load_amass_clip(path)?,
+        _ => MotionClip::load(path)?,
+    })
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(path) = &args.avatar {
+        bail!(
+            "{}: neural avatars (.avatar files from `avatar-studio fit`) are not in this build yet; \
+             omit the avatar to export the synthetic one",
+            path.display()
+        );
+    }
+    if !(1..=256).contains(&args.targets) {
+        bail!("--targets must be between 1 and 256");
+    }
+    let mut clip = load_clip(&args.motion)?;
+    if let Some(n) = args.frames {
+        if n == 0 {
+            bail!("--frames must be at least 1");
+        }
+        clip.frames.truncate(n);
+    }
+    let outfit = Outfit::from_name(&args.synthetic_outfit)?;
+    let body = avatar_core::body::open_body();
+    let avatar = SyntheticAvatar::new(body, args.synthetic_subject, outfit, &FieldOptions::default())?;
+    let t = std::time::Instant::now();
+    let exported = export_glb(&avatar, &clip, &ExportOptions { max_targets: args.targets, ..ExportOptions::default() })?;
+    match args.format.as_str() {
+        "glb" => {
+            avatar_core::io::write_bytes_atomic(&args.out, &exported.glb).with_context(|| "writing the glTF")?;
+            println!(
+                "wrote {} ({:.2} MB): {} vertices, {} joints, {} morph targets, {} frames at {} fps, largest compression error {:.2} mm, {:.1} s",
+                args.out.display(),
+                exported.glb.len() as f64 / 1e6,
+                exported.rest.positions.len(),
+                avatar_core::body::NUM_JOINTS,
+                exported.morphs.targets.len() + 1,
+                exported.frames,
+                exported.fps,
+                exported.max_compression_error * 1000.0,
+                t.elapsed().as_secs_f64()
+            );
+        }
+        ext @ ("obj" | "ply") => {
+            let n = write_mesh_sequence(&exported, &args.out, ext)?;
+            println!("wrote {n} {ext} meshes to {}", args.out.display());
+        }
+        other => bail!("unknown --format {other:?}: use glb, obj or ply"),
+    }
+    Ok(())
 }
