@@ -1,0 +1,95 @@
+//! Fitting a SIREN SDF to oriented points with the IGR loss (Adam): the inner loop of
+//! meta-learning and of fine-tuning the static SDF.
+
+use crate::loss::{igr_loss, IgrWeights};
+use crate::siren::Siren;
+use burn::optim::{AdamConfig, GradientsParams};
+use burn::tensor::{Device, Tensor, TensorData};
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOptions {
+    pub steps: usize,
+    pub learning_rate: f64,
+    /// Surface points per step (sampled from the given points).
+    pub batch: usize,
+    /// Off-surface points per step: half uniform in [-1, 1]^3, half near the surface.
+    pub off_surface: usize,
+    /// Standard deviation of the near-surface samples (normalised units).
+    pub near_sigma: f32,
+    pub weights: IgrWeights,
+    pub seed: u64,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions { steps: 500, learning_rate: 1e-4, batch: 2000, off_surface: 2000, near_sigma: 0.02, weights: IgrWeights::default(), seed: 0 }
+    }
+}
+
+/// Progress of a fit: step, total loss and the four IGR terms.
+pub type Progress<'a> = &'a mut dyn FnMut(usize, f32, [f32; 4]);
+
+fn to_tensor(v: &[Vec3], device: &Device) -> Tensor<2> {
+    let flat: Vec<f32> = v.iter().flat_map(|p| p.to_array()).collect();
+    Tensor::from_data(TensorData::new(flat, [v.len(), 3]), device)
+}
+
+/// Fit `model` to points (normalised space) with normals. Stops early when `cancel` is set and
+/// returns the model as it is then (the partial result stays usable).
+pub fn fit_sdf(mut model: Siren, points: &[Vec3], normals: &[Vec3], options: &FitOptions, device: &Device, cancel: Option<&AtomicBool>, progress: Progress) -> Siren {
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+    let mut optim = AdamConfig::new().init();
+    let log_every = (options.steps / 50).max(1);
+    for step in 0..options.steps {
+        if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            break;
+        }
+        let idx: Vec<usize> = (0..options.batch.min(points.len())).map(|_| rng.random_range(0..points.len())).collect();
+        let surface: Vec<Vec3> = idx.iter().map(|&i| points[i]).collect();
+        let surface_n: Vec<Vec3> = idx.iter().map(|&i| normals[i]).collect();
+        let mut off = Vec::with_capacity(options.off_surface);
+        for k in 0..options.off_surface {
+            if k % 2 == 0 {
+                off.push(Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)));
+            } else {
+                let p = points[rng.random_range(0..points.len())];
+                let g = Vec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng));
+                off.push(p + g * options.near_sigma);
+            }
+        }
+        let mut all = surface.clone();
+        all.extend(off);
+        let x = to_tensor(&all, device);
+        let (f, g) = model.sdf_and_gradient(x);
+        let log = step % log_every == 0 || step + 1 == options.steps;
+        let loss = igr_loss(f, g, to_tensor(&surface_n, device), surface.len(), &options.weights, log);
+        if log {
+            progress(step, crate::loss::scalar(&loss.total), loss.terms);
+        }
+        let grads = loss.total.backward();
+        let grads = GradientsParams::from_grads(grads, &model);
+        model = optim.step(options.learning_rate, model, grads);
+    }
+    model
+}
+
+fn gauss(rng: &mut ChaCha8Rng) -> f32 {
+    // Box-Muller.
+    let u1: f32 = rng.random_range(1e-7..1.0);
+    let u2: f32 = rng.random();
+    (-2.0 * u1.ln()).sqrt() * (std::f32::consts::TAU * u2).cos()
+}
+
+/// SDF values of points (no gradient), in chunks.
+pub fn sdf_values(model: &Siren, points: &[Vec3], device: &Device) -> Vec<f32> {
+    let mut out = Vec::with_capacity(points.len());
+    for chunk in points.chunks(16_384) {
+        let f = model.sdf(to_tensor(chunk, device));
+        out.extend_from_slice(f.to_data().as_slice::<f32>().expect("float tensor"));
+    }
+    out
+}
