@@ -43,7 +43,7 @@ fn bad_arguments_are_named() {
     let e = run(&["--motion", "moonwalk"]);
     assert!(e.contains("moonwalk") && e.contains("squat"), "{e}");
     let e = run(&["me.avatar", "--motion", "walk"]);
-    assert!(e.contains("me.avatar") && e.contains("not in this build"), "{e}");
+    assert!(e.contains("me.avatar"), "{e}");
     let e = run(&["--motion", "walk", "--format", "fbx"]);
     assert!(e.contains("fbx"), "{e}");
 }

@@ -21,14 +21,19 @@ pub struct FitOptions {
     /// Standard deviation of the near-surface samples (normalised units).
     pub near_sigma: f32,
     pub weights: IgrWeights,
+    /// Weight of the off-surface sign prior (when a prior is given).
+    pub prior_weight: f32,
     pub seed: u64,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { steps: 500, learning_rate: 1e-4, batch: 2000, off_surface: 2000, near_sigma: 0.02, weights: IgrWeights::default(), seed: 0 }
+        FitOptions { steps: 500, learning_rate: 1e-4, batch: 2000, off_surface: 2000, near_sigma: 0.02, weights: IgrWeights::default(), prior_weight: 1000.0, seed: 0 }
     }
 }
+
+/// Sign constraints of off-surface points (+1 outside, -1 inside, 0 unknown).
+pub type SignPrior<'a> = &'a (dyn Fn(&[Vec3]) -> Vec<f32> + Sync);
 
 /// Progress of a fit: step, total loss and the four IGR terms.
 pub type Progress<'a> = &'a mut dyn FnMut(usize, f32, [f32; 4]);
@@ -40,7 +45,17 @@ fn to_tensor(v: &[Vec3], device: &Device) -> Tensor<2> {
 
 /// Fit `model` to points (normalised space) with normals. Stops early when `cancel` is set and
 /// returns the model as it is then (the partial result stays usable).
-pub fn fit_sdf(mut model: Siren, points: &[Vec3], normals: &[Vec3], options: &FitOptions, device: &Device, cancel: Option<&AtomicBool>, progress: Progress) -> Siren {
+#[allow(clippy::too_many_arguments)]
+pub fn fit_sdf(
+    mut model: Siren,
+    points: &[Vec3],
+    normals: &[Vec3],
+    options: &FitOptions,
+    device: &Device,
+    prior: Option<SignPrior>,
+    cancel: Option<&AtomicBool>,
+    progress: Progress,
+) -> Siren {
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
     let mut optim = AdamConfig::new().init();
     let log_every = (options.steps / 50).max(1);
@@ -61,12 +76,16 @@ pub fn fit_sdf(mut model: Siren, points: &[Vec3], normals: &[Vec3], options: &Fi
                 off.push(p + g * options.near_sigma);
             }
         }
+        let signs = prior.map(|p| {
+            let s = p(&off);
+            (Tensor::from_data(TensorData::new(s, [off.len(), 1]), device), options.prior_weight)
+        });
         let mut all = surface.clone();
         all.extend(off);
         let x = to_tensor(&all, device);
         let (f, g) = model.sdf_and_gradient(x);
         let log = step % log_every == 0 || step + 1 == options.steps;
-        let loss = igr_loss(f, g, to_tensor(&surface_n, device), surface.len(), &options.weights, log);
+        let loss = igr_loss(f, g, to_tensor(&surface_n, device), surface.len(), &options.weights, signs, log);
         if log {
             progress(step, crate::loss::scalar(&loss.total), loss.terms);
         }

@@ -27,7 +27,11 @@ pub struct IgrLoss {
 
 /// `f`, `grad`: network outputs for [surface points; off-surface points] stacked, the first
 /// `surface` rows on the surface with target `normals` [surface, 3].
-pub fn igr_loss(f: Tensor<2>, grad: Tensor<2>, normals: Tensor<2>, surface: usize, w: &IgrWeights, with_terms: bool) -> IgrLoss {
+/// `prior`: for each off-surface point, +1 where it must be outside, -1 inside, 0 unknown
+/// (PINA's off-surface prior from the body's SDF, for regions no camera saw); weighted by
+/// `prior_weight`, penalising the wrong sign linearly.
+#[allow(clippy::too_many_arguments)]
+pub fn igr_loss(f: Tensor<2>, grad: Tensor<2>, normals: Tensor<2>, surface: usize, w: &IgrWeights, prior: Option<(Tensor<2>, f32)>, with_terms: bool) -> IgrLoss {
     let n = f.dims()[0];
     let f_s = f.clone().slice([0..surface, 0..1]);
     let f_o = f.slice([surface..n, 0..1]);
@@ -38,7 +42,8 @@ pub fn igr_loss(f: Tensor<2>, grad: Tensor<2>, normals: Tensor<2>, surface: usiz
     let n_norm = (normals.clone() * normals).sum_dim(1).sqrt();
     let cos = dot / (g_norm * n_norm + 1e-8);
     let normal = (cos.neg() + 1.0).mean() * w.normal;
-    let off = (f_o.abs() * (-w.alpha)).exp().mean() * w.off_surface;
+    let off = (f_o.clone().abs() * (-w.alpha)).exp().mean() * w.off_surface;
+    let prior_term = prior.map(|(signs, weight)| (f_o * signs.neg()).clamp_min(0.0).mean() * weight);
     let all_norm = (grad.clone() * grad).sum_dim(1).sqrt();
     let eik = (all_norm - 1.0).abs().mean() * w.eikonal;
     let terms = if with_terms {
@@ -46,7 +51,12 @@ pub fn igr_loss(f: Tensor<2>, grad: Tensor<2>, normals: Tensor<2>, surface: usiz
     } else {
         [f32::NAN; 4]
     };
-    IgrLoss { total: on + normal + off + eik, terms }
+    let total = on + normal + off + eik;
+    let total = match prior_term {
+        Some(p) => total + p,
+        None => total,
+    };
+    IgrLoss { total, terms }
 }
 
 pub fn scalar(t: &Tensor<1>) -> f32 {

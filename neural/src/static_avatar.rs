@@ -81,7 +81,25 @@ impl StaticAvatar {
         }
         let device = crate::cpu_training_device();
         let model = siren.init(options.seed, &device);
-        let model = fit_sdf(model, &points, &normals, options, &device, cancel, progress);
+        // PINA's off-surface prior: far outside the canonical body (beyond any clothing) the
+        // SDF must be positive, well inside the body negative. This removes the spurious
+        // surfaces a from-scratch SIREN grows where no depth point constrains it.
+        let body_mesh = capture.body.mesh(canon.rest.clone());
+        let bvh = avatar_core::mesh::bvh::Bvh::build(&body_mesh);
+        let face_normals = body_mesh.face_normals();
+        let prior = |unit: &[Vec3]| -> Vec<f32> {
+            unit.iter()
+                .map(|q| {
+                    let p = norm.from_unit(*q);
+                    match bvh.closest_point(p) {
+                        Some(h) if (p - h.point).dot(face_normals[h.face as usize]) >= 0.0 => if h.distance > 0.35 { 1.0 } else { 0.0 },
+                        Some(h) => if h.distance > 0.03 { -1.0 } else { 0.0 },
+                        None => 0.0,
+                    }
+                })
+                .collect()
+        };
+        let model = fit_sdf(model, &points, &normals, options, &device, Some(&prior), cancel, progress);
         let header = AvatarHeader {
             format: AVATAR_FORMAT.into(),
             version: AVATAR_VERSION,

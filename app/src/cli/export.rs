@@ -51,13 +51,6 @@ pub fn load_clip(name: &str) -> anyhow::Result<MotionClip> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if let Some(path) = &args.avatar {
-        bail!(
-            "{}: neural avatars (.avatar files from `avatar-studio fit`) are not in this build yet; \
-             omit the avatar to export the synthetic one",
-            path.display()
-        );
-    }
     if !(1..=256).contains(&args.targets) {
         bail!("--targets must be between 1 and 256");
     }
@@ -68,11 +61,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         clip.frames.truncate(n);
     }
-    let outfit = Outfit::from_name(&args.synthetic_outfit)?;
-    let body = avatar_core::body::open_body();
-    let avatar = SyntheticAvatar::new(body, args.synthetic_subject, outfit, &FieldOptions::default())?;
     let t = std::time::Instant::now();
-    let exported = export_glb(&avatar, &clip, &ExportOptions { max_targets: args.targets, ..ExportOptions::default() })?;
+    let avatar: Box<dyn avatar_core::export::AvatarSource> = match &args.avatar {
+        Some(path) => Box::new(avatar_neural::StaticAvatar::load(path)?),
+        None => {
+            let outfit = Outfit::from_name(&args.synthetic_outfit)?;
+            Box::new(SyntheticAvatar::new(avatar_core::body::open_body(), args.synthetic_subject, outfit, &FieldOptions::default())?)
+        }
+    };
+    let exported = export_glb(avatar.as_ref(), &clip, &ExportOptions { max_targets: args.targets, ..ExportOptions::default() })?;
     match args.format.as_str() {
         "glb" => {
             avatar_core::io::write_bytes_atomic(&args.out, &exported.glb).with_context(|| "writing the glTF")?;

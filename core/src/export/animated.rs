@@ -20,11 +20,13 @@ pub struct ExportOptions {
     pub max_targets: usize,
     /// Newton steps projecting the reference vertices onto each pose's surface.
     pub newton_steps: usize,
+    /// PCA components moving no vertex by more than this (metres) are not exported.
+    pub min_target_effect: f32,
 }
 
 impl Default for ExportOptions {
     fn default() -> Self {
-        ExportOptions { max_targets: 64, newton_steps: 3 }
+        ExportOptions { max_targets: 64, newton_steps: 3, min_target_effect: 1e-4 }
     }
 }
 
@@ -124,7 +126,7 @@ pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &Export
                 .collect()
         })
         .collect();
-    let morphs = compress(&deltas, options.max_targets.max(1));
+    let morphs = compress(&deltas, options.max_targets.max(1), options.min_target_effect);
     let max_compression_error = (0..deltas.len())
         .into_par_iter()
         .map(|f| morphs.delta(f).iter().zip(&deltas[f]).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max))

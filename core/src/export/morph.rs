@@ -87,7 +87,9 @@ fn symmetric_eigen(mut a: Vec<Vec<f64>>) -> (Vec<f64>, Vec<Vec<f64>>) {
 }
 
 /// Compress per-frame deltas (frames x vertices) into at most `max_targets` targets.
-pub fn compress(deltas: &[Vec<Vec3>], max_targets: usize) -> MorphTargets {
+/// Components whose largest vertex displacement is below `min_effect` (metres) are dropped:
+/// they would cost a full target for nothing visible.
+pub fn compress(deltas: &[Vec<Vec3>], max_targets: usize, min_effect: f32) -> MorphTargets {
     let frames = deltas.len();
     let verts = deltas.first().map_or(0, |d| d.len());
     let mut mean = vec![Vec3::ZERO; verts];
@@ -128,6 +130,10 @@ pub fn compress(deltas: &[Vec<Vec3>], max_targets: usize) -> MorphTargets {
             continue;
         }
         let target: Vec<Vec3> = u.chunks_exact(3).map(|c| Vec3::new((c[0] * span) as f32, (c[1] * span) as f32, (c[2] * span) as f32)).collect();
+        if target.iter().map(|t| t.length()).fold(0.0, f32::max) < min_effect {
+            // Components come in decreasing variance: the rest are smaller still.
+            break;
+        }
         for (k, c) in constant.iter_mut().enumerate() {
             *c += Vec3::new((u[3 * k] * lo) as f32, (u[3 * k + 1] * lo) as f32, (u[3 * k + 2] * lo) as f32);
         }
@@ -153,7 +159,7 @@ mod tests {
                 a.iter().zip(&b).map(|(x, y)| *x * s + *y * t + Vec3::splat(0.005)).collect()
             })
             .collect();
-        let m = compress(&deltas, 64);
+        let m = compress(&deltas, 64, 0.0);
         assert_eq!(m.targets.len(), 2);
         for (f, d) in deltas.iter().enumerate() {
             assert!(m.weights[f].iter().all(|w| (0.0..=1.0).contains(w)));
@@ -162,6 +168,8 @@ mod tests {
             }
         }
         // Truncation to one target keeps the largest component only.
-        assert_eq!(compress(&deltas, 2).targets.len(), 1);
+        assert_eq!(compress(&deltas, 2, 0.0).targets.len(), 1);
+        // Components below a visible effect are dropped.
+        assert_eq!(compress(&deltas, 64, 1.0).targets.len(), 0);
     }
 }
