@@ -8,16 +8,31 @@ fn studio() -> Command {
 }
 
 #[test]
-fn fits_the_demo_and_writes_a_loadable_avatar() {
+fn fits_the_demo_from_the_shipped_meta_model_and_writes_a_loadable_avatar() {
     let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("demo.avatar");
-    let run = studio().arg("fit").arg(&demo).arg("--out").arg(&out).args(["--steps", "5", "--frames", "2"]).output().unwrap();
+    let run = studio().arg("fit").arg(&demo).arg("--out").arg(&out).args(["--steps", "3", "--frames", "2"]).output().unwrap();
     let stdout = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    assert!(stdout.contains("static SDF avatar (4 x 128)") && stdout.contains("2 frames"), "{stdout}");
-    let avatar = avatar_neural::StaticAvatar::load(&out).unwrap();
+    assert!(stdout.contains("pose-dependent avatar (meta-learned") && stdout.contains("2 frames"), "{stdout}");
+    let avatar = avatar_neural::MetaAvatar::load(&out).unwrap();
+    assert_eq!(avatar.header.config, avatar_neural::HyperConfig::compact());
+    assert_eq!((avatar.header.init.as_str(), avatar.header.frames, avatar.header.steps), ("meta-learned", 2, 3));
+
+    // The static SDF from the static meta-SDF, and `pose` over the meta avatar.
+    let out_static = dir.path().join("static.avatar");
+    let run = studio().arg("fit").arg(&demo).arg("--out").arg(&out_static).args(["--steps", "3", "--frames", "2", "--static"]).output().unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let avatar = avatar_neural::StaticAvatar::load(&out_static).unwrap();
     assert_eq!(avatar.header.siren, avatar_neural::SirenConfig::compact());
+    let posed = dir.path().join("posed");
+    let run = studio().arg("pose").arg(&out).args(["--motion", "squat", "--frames", "2", "--resolution", "32"]).arg("--out").arg(&posed).output().unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    for f in ["frame_0000.obj", "frame_0001.obj"] {
+        let mesh = avatar_core::mesh::io::read_obj(posed.join(f)).unwrap();
+        assert!(mesh.faces.len() > 100, "{f}: {} faces", mesh.faces.len());
+    }
 }
 
 #[test]

@@ -96,7 +96,7 @@ pub fn fit_sdf(
     model
 }
 
-fn gauss(rng: &mut ChaCha8Rng) -> f32 {
+pub(crate) fn gauss(rng: &mut ChaCha8Rng) -> f32 {
     // Box-Muller.
     let u1: f32 = rng.random_range(1e-7..1.0);
     let u2: f32 = rng.random();

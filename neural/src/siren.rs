@@ -27,9 +27,10 @@ pub struct SirenConfig {
 }
 
 impl SirenConfig {
-    /// The paper's SDF: 5 x 256.
+    /// The paper's SDF: 3 -> 256, 5 x (256 -> 256), 256 -> 1 (the reference's
+    /// `num_hidden_layers = 5` counts the hidden-to-hidden layers): 330,241 parameters.
     pub fn paper() -> Self {
-        SirenConfig { hidden: 256, layers: 5 }
+        SirenConfig { hidden: 256, layers: 6 }
     }
 
     /// The compact default a laptop without a GPU can fine-tune.
@@ -67,23 +68,35 @@ impl SirenConfig {
     }
 }
 
-/// Evaluate a SIREN given explicit layer parameters (the hypernetwork passes predicted
-/// weights): SDF values [N, 1] and spatial gradients [N, 3].
+/// Evaluate a SIREN given explicit layer parameters: SDF values [N, 1] and spatial gradients
+/// [N, 3].
 pub fn sdf_and_gradient(weights: &[Tensor<2>], biases: &[Tensor<1>], x: Tensor<2>) -> (Tensor<2>, Tensor<2>) {
-    let n = x.dims()[0];
+    let w: Vec<Tensor<3>> = weights.iter().map(|w| w.clone().unsqueeze_dim::<3>(0)).collect();
+    let b: Vec<Tensor<2>> = biases.iter().map(|b| b.clone().unsqueeze_dim::<2>(0)).collect();
+    let (f, g) = batched_sdf_and_gradient(&w, &b, x.unsqueeze_dim::<3>(0));
+    (f.squeeze_dim::<2>(0), g.squeeze_dim::<2>(0))
+}
+
+/// A batch of SIRENs, one per pose (the hypernetwork predicts a weight set per pose):
+/// weights [B, in, out], biases [B, out], points [B, N, 3] -> SDF [B, N, 1] and spatial
+/// gradients [B, N, 3].
+pub fn batched_sdf_and_gradient(weights: &[Tensor<3>], biases: &[Tensor<2>], x: Tensor<3>) -> (Tensor<3>, Tensor<3>) {
+    let [batch, n, _] = x.dims();
     let device = x.device();
     // Tangent block: rows [a * N + i] carry d/dx_a at point i; it starts as the identity.
-    let mut eye = vec![0f32; 3 * n * 3];
-    for a in 0..3 {
-        for i in 0..n {
-            eye[(a * n + i) * 3 + a] = 1.0;
+    let mut eye = vec![0f32; batch * 3 * n * 3];
+    for s in 0..batch {
+        for a in 0..3 {
+            for i in 0..n {
+                eye[((s * 3 + a) * n + i) * 3 + a] = 1.0;
+            }
         }
     }
-    let mut t: Tensor<2> = Tensor::from_data(TensorData::new(eye, [3 * n, 3]), &device);
+    let mut t: Tensor<3> = Tensor::from_data(TensorData::new(eye, [batch, 3 * n, 3]), &device);
     let mut h = x;
     let last = weights.len() - 1;
     for (l, (w, b)) in weights.iter().zip(biases).enumerate() {
-        let z = h.matmul(w.clone()) + b.clone().unsqueeze_dim::<2>(0);
+        let z = h.matmul(w.clone()) + b.clone().unsqueeze_dim::<3>(1);
         let tz = t.matmul(w.clone());
         if l == last {
             h = z;
@@ -93,11 +106,22 @@ pub fn sdf_and_gradient(weights: &[Tensor<2>], biases: &[Tensor<1>], x: Tensor<2
         let s = z * W0;
         let c = s.clone().cos() * W0;
         h = s.sin();
-        t = tz * Tensor::cat(vec![c.clone(), c.clone(), c], 0);
+        t = tz * Tensor::cat(vec![c.clone(), c.clone(), c], 1);
     }
-    // [3N, 1] -> [3, N] -> [N, 3].
-    let grad = t.reshape([3, n]).swap_dims(0, 1);
+    // [B, 3N, 1] -> [B, 3, N] -> [B, N, 3].
+    let grad = t.reshape([batch, 3, n]).swap_dims(1, 2);
     (h, grad)
+}
+
+/// SDF values only (no tangents), for meshing: weights [in, out], biases [out], x [N, 3].
+pub fn sdf_only(weights: &[Tensor<2>], biases: &[Tensor<1>], x: Tensor<2>) -> Tensor<2> {
+    let last = weights.len() - 1;
+    let mut h = x;
+    for (l, (w, b)) in weights.iter().zip(biases).enumerate() {
+        let z = h.matmul(w.clone()) + b.clone().unsqueeze_dim::<2>(0);
+        h = if l == last { z } else { (z * W0).sin() };
+    }
+    h
 }
 
 impl Siren {
@@ -112,12 +136,7 @@ impl Siren {
 
     /// SDF values only (no tangents), for meshing.
     pub fn sdf(&self, x: Tensor<2>) -> Tensor<2> {
-        let last = self.weights.len() - 1;
-        let mut h = x;
-        for (l, (w, b)) in self.weights.iter().zip(&self.biases).enumerate() {
-            let z = h.matmul(w.val()) + b.val().unsqueeze_dim::<2>(0);
-            h = if l == last { z } else { (z * W0).sin() };
-        }
-        h
+        let (w, b) = self.params();
+        sdf_only(&w, &b, x)
     }
 }

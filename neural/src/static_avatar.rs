@@ -3,17 +3,19 @@
 //! avatar the studio can fit, pose and export. The meta-learned hypernetwork avatar replaces
 //! the static SDF with a pose-conditioned one (issue 6).
 
+use crate::capture_points::CapturePoints;
 use crate::fit::{fit_sdf, sdf_values, FitOptions, Progress};
+use crate::params::{flatten, load_flat};
 use crate::siren::{Siren, SirenConfig};
+use crate::weights_file;
 use avatar_core::body::{open_body_ref, BodyModel, BodyParams, Weights};
 use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
-use avatar_core::capture::Capture;
 use avatar_core::error::{Error, Result};
 use avatar_core::export::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
-use burn::module::{Module, Param};
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::module::Module;
+use burn::tensor::Device;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -21,7 +23,6 @@ use std::sync::atomic::AtomicBool;
 
 pub const AVATAR_FORMAT: &str = "avatar-studio-avatar";
 pub const AVATAR_VERSION: u32 = 1;
-const MAGIC: &[u8; 8] = b"AVATAR\0\x01";
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AvatarHeader {
@@ -55,64 +56,39 @@ pub struct FitReport {
 }
 
 impl StaticAvatar {
-    /// Fit to the first `frames` usable frames of a capture.
-    pub fn fit_capture(dir: &Path, frames: usize, siren: SirenConfig, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(StaticAvatar, FitReport)> {
-        let capture = Capture::open(dir)?;
-        if capture.manifest.body_model != "open_body" {
-            return Err(Error::invalid(format!("{}: fitting supports the embedded open body only in this build", dir.display())));
-        }
-        let mut warnings: Vec<String> = capture.warnings.iter().map(|w| w.to_string()).collect();
-        let betas = capture.frames[0].params.betas.clone();
-        let field_options = FieldOptions::default();
-        let cache = default_cache_dir();
-        let canon = Canonicalizer::new(&capture.body, &betas, &field_options, cache.as_deref())?;
-        warnings.extend(canon.cache_warning.clone());
-        let norm = canon.normalisation;
-        let (mut points, mut normals, mut dropped) = (Vec::new(), Vec::new(), 0);
-        let used: Vec<_> = capture.frames.iter().take(frames.max(1)).collect();
-        for f in &used {
-            let c = canon.frame(f);
-            dropped += c.dropped + c.unsolved;
-            points.extend(c.points.iter().map(|p| norm.to_unit(*p)));
-            normals.extend(c.normals);
-        }
-        if points.len() < 100 {
-            return Err(Error::invalid(format!("{}: only {} canonical points survived; cannot fit an avatar", dir.display(), points.len())));
-        }
+    /// Fit to the first `frames` usable frames of a capture, from SIREN's random
+    /// initialisation (`init` None) or from given weights (the static meta-SDF).
+    pub fn fit_capture(dir: &Path, frames: usize, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(StaticAvatar, FitReport)> {
+        let capture = CapturePoints::open(dir, frames)?;
+        Ok(Self::fit_points(&capture, siren, init, options, cancel, progress))
+    }
+
+    /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose).
+    pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
+        let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
+        let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
         let device = crate::cpu_training_device();
-        let model = siren.init(options.seed, &device);
-        // PINA's off-surface prior: far outside the canonical body (beyond any clothing) the
-        // SDF must be positive, well inside the body negative. This removes the spurious
-        // surfaces a from-scratch SIREN grows where no depth point constrains it.
-        let body_mesh = capture.body.mesh(canon.rest.clone());
-        let bvh = avatar_core::mesh::bvh::Bvh::build(&body_mesh);
-        let face_normals = body_mesh.face_normals();
-        let prior = |unit: &[Vec3]| -> Vec<f32> {
-            unit.iter()
-                .map(|q| {
-                    let p = norm.from_unit(*q);
-                    match bvh.closest_point(p) {
-                        Some(h) if (p - h.point).dot(face_normals[h.face as usize]) >= 0.0 => if h.distance > 0.35 { 1.0 } else { 0.0 },
-                        Some(h) => if h.distance > 0.03 { -1.0 } else { 0.0 },
-                        None => 0.0,
-                    }
-                })
-                .collect()
-        };
+        let model = init.unwrap_or_else(|| siren.init(options.seed, &device));
+        let prior = capture.sign_prior();
         let model = fit_sdf(model, &points, &normals, options, &device, Some(&prior), cancel, progress);
         let header = AvatarHeader {
             format: AVATAR_FORMAT.into(),
             version: AVATAR_VERSION,
             kind: "static-sdf".into(),
             siren,
-            normalisation: norm,
-            betas: betas.clone(),
+            normalisation: capture.normalisation,
+            betas: capture.betas.clone(),
             body_model: "open_body".into(),
-            field_cells: field_options.cells_along_height,
+            field_cells: capture.field_cells,
         };
-        let report = FitReport { frames: used.len(), points: points.len(), dropped, warnings };
-        let infer = crate::cpu_device();
-        Ok((StaticAvatar { header, model: model.valid(), body: capture.body.as_ref().clone(), field: canon.field, device: infer, resolution: 128 }, report))
+        let report = FitReport { frames: capture.frames.len(), points: points.len(), dropped: capture.dropped, warnings: capture.warnings.clone() };
+        let avatar = StaticAvatar { header, model: model.valid(), body: capture.body.clone(), field: capture.field.clone(), device: crate::cpu_device(), resolution: 128 };
+        (avatar, report)
+    }
+
+    /// The skinning field of the avatar's body shape.
+    pub fn field(&self) -> &SkinningField {
+        &self.field
     }
 
     /// SDF in metres at canonical points (metres).
@@ -123,67 +99,43 @@ impl StaticAvatar {
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let path = path.as_ref();
-        let header = serde_json::to_vec(&self.header).map_err(|e| Error::invalid(e.to_string()))?;
-        let mut out = Vec::new();
-        out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&(header.len() as u64).to_le_bytes());
-        out.extend_from_slice(&header);
-        let (w, b) = self.model.params();
-        for t in w.iter().map(|t| t.to_data()).chain(b.iter().map(|t| t.to_data())) {
-            for v in t.as_slice::<f32>().map_err(|e| Error::invalid(format!("{e:?}")))? {
-                out.extend_from_slice(&v.to_le_bytes());
-            }
-        }
-        avatar_core::io::write_bytes_atomic(path, &out)
+        weights_file::write(path.as_ref(), &self.header, &flatten(&self.model))
     }
 
     pub fn load(path: impl AsRef<Path>) -> Result<StaticAvatar> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-        if bytes.len() < 16 || &bytes[..8] != MAGIC {
-            return Err(Error::file(path, "not an Avatar Studio avatar file"));
-        }
-        let len = u64::from_le_bytes(bytes[8..16].try_into().unwrap()) as usize;
-        let body_start = 16usize.checked_add(len).filter(|&e| e <= bytes.len()).ok_or_else(|| Error::file(path, "truncated avatar file (header)"))?;
-        let header: AvatarHeader = serde_json::from_slice(&bytes[16..body_start]).map_err(|e| Error::file(path, format!("bad avatar header: {e}")))?;
-        if header.format != AVATAR_FORMAT || header.version != AVATAR_VERSION {
-            return Err(Error::file(
-                path,
-                format!("avatar format {:?} version {} is not supported by this build (it reads {AVATAR_FORMAT:?} version {AVATAR_VERSION})", header.format, header.version),
-            ));
-        }
-        if header.kind != "static-sdf" {
-            return Err(Error::file(path, format!("avatar kind {:?} is not supported by this build", header.kind)));
-        }
-        let widths = header.siren.widths();
-        let expected: usize = header.siren.num_params();
-        if bytes.len() != body_start + 4 * expected {
-            return Err(Error::file(path, format!("truncated avatar file: {} weight bytes, expected {}", bytes.len() - body_start, 4 * expected)));
-        }
-        let floats: Vec<f32> = bytes[body_start..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
-        if floats.iter().any(|v| !v.is_finite()) {
-            return Err(Error::file(path, "avatar weights contain NaN or infinity"));
+        check_avatar_header(path, "static-sdf")?;
+        let (header, weights): (AvatarHeader, Vec<f32>) = weights_file::read(path)?;
+        let expected = header.siren.num_params();
+        if weights.len() != expected {
+            return Err(Error::file(path, format!("truncated avatar file: {} weights, expected {expected}", weights.len())));
         }
         let device = crate::cpu_device();
-        let mut offset = 0;
-        let mut weights = Vec::new();
-        for p in widths.windows(2) {
-            let n = p[0] * p[1];
-            weights.push(Param::from_tensor(Tensor::from_data(TensorData::new(floats[offset..offset + n].to_vec(), [p[0], p[1]]), &device)));
-            offset += n;
-        }
-        let mut biases = Vec::new();
-        for p in widths.windows(2) {
-            biases.push(Param::from_tensor(Tensor::from_data(TensorData::new(floats[offset..offset + p[1]].to_vec(), [p[1]]), &device)));
-            offset += p[1];
-        }
+        let model = load_flat(header.siren.init(0, &device), &weights).map_err(|e| Error::file(path, e))?;
         let body = open_body_ref().clone();
-        let field_options = FieldOptions { cells_along_height: header.field_cells, ..FieldOptions::default() };
-        let cache = default_cache_dir();
-        let field = Canonicalizer::new(&body, &header.betas, &field_options, cache.as_deref())?.field;
-        Ok(StaticAvatar { header, model: Siren { weights, biases }, body, field, device, resolution: 128 })
+        let field = avatar_field(&body, &header.betas, header.field_cells)?;
+        Ok(StaticAvatar { header, model, body, field, device, resolution: 128 })
     }
+}
+
+/// The skinning field of an avatar's body shape (from the cache when it is there).
+pub(crate) fn avatar_field(body: &BodyModel, betas: &[f32], cells: usize) -> Result<SkinningField> {
+    let field_options = FieldOptions { cells_along_height: cells, ..FieldOptions::default() };
+    let cache = default_cache_dir();
+    Ok(Canonicalizer::new(body, betas, &field_options, cache.as_deref())?.field)
+}
+
+/// Refuse avatar files of another format, version or kind with a message naming the file
+/// (read from the header alone, before the rest of the file is parsed).
+pub(crate) fn check_avatar_header(path: &Path, expected_kind: &str) -> Result<()> {
+    let weights_file::Identity { format, version, kind } = weights_file::identity(path)?;
+    if format != AVATAR_FORMAT || version != AVATAR_VERSION {
+        return Err(Error::file(path, format!("avatar format {format:?} version {version} is not supported by this build (it reads {AVATAR_FORMAT:?} version {AVATAR_VERSION})")));
+    }
+    if kind != expected_kind {
+        return Err(Error::file(path, format!("avatar kind {kind:?} is not a {expected_kind:?} avatar")));
+    }
+    Ok(())
 }
 
 impl AvatarSource for StaticAvatar {

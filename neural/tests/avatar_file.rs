@@ -10,7 +10,7 @@ fn fitted() -> StaticAvatar {
     let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
     let options = FitOptions { steps: 15, batch: 500, off_surface: 500, ..FitOptions::default() };
     let mut last = f32::NAN;
-    let (avatar, report) = StaticAvatar::fit_capture(&demo, 2, SirenConfig { hidden: 32, layers: 2 }, &options, None, &mut |_, l, _| last = l).unwrap();
+    let (avatar, report) = StaticAvatar::fit_capture(&demo, 2, SirenConfig { hidden: 32, layers: 2 }, None, &options, None, &mut |_, l, _| last = l).unwrap();
     assert_eq!(report.frames, 2);
     assert!(report.points > 5000, "{} points", report.points);
     assert!(last.is_finite());
@@ -47,5 +47,5 @@ fn save_and_reload_give_identical_sdf_values_and_bad_files_are_refused() {
     let junk = dir.path().join("junk.avatar");
     std::fs::write(&junk, b"hello").unwrap();
     let err = StaticAvatar::load(&junk).err().unwrap().to_string();
-    assert!(err.contains("junk.avatar") && err.contains("not an Avatar Studio avatar"), "{err}");
+    assert!(err.contains("junk.avatar") && err.contains("not an Avatar Studio weights file"), "{err}");
 }

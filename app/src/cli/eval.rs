@@ -5,6 +5,8 @@ use anyhow::{bail, Context};
 use avatar_core::eval::dataset::EVAL_SUBJECT_SEEDS;
 use avatar_core::eval::{run as run_eval, EvalConfig, NakedBody, Predictor, Protocol};
 use avatar_core::synth::Outfit;
+use avatar_neural::eval_rows::{NeuralRow, RowKind};
+use avatar_neural::{HyperFitOptions, MetaModel};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -35,6 +37,22 @@ pub struct Args {
     iou_resolution: usize,
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Neural rows to add: meta (MetaAvatar), scratch (same networks from scratch), static
+    /// (the static meta-SDF), comma-separated. Default: none (the reference rows only).
+    #[arg(long, value_delimiter = ',')]
+    rows: Vec<String>,
+    /// Meta-learned model file (default: the shipped compact model).
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Fine-tuning steps of every neural row (the same budget for each).
+    #[arg(long, default_value_t = 300)]
+    steps: usize,
+    /// Fine-tune on at most this many of the protocol's frames.
+    #[arg(long, default_value_t = 1000)]
+    max_frames: usize,
+    /// Marching-cubes resolution of the neural rows' meshes.
+    #[arg(long, default_value_t = 128)]
+    resolution: usize,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -54,6 +72,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     config.seed = args.seed;
     let body = avatar_core::body::open_body_ref();
     let mut rows: Vec<Box<dyn Predictor>> = vec![Box::new(NakedBody::new(body.clone()))];
+    if !args.rows.is_empty() {
+        let model = std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?);
+        let options = HyperFitOptions { steps: args.steps.max(1), seed: args.seed, ..HyperFitOptions::default() };
+        for name in &args.rows {
+            let kind = match name.as_str() {
+                "meta" => RowKind::MetaLearned,
+                "scratch" => RowKind::FromScratch,
+                "static" => RowKind::StaticMetaSdf,
+                other => bail!("unknown --rows entry {other:?}: use meta, scratch or static"),
+            };
+            rows.push(Box::new(NeuralRow::new(kind, model.clone(), options.clone(), args.max_frames.max(1), args.resolution.clamp(16, 512))));
+        }
+    }
     let t = std::time::Instant::now();
     let report = run_eval(body, &config, &mut rows, &|msg| eprintln!("eval: {msg}"))?;
     report.save_json(&args.out)?;

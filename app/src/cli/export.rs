@@ -62,14 +62,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         clip.frames.truncate(n);
     }
     let t = std::time::Instant::now();
-    let avatar: Box<dyn avatar_core::export::AvatarSource> = match &args.avatar {
-        Some(path) => Box::new(avatar_neural::StaticAvatar::load(path)?),
+    let loaded;
+    let synthetic;
+    let avatar: &dyn avatar_core::export::AvatarSource = match &args.avatar {
+        Some(path) => {
+            loaded = avatar_neural::AnyAvatar::load(path)?;
+            loaded.source()
+        }
         None => {
             let outfit = Outfit::from_name(&args.synthetic_outfit)?;
-            Box::new(SyntheticAvatar::new(avatar_core::body::open_body(), args.synthetic_subject, outfit, &FieldOptions::default())?)
+            synthetic = SyntheticAvatar::new(avatar_core::body::open_body(), args.synthetic_subject, outfit, &FieldOptions::default())?;
+            &synthetic
         }
     };
-    let exported = export_glb(avatar.as_ref(), &clip, &ExportOptions { max_targets: args.targets, ..ExportOptions::default() })?;
+    let exported = export_glb(avatar, &clip, &ExportOptions { max_targets: args.targets, ..ExportOptions::default() })?;
     match args.format.as_str() {
         "glb" => {
             avatar_core::io::write_bytes_atomic(&args.out, &exported.glb).with_context(|| "writing the glTF")?;

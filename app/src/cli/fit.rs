@@ -1,11 +1,13 @@
-//! `avatar-studio fit`: fit an avatar to a capture. This build fits the static SDF avatar
-//! (a SIREN trained from scratch on the canonicalized depth points); the meta-learned,
-//! pose-conditioned avatar of issue 6 will take over the same command.
+//! `avatar-studio fit`: fine-tune a personal avatar on a capture. By default the meta-learned
+//! hypernetwork (MetaAvatar) starts from the shipped model; `--from-scratch` gives the baseline
+//! with the same networks, `--static` the pose-independent SDF.
 
 use anyhow::bail;
-use avatar_neural::{FitOptions, SirenConfig, StaticAvatar};
+use avatar_neural::{FitOptions, HyperConfig, HyperFitOptions, Init, MetaAvatar, MetaModel, StaticAvatar};
 use std::io::Write;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -18,10 +20,20 @@ pub struct Args {
     /// Use the first N usable frames.
     #[arg(long, default_value_t = 8)]
     frames: usize,
-    /// Optimisation steps.
-    #[arg(long, default_value_t = 500)]
+    /// Optimisation steps (each a minibatch of 4 frames).
+    #[arg(long, default_value_t = 300)]
     steps: usize,
-    /// Network size: compact (4 x 128) or paper (5 x 256).
+    /// Meta-learned model file (default: the shipped compact model).
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// The baseline: the same networks from their random initialisation (network preset
+    /// from --preset).
+    #[arg(long)]
+    from_scratch: bool,
+    /// A static (pose-independent) SDF instead of the hypernetwork.
+    #[arg(long = "static")]
+    static_sdf: bool,
+    /// Network preset for --from-scratch: compact or paper.
     #[arg(long, default_value = "compact")]
     preset: String,
     /// cpu (gpu needs a build with the `gpu` feature, not in this build).
@@ -32,25 +44,34 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let siren = match args.preset.as_str() {
-        "compact" => SirenConfig::compact(),
-        "paper" => SirenConfig::paper(),
-        other => bail!("unknown --preset {other:?}: use compact or paper"),
-    };
     if args.device != "cpu" {
         bail!("--device {}: this build has the CPU backend only", args.device);
     }
     if args.steps == 0 || args.frames == 0 {
         bail!("--steps and --frames must be at least 1");
     }
-    let options = FitOptions { steps: args.steps, seed: args.seed, ..FitOptions::default() };
+    let Some(preset) = HyperConfig::preset(&args.preset) else {
+        bail!("unknown --preset {:?}: use compact or paper", args.preset);
+    };
+    // The first Ctrl-C cancels the fit and the partial avatar is still written; a second one
+    // ends the process.
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        let c = cancel.clone();
+        let _ = ctrlc::set_handler(move || {
+            if c.swap(true, Ordering::Relaxed) {
+                std::process::exit(130);
+            }
+        });
+    }
     let t = Instant::now();
     let steps = args.steps;
     let mut progress = |step: usize, loss: f32, terms: [f32; 4]| {
         let done = (step + 1) as f64 / steps as f64;
         let left = t.elapsed().as_secs_f64() * (1.0 - done) / done.max(1e-9);
+        let bar: String = (0..20).map(|i| if (i as f64) < done * 20.0 { '#' } else { '.' }).collect();
         eprint!(
-            "\rfit: step {:>5}/{steps} loss {loss:>9.3} (surface {:.3} normal {:.3} off {:.3} eikonal {:.3}) {:>4.0} s left ",
+            "\rfit [{bar}] step {:>5}/{steps} loss {loss:>9.3} (surface {:.3} normal {:.3} off {:.3} eikonal {:.3}) {:>4.0} s left ",
             step + 1,
             terms[0],
             terms[1],
@@ -60,17 +81,34 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         let _ = std::io::stderr().flush();
     };
-    let (avatar, report) = StaticAvatar::fit_capture(&args.capture, args.frames, siren, &options, None, &mut progress)?;
+    let (report, what) = if args.static_sdf {
+        let model = MetaModel::load_or_shipped(args.model.as_deref())?;
+        let init = if args.from_scratch { None } else { Some(model.static_siren()) };
+        let options = FitOptions { steps: args.steps, seed: args.seed, ..FitOptions::default() };
+        let (avatar, report) = StaticAvatar::fit_capture(&args.capture, args.frames, model.header.config.siren, init, &options, Some(&cancel), &mut progress)?;
+        avatar.save(&args.out)?;
+        (report, format!("static SDF ({})", if args.from_scratch { "from scratch" } else { "static meta-SDF" }))
+    } else {
+        let model;
+        let init = if args.from_scratch {
+            Init::Scratch { config: preset, seed: args.seed }
+        } else {
+            model = MetaModel::load_or_shipped(args.model.as_deref())?;
+            Init::MetaLearned(&model)
+        };
+        let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
+        let (avatar, report) = MetaAvatar::fit_capture(&args.capture, args.frames, &init, &options, Some(&cancel), &mut progress)?;
+        avatar.save(&args.out)?;
+        (report, format!("pose-dependent avatar ({}, {} parameters)", init.label(), avatar.num_params()))
+    };
     eprintln!();
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
-    avatar.save(&args.out)?;
+    let cancelled = if cancel.load(Ordering::Relaxed) { " (cancelled: partial result)" } else { "" };
     println!(
-        "wrote {}: static SDF avatar ({} x {}), {} frames, {} canonical points ({} dropped), {:.1} s",
+        "wrote {}: {what}, {} frames, {} canonical points ({} dropped by the 2 cm filter), {:.1} s{cancelled}",
         args.out.display(),
-        siren.layers,
-        siren.hidden,
         report.frames,
         report.points,
         report.dropped,

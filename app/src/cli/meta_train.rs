@@ -1,8 +1,66 @@
-//! `avatar-studio meta-train` (not implemented yet).
+//! `avatar-studio meta-train`: MetaAvatar's meta-learning (Alg. 1 then Alg. 2) on synthetic
+//! training subjects. Resumable: run the same command again after a kill.
+
+use anyhow::{bail, Context};
+use avatar_neural::meta::{meta_train, MetaOptions};
+use avatar_neural::meta_data::{MetaData, MetaDataConfig};
+use avatar_neural::HyperConfig;
+use std::io::Write;
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Meta-training data folder (generated there on the first run).
+    #[arg(long)]
+    data: PathBuf,
+    /// Output folder: checkpoint.bin, loss.csv, meta-model.bin.
+    #[arg(long)]
+    out: PathBuf,
+    /// Network preset: compact or paper.
+    #[arg(long, default_value = "compact")]
+    preset: String,
+    /// Alg. 1 outer iterations.
+    #[arg(long, default_value_t = 300)]
+    sdf_iterations: usize,
+    /// Alg. 2 outer iterations.
+    #[arg(long, default_value_t = 400)]
+    hyper_iterations: usize,
+    /// Training subjects (seeds 1..=N) when generating data.
+    #[arg(long, default_value_t = 24)]
+    subjects: usize,
+    /// Poses per subject and outfit when generating data.
+    #[arg(long, default_value_t = 12)]
+    poses: usize,
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    super::not_yet("meta-train")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let config = HyperConfig::preset(&args.preset).with_context(|| format!("unknown --preset {:?}: use compact or paper", args.preset))?;
+    if args.subjects == 0 || args.poses == 0 {
+        bail!("--subjects and --poses must be at least 1");
+    }
+    let body = avatar_core::body::open_body_ref();
+    let data_config = MetaDataConfig { subjects: args.subjects, poses_per_group: args.poses, seed: args.seed, ..MetaDataConfig::default() };
+    let data = MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?;
+    let options = MetaOptions { config, sdf_iterations: args.sdf_iterations, hyper_iterations: args.hyper_iterations, seed: args.seed, ..MetaOptions::default() };
+    eprintln!(
+        "meta-train: {} preset ({} hypernetwork parameters), {} samples, {} + {} iterations, output {}",
+        args.preset,
+        config.num_params(),
+        data.len(),
+        options.sdf_iterations,
+        options.hyper_iterations,
+        args.out.display()
+    );
+    let path = meta_train(&data, &options, &args.out, None, &mut |p| {
+        let done = p.iteration as f64 / p.iterations.max(1) as f64;
+        eprint!("\rmeta-train: {} {:>5}/{} loss {:>9.3} {:>7.0} s", p.stage, p.iteration, p.iterations, p.loss, p.seconds);
+        if p.iteration == p.iterations || done >= 1.0 {
+            eprintln!();
+        }
+        let _ = std::io::stderr().flush();
+    })?;
+    println!("wrote {}", path.display());
+    Ok(())
 }

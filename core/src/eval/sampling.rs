@@ -9,6 +9,17 @@ use rand::Rng;
 
 /// `n` points uniformly distributed over the surface area of `mesh`.
 pub fn sample_surface<R: Rng>(mesh: &TriMesh, n: usize, rng: &mut R) -> Result<Vec<Vec3>> {
+    Ok(sample_surface_faces(mesh, n, rng)?.into_iter().map(|(p, _)| p).collect())
+}
+
+/// `n` points uniformly distributed over the surface with the unit normal of their face.
+pub fn sample_surface_with_normals<R: Rng>(mesh: &TriMesh, n: usize, rng: &mut R) -> Result<(Vec<Vec3>, Vec<Vec3>)> {
+    let normals = mesh.face_normals();
+    Ok(sample_surface_faces(mesh, n, rng)?.into_iter().map(|(p, f)| (p, normals[f])).unzip())
+}
+
+/// Area-uniform samples with the index of the face each lies on.
+fn sample_surface_faces<R: Rng>(mesh: &TriMesh, n: usize, rng: &mut R) -> Result<Vec<(Vec3, usize)>> {
     let mut cumulative = Vec::with_capacity(mesh.faces.len());
     let mut total = 0f64;
     for f in 0..mesh.faces.len() {
@@ -27,7 +38,7 @@ pub fn sample_surface<R: Rng>(mesh: &TriMesh, n: usize, rng: &mut R) -> Result<V
             // Uniform on the triangle: the square root keeps the density flat.
             let r1 = rng.random::<f32>().sqrt();
             let r2 = rng.random::<f32>();
-            a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2)
+            (a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2), f)
         })
         .collect())
 }

@@ -1,0 +1,110 @@
+//! A capture made ready for fitting: its frames canonicalized by inverse skinning (diffused
+//! skinning field, Broyden root finding, the 2 cm reprojection filter), normalised to the
+//! canonical [-1, 1]^3 cube, with each frame's pose kept for the hypernetwork; and PINA's
+//! off-surface sign prior from the canonical body's SDF.
+
+use avatar_core::body::{BodyModel, BodyParams};
+use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
+use avatar_core::capture::Capture;
+use avatar_core::error::{Error, Result};
+use avatar_core::mesh::bvh::Bvh;
+use glam::Vec3;
+use std::path::Path;
+
+/// One frame's canonical points (normalised space) with normals, and its body pose.
+pub struct FramePoints {
+    pub params: BodyParams,
+    pub points: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+}
+
+pub struct CapturePoints {
+    pub body: BodyModel,
+    pub betas: Vec<f32>,
+    /// The shaped body in the rest pose (canonical space, metres).
+    pub rest: Vec<Vec3>,
+    pub field: SkinningField,
+    pub field_cells: usize,
+    pub normalisation: Normalisation,
+    pub frames: Vec<FramePoints>,
+    /// Points dropped by the 2 cm filter or with no converged root.
+    pub dropped: usize,
+    pub warnings: Vec<String>,
+}
+
+/// Frames with fewer canonical points are skipped (with a warning).
+const MIN_FRAME_POINTS: usize = 50;
+
+impl CapturePoints {
+    /// Canonicalize the first `frames` usable frames of the capture in `dir`.
+    pub fn open(dir: &Path, frames: usize) -> Result<CapturePoints> {
+        let capture = Capture::open(dir)?;
+        if capture.manifest.body_model != "open_body" {
+            return Err(Error::invalid(format!("{}: fitting supports the embedded open body only in this build", dir.display())));
+        }
+        let mut warnings: Vec<String> = capture.warnings.iter().map(|w| w.to_string()).collect();
+        let betas = capture.frames[0].params.betas.clone();
+        let field_options = FieldOptions::default();
+        let cache = default_cache_dir();
+        let canon = Canonicalizer::new(&capture.body, &betas, &field_options, cache.as_deref())?;
+        warnings.extend(canon.cache_warning.clone());
+        let norm = canon.normalisation;
+        let mut out = Vec::new();
+        let mut dropped = 0;
+        for (k, f) in capture.frames.iter().take(frames.max(1)).enumerate() {
+            let c = canon.frame(f);
+            dropped += c.dropped + c.unsolved;
+            if c.points.len() < MIN_FRAME_POINTS {
+                warnings.push(format!("{}: frame {k}: only {} canonical points survived; skipped", dir.display(), c.points.len()));
+                continue;
+            }
+            out.push(FramePoints { params: f.params.clone(), points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals });
+        }
+        let total: usize = out.iter().map(|f| f.points.len()).sum();
+        if total < 100 {
+            return Err(Error::invalid(format!("{}: only {total} canonical points survived; cannot fit an avatar", dir.display())));
+        }
+        Ok(CapturePoints {
+            body: capture.body.as_ref().clone(),
+            betas,
+            rest: canon.rest.clone(),
+            field: canon.field,
+            field_cells: field_options.cells_along_height,
+            normalisation: norm,
+            frames: out,
+            dropped,
+            warnings,
+        })
+    }
+
+    pub fn num_points(&self) -> usize {
+        self.frames.iter().map(|f| f.points.len()).sum()
+    }
+
+    /// PINA's off-surface prior for normalised points: far outside the canonical body (beyond
+    /// 35 cm, so beyond any clothing) the SDF must be positive, 3 cm inside the body negative,
+    /// elsewhere unknown (0). It removes the spurious surfaces a SIREN grows where no depth
+    /// point constrains it, on the sides the camera never saw.
+    pub fn sign_prior(&self) -> impl Fn(&[Vec3]) -> Vec<f32> + Sync + '_ {
+        let mesh = self.body.mesh(self.rest.clone());
+        let face_normals = mesh.face_normals();
+        let bvh = Bvh::build(&mesh);
+        let norm = self.normalisation;
+        move |unit: &[Vec3]| {
+            unit.iter()
+                .map(|q| {
+                    let p = norm.from_unit(*q);
+                    match bvh.closest_point(p) {
+                        Some(h) if (p - h.point).dot(face_normals[h.face as usize]) >= 0.0 => {
+                            if h.distance > 0.35 { 1.0 } else { 0.0 }
+                        }
+                        Some(h) => {
+                            if h.distance > 0.03 { -1.0 } else { 0.0 }
+                        }
+                        None => 0.0,
+                    }
+                })
+                .collect()
+        }
+    }
+}

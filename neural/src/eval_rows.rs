@@ -1,0 +1,95 @@
+//! The neural rows of the evaluation table (`avatar_core::eval::Predictor`): the meta-learned
+//! avatar, the from-scratch baseline (same networks and fine-tuning steps, random
+//! initialisation) and the static meta-SDF (Alg. 1's pose-independent SDF fine-tuned).
+
+use crate::capture_points::CapturePoints;
+use crate::fit::FitOptions;
+use crate::hyper_fit::HyperFitOptions;
+use crate::meta_avatar::{Init, MetaAvatar};
+use crate::model_file::MetaModel;
+use crate::static_avatar::StaticAvatar;
+use avatar_core::body::BodyParams;
+use avatar_core::canonical::forward_skin_mesh;
+use avatar_core::error::{Error, Result};
+use avatar_core::eval::{FitData, Predictor};
+use avatar_core::export::AvatarSource;
+use avatar_core::mesh::TriMesh;
+use std::sync::Arc;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RowKind {
+    MetaLearned,
+    FromScratch,
+    StaticMetaSdf,
+}
+
+enum Fitted {
+    Hyper(MetaAvatar),
+    /// The static avatar with its (pose-independent) canonical mesh extracted once.
+    Static(StaticAvatar, TriMesh),
+}
+
+pub struct NeuralRow {
+    kind: RowKind,
+    model: Arc<MetaModel>,
+    options: HyperFitOptions,
+    /// Frames of the capture to fine-tune on (all of the protocol's frames when larger).
+    max_frames: usize,
+    resolution: usize,
+    fitted: Option<Fitted>,
+}
+
+impl NeuralRow {
+    /// `options.steps` is the same for every row, so each gets the same fine-tuning budget.
+    pub fn new(kind: RowKind, model: Arc<MetaModel>, options: HyperFitOptions, max_frames: usize, resolution: usize) -> Self {
+        NeuralRow { kind, model, options, max_frames, resolution, fitted: None }
+    }
+}
+
+impl Predictor for NeuralRow {
+    fn name(&self) -> String {
+        match self.kind {
+            RowKind::MetaLearned => "MetaAvatar (meta-learned)".into(),
+            RowKind::FromScratch => "hypernetwork from scratch".into(),
+            RowKind::StaticMetaSdf => "static meta-SDF".into(),
+        }
+    }
+
+    fn fit(&mut self, data: &FitData) -> Result<()> {
+        let capture = CapturePoints::open(data.capture_dir, self.max_frames)?;
+        let mut progress = |_: usize, _: f32, _: [f32; 4]| {};
+        self.fitted = Some(match self.kind {
+            RowKind::MetaLearned => Fitted::Hyper(MetaAvatar::fit_points(&capture, &Init::MetaLearned(&self.model), &self.options, None, &mut progress).0),
+            RowKind::FromScratch => {
+                let init = Init::Scratch { config: self.model.header.config, seed: self.options.seed };
+                Fitted::Hyper(MetaAvatar::fit_points(&capture, &init, &self.options, None, &mut progress).0)
+            }
+            RowKind::StaticMetaSdf => {
+                // The same points per step as the hypernetwork rows see (all poses pooled).
+                let per_step = self.options.surface_per_pose * self.options.poses_per_step;
+                let options = FitOptions { steps: self.options.steps, learning_rate: self.options.lr_sdf, batch: per_step, off_surface: per_step, seed: self.options.seed, ..FitOptions::default() };
+                let (mut avatar, _) = StaticAvatar::fit_points(&capture, self.model.header.config.siren, Some(self.model.static_siren()), &options, None, &mut progress);
+                avatar.resolution = self.resolution;
+                let canonical = avatar.canonical_mesh(&BodyParams::default())?;
+                Fitted::Static(avatar, canonical)
+            }
+        });
+        if let Some(Fitted::Hyper(a)) = &mut self.fitted {
+            a.resolution = self.resolution;
+        }
+        Ok(())
+    }
+
+    fn predict(&self, params: &BodyParams) -> Result<TriMesh> {
+        match &self.fitted {
+            Some(Fitted::Hyper(a)) => a.posed_mesh(params),
+            Some(Fitted::Static(a, canonical)) => {
+                let mut p = params.clone();
+                p.betas = a.betas().to_vec();
+                let bones = a.body().pose(&p).bones;
+                Ok(forward_skin_mesh(a.field(), &bones, canonical))
+            }
+            None => Err(Error::invalid("predict called before fit")),
+        }
+    }
+}

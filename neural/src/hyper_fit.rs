@@ -1,0 +1,208 @@
+//! Fitting the hypernetwork to posed point sets with the IGR loss: the inner loop of Alg. 2
+//! (meta-learning) and the fine-tuning of a personal avatar. Each step takes a minibatch of
+//! poses, predicts one SIREN per pose and scores its surface and off-surface points.
+
+use crate::fit::{gauss, Progress, SignPrior};
+use crate::hyper::HyperNet;
+use crate::loss::{igr_loss, scalar, IgrWeights};
+use burn::module::Module;
+use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
+use burn::tensor::{Device, Tensor, TensorData};
+use glam::Vec3;
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// One pose's training data: the pose input of the encoder and canonical points with normals
+/// (normalised [-1, 1]^3 space).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseSample {
+    pub pose_input: Vec<f32>,
+    pub points: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+}
+
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct HyperFitOptions {
+    pub steps: usize,
+    /// Adam learning rates: heads and low-rank bases, bone encoder, the SDF's base weights.
+    pub lr_heads: f64,
+    pub lr_encoder: f64,
+    pub lr_sdf: f64,
+    /// Poses per step.
+    pub poses_per_step: usize,
+    /// Surface and off-surface points per pose and step.
+    pub surface_per_pose: usize,
+    pub off_per_pose: usize,
+    /// Standard deviation of the near-surface off-surface samples (normalised units).
+    pub near_sigma: f32,
+    pub weights: IgrWeights,
+    pub prior_weight: f32,
+    /// Weight of the residual regulariser (MetaAvatar: 1e2 |theta| / parameters).
+    pub residual_weight: f32,
+    pub seed: u64,
+}
+
+impl Default for HyperFitOptions {
+    fn default() -> Self {
+        HyperFitOptions {
+            steps: 300,
+            lr_heads: 1e-5,
+            lr_encoder: 1e-4,
+            lr_sdf: 1e-4,
+            poses_per_step: 4,
+            surface_per_pose: 1000,
+            off_per_pose: 1000,
+            near_sigma: 0.02,
+            weights: IgrWeights::default(),
+            prior_weight: 1000.0,
+            residual_weight: 1e2,
+            seed: 0,
+        }
+    }
+}
+
+/// Optimisers of the four parameter groups (kept across calls so meta-training and
+/// fine-tuning can resume them).
+pub struct HyperOptimisers {
+    encoder: ModuleOptimizer,
+    heads: ModuleOptimizer,
+    bases: ModuleOptimizer,
+    sdf: ModuleOptimizer,
+}
+
+impl Default for HyperOptimisers {
+    fn default() -> Self {
+        HyperOptimisers { encoder: AdamConfig::new().init(), heads: AdamConfig::new().init(), bases: AdamConfig::new().init(), sdf: AdamConfig::new().init() }
+    }
+}
+
+/// Learning rates of the four groups.
+#[derive(Debug, Clone, Copy)]
+pub struct GroupRates {
+    pub heads: f64,
+    pub encoder: f64,
+    pub sdf: f64,
+}
+
+impl HyperOptimisers {
+    /// One optimiser step of every group from the gradients of a loss.
+    pub fn step(&mut self, model: HyperNet, mut grads: burn::tensor::Gradients, rates: GroupRates) -> HyperNet {
+        let g = [
+            GradientsParams::from_module(&mut grads, &model.encoder),
+            GradientsParams::from_module(&mut grads, &model.heads),
+            GradientsParams::from_module(&mut grads, &model.bases),
+            GradientsParams::from_module(&mut grads, &model.sdf),
+        ];
+        self.step_params(model, g, rates)
+    }
+
+    /// The same from per-group gradient containers (encoder, heads, bases, SDF), for
+    /// Reptile's theta - theta'.
+    pub fn step_params(&mut self, model: HyperNet, grads: [GradientsParams; 4], rates: GroupRates) -> HyperNet {
+        let [g_enc, g_heads, g_bases, g_sdf] = grads;
+        let HyperNet { encoder, heads, bases, sdf } = model;
+        HyperNet {
+            encoder: self.encoder.step(rates.encoder, encoder, g_enc),
+            heads: self.heads.step(rates.heads, heads, g_heads),
+            bases: self.bases.step(rates.heads, bases, g_bases),
+            sdf: self.sdf.step(rates.sdf, sdf, g_sdf),
+        }
+    }
+}
+
+fn tensor3(v: &[Vec3], batch: usize, device: &Device) -> Tensor<3> {
+    let flat: Vec<f32> = v.iter().flat_map(|p| p.to_array()).collect();
+    Tensor::from_data(TensorData::new(flat, [batch, v.len() / batch, 3]), device)
+}
+
+/// The loss of one minibatch of poses; returns the loss tensor and (total, 4 IGR terms) when
+/// `log` is set.
+pub fn batch_loss(
+    model: &HyperNet,
+    samples: &[&PoseSample],
+    options: &HyperFitOptions,
+    rng: &mut ChaCha8Rng,
+    device: &Device,
+    prior: Option<SignPrior>,
+    log: bool,
+) -> (Tensor<1>, [f32; 4]) {
+    let b = samples.len();
+    let (s, o) = (options.surface_per_pose, options.off_per_pose);
+    let mut xs = Vec::with_capacity(b * (s + o));
+    let mut normals = Vec::with_capacity(b * s);
+    let mut offs = Vec::with_capacity(b * o);
+    let mut inputs = Vec::new();
+    for sample in samples {
+        inputs.extend_from_slice(&sample.pose_input);
+        let n = sample.points.len();
+        for _ in 0..s {
+            let i = rng.random_range(0..n);
+            xs.push(sample.points[i]);
+            normals.push(sample.normals[i]);
+        }
+        for k in 0..o {
+            let p = if k % 2 == 0 {
+                Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0))
+            } else {
+                let p = sample.points[rng.random_range(0..n)];
+                p + Vec3::new(gauss(rng), gauss(rng), gauss(rng)) * options.near_sigma
+            };
+            xs.push(p);
+            offs.push(p);
+        }
+    }
+    let input_len = samples[0].pose_input.len();
+    let predicted = model.predict(Tensor::from_data(TensorData::new(inputs, [b, input_len]), device));
+    let (f, g) = crate::siren::batched_sdf_and_gradient(&predicted.weights, &predicted.biases, tensor3(&xs, b, device));
+    // Surface rows of every pose first, then the off-surface rows, as igr_loss expects.
+    let f = Tensor::cat(vec![f.clone().slice([0..b, 0..s]).reshape([b * s, 1]), f.slice([0..b, s..s + o]).reshape([b * o, 1])], 0);
+    let g = Tensor::cat(vec![g.clone().slice([0..b, 0..s]).reshape([b * s, 3]), g.slice([0..b, s..s + o]).reshape([b * o, 3])], 0);
+    let signs = prior.map(|p| (Tensor::from_data(TensorData::new(p(&offs), [offs.len(), 1]), device), options.prior_weight));
+    let normals: Vec<f32> = normals.iter().flat_map(|n| n.to_array()).collect();
+    let loss = igr_loss(f, g, Tensor::from_data(TensorData::new(normals, [b * s, 3]), device), b * s, &options.weights, signs, log);
+    let params = model.sdf.num_params() as f32;
+    // The small epsilon keeps the square root differentiable at zero (the residuals start there).
+    let total = loss.total + (predicted.residual_sq + 1e-12).sqrt() * (options.residual_weight / params);
+    (total, loss.terms)
+}
+
+/// Fit `model` to the samples for `options.steps` steps (each a random minibatch of poses,
+/// epoch-shuffled). `optimisers` carry Adam's state (fresh for a new fit). Stops early when
+/// `cancel` is set and returns the model as it is then.
+#[allow(clippy::too_many_arguments)]
+pub fn fit_hyper(
+    mut model: HyperNet,
+    samples: &[PoseSample],
+    options: &HyperFitOptions,
+    optimisers: &mut HyperOptimisers,
+    device: &Device,
+    prior: Option<SignPrior>,
+    cancel: Option<&AtomicBool>,
+    progress: Progress,
+) -> HyperNet {
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+    let rates = GroupRates { heads: options.lr_heads, encoder: options.lr_encoder, sdf: options.lr_sdf };
+    let per_step = options.poses_per_step.clamp(1, samples.len().max(1));
+    let mut order: Vec<usize> = Vec::new();
+    let log_every = (options.steps / 50).max(1);
+    for step in 0..options.steps {
+        if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            break;
+        }
+        if order.len() < per_step {
+            let mut epoch: Vec<usize> = (0..samples.len()).collect();
+            epoch.shuffle(&mut rng);
+            order.extend(epoch);
+        }
+        let batch: Vec<&PoseSample> = order.drain(..per_step).map(|i| &samples[i]).collect();
+        let log = step % log_every == 0 || step + 1 == options.steps;
+        let (loss, terms) = batch_loss(&model, &batch, options, &mut rng, device, prior, log);
+        if log {
+            progress(step, scalar(&loss), terms);
+        }
+        model = optimisers.step(model, loss.backward(), rates);
+    }
+    model
+}

@@ -1,0 +1,204 @@
+//! The personal avatar: the hypernetwork fine-tuned on a capture's canonical depth points, from
+//! the meta-learned model (MetaAvatar) or from scratch (the baseline). Novel poses go pose ->
+//! bone encoding -> hypernetwork -> SIREN -> coarse-to-fine marching cubes -> largest component
+//! -> forward skinning.
+
+use crate::capture_points::CapturePoints;
+use crate::fit::Progress;
+use crate::hyper::{HyperConfig, HyperNet};
+use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers, PoseSample};
+use crate::model_file::MetaModel;
+use crate::params::{flatten, load_flat};
+use crate::siren::sdf_only;
+use crate::static_avatar::{avatar_field, check_avatar_header, FitReport, AVATAR_FORMAT, AVATAR_VERSION};
+use crate::weights_file;
+use avatar_core::body::{open_body_ref, BodyModel, BodyParams, Weights, NUM_JOINTS};
+use avatar_core::canonical::{forward_skin_mesh, Normalisation, SkinningField};
+use avatar_core::error::{Error, Result};
+use avatar_core::export::AvatarSource;
+use avatar_core::mesh::extract::{extract, ExtractOptions};
+use avatar_core::mesh::TriMesh;
+use burn::module::Module;
+use burn::tensor::{Device, Tensor, TensorData};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+pub const META_AVATAR_KIND: &str = "meta-hyper";
+
+/// Where fine-tuning starts.
+pub enum Init<'a> {
+    /// The meta-learned hypernetwork (MetaAvatar).
+    MetaLearned(&'a MetaModel),
+    /// The same networks at their random initialisation (the from-scratch baseline).
+    Scratch { config: HyperConfig, seed: u64 },
+}
+
+impl Init<'_> {
+    pub fn label(&self) -> &'static str {
+        match self {
+            Init::MetaLearned(_) => "meta-learned",
+            Init::Scratch { .. } => "from scratch",
+        }
+    }
+
+    fn config(&self) -> HyperConfig {
+        match self {
+            Init::MetaLearned(m) => m.header.config,
+            Init::Scratch { config, .. } => *config,
+        }
+    }
+
+    fn network(&self) -> HyperNet {
+        match self {
+            Init::MetaLearned(m) => m.hyper_net(),
+            Init::Scratch { config, seed } => {
+                let device = crate::cpu_training_device();
+                config.init(config.siren.init(*seed, &device), *seed, &device)
+            }
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MetaAvatarHeader {
+    pub format: String,
+    pub version: u32,
+    pub kind: String,
+    pub config: HyperConfig,
+    pub normalisation: Normalisation,
+    pub betas: Vec<f32>,
+    pub body_model: String,
+    pub field_cells: usize,
+    /// "meta-learned" or "from scratch", frames and steps of the fine-tuning.
+    pub init: String,
+    pub frames: usize,
+    pub steps: usize,
+}
+
+pub struct MetaAvatar {
+    pub header: MetaAvatarHeader,
+    pub model: HyperNet,
+    body: BodyModel,
+    field: SkinningField,
+    rest_joints: [Vec3; NUM_JOINTS],
+    device: Device,
+    /// Marching-cubes resolution of the canonical mesh (cells along the longest side).
+    pub resolution: usize,
+}
+
+impl MetaAvatar {
+    /// Fine-tune on the first `frames` usable frames of a capture.
+    pub fn fit_capture(dir: &Path, frames: usize, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(MetaAvatar, FitReport)> {
+        let capture = CapturePoints::open(dir, frames)?;
+        Ok(Self::fit_points(&capture, init, options, cancel, progress))
+    }
+
+    /// Fine-tune on a canonicalized capture: every frame is one pose sample.
+    pub fn fit_points(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
+        let config = init.config();
+        let rest_joints = capture.body.regress_joints(&capture.rest);
+        let samples: Vec<PoseSample> = capture
+            .frames
+            .iter()
+            .map(|f| PoseSample { pose_input: config.encoding.input(&f.params, &rest_joints, &capture.normalisation), points: f.points.clone(), normals: f.normals.clone() })
+            .collect();
+        let device = crate::cpu_training_device();
+        let prior = capture.sign_prior();
+        let model = fit_hyper(init.network(), &samples, options, &mut HyperOptimisers::default(), &device, Some(&prior), cancel, progress);
+        let header = MetaAvatarHeader {
+            format: AVATAR_FORMAT.into(),
+            version: AVATAR_VERSION,
+            kind: META_AVATAR_KIND.into(),
+            config,
+            normalisation: capture.normalisation,
+            betas: capture.betas.clone(),
+            body_model: "open_body".into(),
+            field_cells: capture.field_cells,
+            init: init.label().into(),
+            frames: capture.frames.len(),
+            steps: options.steps,
+        };
+        let report = FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() };
+        let avatar = MetaAvatar { header, model: model.valid(), body: capture.body.clone(), field: capture.field.clone(), rest_joints, device: crate::cpu_device(), resolution: 128 };
+        (avatar, report)
+    }
+
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        weights_file::write(path.as_ref(), &self.header, &flatten(&self.model))
+    }
+
+    pub fn load(path: impl AsRef<Path>) -> Result<MetaAvatar> {
+        let path = path.as_ref();
+        check_avatar_header(path, META_AVATAR_KIND)?;
+        let (header, weights): (MetaAvatarHeader, Vec<f32>) = weights_file::read(path)?;
+        let expected = header.config.num_params();
+        if weights.len() != expected {
+            return Err(Error::file(path, format!("truncated avatar file: {} weights, expected {expected}", weights.len())));
+        }
+        let device = crate::cpu_device();
+        let blank = header.config.init(header.config.siren.init(0, &device), 0, &device);
+        let model = load_flat(blank, &weights).map_err(|e| Error::file(path, e))?;
+        let body = open_body_ref().clone();
+        let field = avatar_field(&body, &header.betas, header.field_cells)?;
+        let rest_joints = body.regress_joints(&body.shaped_vertices(&header.betas));
+        Ok(MetaAvatar { header, model, body, field, rest_joints, device, resolution: 128 })
+    }
+
+    /// The SIREN of a pose (predicted once, then evaluated as often as meshing needs).
+    fn siren_at(&self, params: &BodyParams) -> (Vec<Tensor<2>>, Vec<Tensor<1>>) {
+        let input = self.header.config.encoding.input(params, &self.rest_joints, &self.header.normalisation);
+        self.model.siren_for(&input, &self.device)
+    }
+
+    fn sdf_with(&self, layers: &(Vec<Tensor<2>>, Vec<Tensor<1>>), points: &[Vec3]) -> Vec<f32> {
+        let n = self.header.normalisation;
+        let mut out = Vec::with_capacity(points.len());
+        for chunk in points.chunks(16_384) {
+            let flat: Vec<f32> = chunk.iter().flat_map(|p| n.to_unit(*p).to_array()).collect();
+            let f = sdf_only(&layers.0, &layers.1, Tensor::from_data(TensorData::new(flat, [chunk.len(), 3]), &self.device));
+            out.extend(f.into_data().as_slice::<f32>().expect("f32 tensor").iter().map(|v| v * n.metres_per_unit()));
+        }
+        out
+    }
+
+    /// The clothed surface at a pose in canonical space (metres).
+    pub fn canonical_mesh_at(&self, params: &BodyParams, resolution: usize) -> Result<TriMesh> {
+        let layers = self.siren_at(params);
+        let n = self.header.normalisation;
+        let (lo, hi) = (n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)));
+        Ok(extract(|p: &[Vec3]| self.sdf_with(&layers, p), &ExtractOptions::new(lo, hi, resolution))?.mesh)
+    }
+
+    /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh).
+    pub fn posed_mesh(&self, params: &BodyParams) -> Result<TriMesh> {
+        let canonical = self.canonical_mesh_at(params, self.resolution)?;
+        let mut p = params.clone();
+        p.betas = self.header.betas.clone();
+        let bones = self.body.pose(&p).bones;
+        Ok(forward_skin_mesh(&self.field, &bones, &canonical))
+    }
+
+    pub fn num_params(&self) -> usize {
+        self.model.num_params()
+    }
+}
+
+impl AvatarSource for MetaAvatar {
+    fn body(&self) -> &BodyModel {
+        &self.body
+    }
+    fn betas(&self) -> &[f32] {
+        &self.header.betas
+    }
+    fn canonical_mesh(&self, params: &BodyParams) -> Result<TriMesh> {
+        self.canonical_mesh_at(params, self.resolution)
+    }
+    fn sdf(&self, params: &BodyParams, points: &[Vec3]) -> Result<Vec<f32>> {
+        Ok(self.sdf_with(&self.siren_at(params), points))
+    }
+    fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights> {
+        points.iter().map(|&p| self.field.weights_at(p)).collect()
+    }
+}

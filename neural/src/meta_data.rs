@@ -1,0 +1,219 @@
+//! Meta-training data: synthetic subjects and outfits of the training split (never the
+//! evaluation subjects, the unseen outfit or the held-out clips), each posed along the training
+//! clips, with the exact pose-dependent canonical clothed surface of the generator sampled into
+//! oriented points (MetaAvatar's stages 1 and 2 also train on ground-truth canonical points).
+//!
+//! On disk (`--data DIR`): `meta-data.json` (what was generated, from which seed) and
+//! `samples.bin` (float32: per sample 72 pose values, then points x (position, normal)).
+
+use crate::encoder::PoseEncoding;
+use crate::hyper_fit::PoseSample;
+use avatar_core::body::{BodyModel, BodyParams};
+use avatar_core::canonical::Normalisation;
+use avatar_core::error::{Error, Result};
+use avatar_core::eval::dataset::{TRAIN_OUTFITS, TRAIN_SUBJECT_SEEDS};
+use avatar_core::eval::sampling::sample_surface_with_normals;
+use avatar_core::mesh::TriMesh;
+use avatar_core::motion::library_split;
+use avatar_core::synth::{canonical_surface, subject_betas, ClothedTemplate, Outfit, PoseFeatures};
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+pub const DATA_FORMAT: &str = "avatar-studio-meta-data";
+pub const DATA_VERSION: u32 = 1;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MetaDataConfig {
+    /// The first N training subject seeds.
+    pub subjects: usize,
+    pub outfits: Vec<String>,
+    pub poses_per_group: usize,
+    pub points_per_pose: usize,
+    pub seed: u64,
+}
+
+impl Default for MetaDataConfig {
+    fn default() -> Self {
+        MetaDataConfig {
+            subjects: 24,
+            outfits: TRAIN_OUTFITS.iter().map(|o| o.name().to_string()).collect(),
+            poses_per_group: 12,
+            points_per_pose: 2000,
+            seed: 0,
+        }
+    }
+}
+
+/// One subject in one outfit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Group {
+    pub subject: u64,
+    pub outfit: String,
+    pub betas: Vec<f32>,
+    pub normalisation: Normalisation,
+    /// Rest joints in metres.
+    pub rest_joints: Vec<[f32; 3]>,
+    pub first_sample: usize,
+    pub samples: usize,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    pub format: String,
+    pub version: u32,
+    pub config: MetaDataConfig,
+    pub groups: Vec<Group>,
+}
+
+pub struct MetaData {
+    pub manifest: Manifest,
+    /// Per sample: the pose and its canonical points and normals (normalised space).
+    pub poses: Vec<BodyParams>,
+    pub points: Vec<Vec<Vec3>>,
+    pub normals: Vec<Vec<Vec3>>,
+}
+
+impl MetaData {
+    /// Generate the data set (deterministic for a config).
+    pub fn generate(body: &BodyModel, config: &MetaDataConfig) -> Result<MetaData> {
+        let outfits: Vec<Outfit> = config.outfits.iter().map(|n| Outfit::from_name(n)).collect::<Result<_>>()?;
+        if let Some(o) = outfits.iter().find(|o| !TRAIN_OUTFITS.contains(o)) {
+            return Err(Error::invalid(format!("outfit {} is reserved for evaluation; meta-training uses {:?}", o.name(), TRAIN_OUTFITS.map(|o| o.name()))));
+        }
+        let subjects: Vec<u64> = TRAIN_SUBJECT_SEEDS.take(config.subjects).collect();
+        if subjects.is_empty() || config.poses_per_group == 0 || config.points_per_pose == 0 {
+            return Err(Error::invalid("meta-training data needs at least one subject, pose and point"));
+        }
+        let (train_clips, _) = library_split();
+        let all_poses: Vec<BodyParams> = train_clips.iter().flat_map(|c| c.frames.iter().cloned()).collect();
+        let jobs: Vec<(u64, Outfit)> = subjects.iter().flat_map(|&s| outfits.iter().map(move |&o| (s, o))).collect();
+        let per_group: Vec<Result<(Group, Vec<BodyParams>, Vec<Vec<Vec3>>, Vec<Vec<Vec3>>)>> = jobs
+            .par_iter()
+            .enumerate()
+            .map(|(g, &(subject, outfit))| {
+                let mut rng = ChaCha8Rng::seed_from_u64(config.seed.wrapping_mul(0x9E37_79B9).wrapping_add(g as u64));
+                let betas = subject_betas(body, subject);
+                let template = ClothedTemplate::build(body, &betas, outfit);
+                let rest = body.shaped_vertices(&betas);
+                let norm = Normalisation::from_body(&rest);
+                let rest_joints = body.regress_joints(&rest);
+                let (mut poses, mut pts, mut nrm) = (Vec::new(), Vec::new(), Vec::new());
+                for _ in 0..config.poses_per_group {
+                    let mut params = all_poses[rng.random_range(0..all_poses.len())].clone();
+                    params.betas = betas.clone();
+                    params.trans = Vec3::ZERO;
+                    let bones = body.pose(&params).bones;
+                    let surface = canonical_surface(&template, &PoseFeatures::of(&bones), subject);
+                    let mesh = TriMesh::new(surface, template.faces.clone());
+                    let (p, n) = sample_surface_with_normals(&mesh, config.points_per_pose, &mut rng)?;
+                    pts.push(p.into_iter().map(|q| norm.to_unit(q)).collect());
+                    nrm.push(n);
+                    params.betas.clear();
+                    poses.push(params);
+                }
+                let group = Group {
+                    subject,
+                    outfit: outfit.name().to_string(),
+                    betas,
+                    normalisation: norm,
+                    rest_joints: rest_joints.iter().map(|j| j.to_array()).collect(),
+                    first_sample: g * config.poses_per_group,
+                    samples: config.poses_per_group,
+                };
+                Ok((group, poses, pts, nrm))
+            })
+            .collect();
+        let mut data = MetaData {
+            manifest: Manifest { format: DATA_FORMAT.into(), version: DATA_VERSION, config: config.clone(), groups: Vec::new() },
+            poses: Vec::new(),
+            points: Vec::new(),
+            normals: Vec::new(),
+        };
+        for r in per_group {
+            let (group, poses, pts, nrm) = r?;
+            data.manifest.groups.push(group);
+            data.poses.extend(poses);
+            data.points.extend(pts);
+            data.normals.extend(nrm);
+        }
+        Ok(data)
+    }
+
+    pub fn save(&self, dir: &Path) -> Result<()> {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        let mut bytes = Vec::new();
+        for (i, pose) in self.poses.iter().enumerate() {
+            for v in pose.pose.iter().flat_map(|a| a.to_array()) {
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+            for (p, n) in self.points[i].iter().zip(&self.normals[i]) {
+                for v in p.to_array().into_iter().chain(n.to_array()) {
+                    bytes.extend_from_slice(&v.to_le_bytes());
+                }
+            }
+        }
+        avatar_core::io::write_bytes_atomic(dir.join("samples.bin"), &bytes)?;
+        let manifest = serde_json::to_vec_pretty(&self.manifest).map_err(|e| Error::invalid(e.to_string()))?;
+        avatar_core::io::write_bytes_atomic(dir.join("meta-data.json"), &manifest)
+    }
+
+    pub fn load(dir: &Path) -> Result<MetaData> {
+        let mpath = dir.join("meta-data.json");
+        let text = std::fs::read(&mpath).map_err(|e| Error::io(&mpath, e))?;
+        let manifest: Manifest = serde_json::from_slice(&text).map_err(|e| Error::file(&mpath, format!("bad manifest: {e}")))?;
+        if manifest.format != DATA_FORMAT || manifest.version != DATA_VERSION {
+            return Err(Error::file(&mpath, format!("meta-training data {:?} version {} is not supported (this build reads {DATA_FORMAT:?} version {DATA_VERSION})", manifest.format, manifest.version)));
+        }
+        let spath = dir.join("samples.bin");
+        let bytes = std::fs::read(&spath).map_err(|e| Error::io(&spath, e))?;
+        let count: usize = manifest.groups.iter().map(|g| g.samples).sum();
+        let per = 72 + 6 * manifest.config.points_per_pose;
+        if bytes.len() != count * per * 4 {
+            return Err(Error::file(&spath, format!("{} bytes, expected {} for {count} samples (truncated or from another run)", bytes.len(), count * per * 4)));
+        }
+        let floats: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
+        if floats.iter().any(|v| !v.is_finite()) {
+            return Err(Error::file(&spath, "samples contain NaN or infinity"));
+        }
+        let mut data = MetaData { manifest, poses: Vec::new(), points: Vec::new(), normals: Vec::new() };
+        for chunk in floats.chunks_exact(per) {
+            data.poses.push(BodyParams::from_flat(&chunk[..72], Vec::new(), Vec3::ZERO).map_err(|e| Error::file(&spath, e.to_string()))?);
+            let (p, n): (Vec<Vec3>, Vec<Vec3>) = chunk[72..].chunks_exact(6).map(|c| (Vec3::new(c[0], c[1], c[2]), Vec3::new(c[3], c[4], c[5]))).unzip();
+            data.points.push(p);
+            data.normals.push(n);
+        }
+        Ok(data)
+    }
+
+    /// Load `dir`, or generate it there first when it holds no data yet.
+    pub fn load_or_generate(dir: &Path, body: &BodyModel, config: &MetaDataConfig, log: &dyn Fn(&str)) -> Result<MetaData> {
+        if dir.join("meta-data.json").exists() {
+            let data = MetaData::load(dir)?;
+            log(&format!("meta-train: using the data in {} ({} samples)", dir.display(), data.len()));
+            return Ok(data);
+        }
+        log(&format!("meta-train: generating {} subjects x {} outfits x {} poses into {}", config.subjects, config.outfits.len(), config.poses_per_group, dir.display()));
+        let data = MetaData::generate(body, config)?;
+        data.save(dir)?;
+        Ok(data)
+    }
+
+    pub fn len(&self) -> usize {
+        self.poses.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.poses.is_empty()
+    }
+
+    /// The hypernetwork sample of sample `i` (pose input for `encoding`).
+    pub fn sample(&self, i: usize, encoding: PoseEncoding) -> PoseSample {
+        let g = self.manifest.groups.iter().find(|g| (g.first_sample..g.first_sample + g.samples).contains(&i)).expect("sample in a group");
+        let joints: [Vec3; 24] = std::array::from_fn(|j| Vec3::from_array(g.rest_joints[j]));
+        PoseSample { pose_input: encoding.input(&self.poses[i], &joints, &g.normalisation), points: self.points[i].clone(), normals: self.normals[i].clone() }
+    }
+}

@@ -1,0 +1,99 @@
+//! The meta-learned model: the hypernetwork (with the meta-SDF its residuals are added to) and
+//! the static meta-SDF of Alg. 1 (the paper's pose-independent baseline), in one weights file.
+//! The compact model ships inside the binary (assets/model/), so the studio and `fit` work on a
+//! fresh machine with no downloads.
+
+use crate::hyper::{HyperConfig, HyperNet};
+use crate::params::flatten;
+use crate::siren::Siren;
+use crate::weights_file;
+use avatar_core::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+pub const MODEL_FORMAT: &str = "avatar-studio-meta-model";
+pub const MODEL_VERSION: u32 = 1;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelHeader {
+    pub format: String,
+    pub version: u32,
+    pub kind: String,
+    pub config: HyperConfig,
+    /// Weights: the hypernetwork's, then the static meta-SDF's.
+    pub hyper_params: usize,
+    pub static_params: usize,
+    /// How the weights were made (command, seed, iterations, time).
+    pub provenance: String,
+}
+
+#[derive(Debug, Clone)]
+pub struct MetaModel {
+    pub header: ModelHeader,
+    pub hyper: Vec<f32>,
+    pub static_sdf: Vec<f32>,
+}
+
+/// The shipped compact model (meta-trained on synthetic training subjects; docs/neural.md).
+const SHIPPED: &[u8] = include_bytes!("../../assets/model/meta-compact.bin");
+
+impl MetaModel {
+    /// The compact model embedded in the binary.
+    pub fn shipped() -> MetaModel {
+        Self::parse(SHIPPED, Path::new("assets/model/meta-compact.bin")).expect("the shipped meta-model is valid (checked by a test)")
+    }
+
+    /// A model file, or the shipped one for None.
+    pub fn load_or_shipped(path: Option<&Path>) -> Result<MetaModel> {
+        match path {
+            Some(p) => Self::load(p),
+            None => Ok(Self::shipped()),
+        }
+    }
+
+    pub fn from_parts(config: HyperConfig, hyper: &HyperNet, static_sdf: &Siren, provenance: String) -> MetaModel {
+        let hyper = flatten(hyper);
+        let static_sdf = flatten(static_sdf);
+        MetaModel {
+            header: ModelHeader { format: MODEL_FORMAT.into(), version: MODEL_VERSION, kind: "meta-model".into(), config, hyper_params: hyper.len(), static_params: static_sdf.len(), provenance },
+            hyper,
+            static_sdf,
+        }
+    }
+
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let mut w = self.hyper.clone();
+        w.extend_from_slice(&self.static_sdf);
+        weights_file::write(path, &self.header, &w)
+    }
+
+    pub fn load(path: &Path) -> Result<MetaModel> {
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        Self::parse(&bytes, path)
+    }
+
+    pub fn parse(bytes: &[u8], origin: &Path) -> Result<MetaModel> {
+        let (header, weights): (ModelHeader, Vec<f32>) = weights_file::parse(bytes, origin)?;
+        if header.format != MODEL_FORMAT || header.version != MODEL_VERSION {
+            return Err(Error::file(origin, format!("meta-model format {:?} version {} is not supported by this build (it reads {MODEL_FORMAT:?} version {MODEL_VERSION})", header.format, header.version)));
+        }
+        if header.hyper_params != header.config.num_params() || header.static_params != header.config.siren.num_params() {
+            return Err(Error::file(origin, "the header's parameter counts do not match its network configuration"));
+        }
+        if weights.len() != header.hyper_params + header.static_params {
+            return Err(Error::file(origin, format!("truncated model file: {} weights, expected {}", weights.len(), header.hyper_params + header.static_params)));
+        }
+        let (hyper, static_sdf) = weights.split_at(header.hyper_params);
+        Ok(MetaModel { hyper: hyper.to_vec(), static_sdf: static_sdf.to_vec(), header })
+    }
+
+    /// The trainable hypernetwork.
+    pub fn hyper_net(&self) -> HyperNet {
+        crate::meta::trainable_hyper(&self.header.config, &self.hyper, 0).expect("counts checked on load")
+    }
+
+    /// The trainable static meta-SDF.
+    pub fn static_siren(&self) -> Siren {
+        crate::meta::trainable_siren(&self.header.config.siren, &self.static_sdf, 0).expect("counts checked on load")
+    }
+}
