@@ -28,7 +28,9 @@ How the importer (io_scene_gltf2 3.4) maps the file, checked on the walk clip:
 """
 
 import json
+import logging
 import math
+import os
 import sys
 import time
 
@@ -52,17 +54,45 @@ def parse_args():
     p.add_argument("--expect-shape-keys", type=int, required=True, help="shape keys without Basis")
     p.add_argument("--expect-frames", type=int, required=True, help="animation keyframes (glTF samples)")
     p.add_argument("--fps", type=float, default=0.0, help="the clip's frame rate; 0 (default) infers it from the keys")
+    p.add_argument("--compare-obj", metavar="DIR",
+                   help="folder of `avatar-studio export --format obj` of the same clip: every frame_NNNNNN.obj "
+                        "there is compared vertex by vertex with Blender's evaluated mesh of that frame")
+    p.add_argument("--max-error", type=float, default=0.002,
+                   help="largest vertex distance (metres) allowed by --compare-obj (default 2 mm)")
     p.add_argument("--min-motion", type=float, default=1e-3,
                    help="the evaluated mesh must move at least this far (metres) between some frames")
     try:
-        return p.parse_args(argv)
+        args = p.parse_args(argv)
     except SystemExit as e:
         sys.exit(2 if e.code else 0)
+    for path in [args.file] + ([args.compare_obj] if args.compare_obj else []):
+        if not os.path.exists(path):
+            print(f"BLENDER_CHECK_FAILED: {path} does not exist", flush=True)
+            sys.exit(2)
+    return args
+
+
+class WarningCollector(logging.Handler):
+    """Keeps the importer's log records at WARNING and above (its logger is 'glTFImporter')."""
+
+    def __init__(self):
+        super().__init__(level=logging.WARNING)
+        self.messages = []
+
+    def emit(self, record):
+        self.messages.append(f"{record.levelname}: {record.getMessage()}")
+
+
+IMPORT_LOG = WarningCollector()
+logging.getLogger("glTFImporter").addHandler(IMPORT_LOG)
 
 
 def import_file(path, fps):
     """Empties the scene, sets its frame rate, imports the GLB. Returns the import's seconds."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
+    # The importer logs at CRITICAL only unless Blender's debug value asks for more; 2 = WARNING.
+    bpy.app.debug_value = 2
+    IMPORT_LOG.messages.clear()
     scene = bpy.context.scene
     if fps:
         scene.render.fps = int(round(fps))
@@ -75,6 +105,17 @@ def import_file(path, fps):
     if result != {"FINISHED"}:
         raise RuntimeError(f"the glTF importer returned {result}")
     return time.time() - t
+
+
+def read_obj_positions(path):
+    """The `v` lines of an OBJ file, converted from glTF's Y-up to Blender's Z-up as the importer does."""
+    rows = []
+    with open(path) as f:
+        for line in f:
+            if line.startswith("v "):
+                rows.append([float(x) for x in line.split()[1:4]])
+    v = np.array(rows, dtype=np.float64).reshape(-1, 3)
+    return np.stack([v[:, 0], -v[:, 2], v[:, 1]], axis=1)
 
 
 def key_times(action):
@@ -172,6 +213,7 @@ def main():
     first = prev = None
     max_step = max_from_first = 0.0
     centroids = []
+    compared = []
     values = np.zeros((0, len(shape_keys)))
     frame_list = list(range(int(math.floor(f0 + 1e-6)), int(math.floor(f1 + 1e-6)) + 1))
     co = np.empty(n * 3, dtype=np.float32)
@@ -196,6 +238,15 @@ def main():
             max_from_first = max(max_from_first, float(np.linalg.norm(p - first, axis=1).max()))
         prev = p
         centroids.append(p.mean(axis=0))
+        if args.compare_obj:
+            obj_path = os.path.join(args.compare_obj, f"frame_{frame - frame_list[0]:06d}.obj")
+            if os.path.exists(obj_path):
+                ref = read_obj_positions(obj_path)
+                if check(ref.shape == p.shape, f"{obj_path}: {len(ref)} vertices, Blender has {n}"):
+                    err = float(np.linalg.norm(p - ref, axis=1).max())
+                    compared.append(err)
+                    check(err <= args.max_error,
+                          f"frame {frame}: Blender's vertices are up to {err * 1000:.2f} mm from {obj_path}")
         values = np.vstack([values, [kb.value for kb in shape_keys]]) if shape_keys else values
     eval_s = time.time() - t
 
@@ -203,6 +254,8 @@ def main():
     check(max_from_first >= args.min_motion,
           f"the evaluated mesh does not move: largest vertex motion from the first frame {max_from_first:.2e} m")
     varying = []
+    if args.compare_obj:
+        check(len(compared) > 0, f"no frame_NNNNNN.obj compared from {args.compare_obj}")
     if shape_keys and len(values) > 1:
         spread = values.max(axis=0) - values.min(axis=0)
         varying = [kb.name for kb, s in zip(shape_keys, spread) if s > 1e-6]
@@ -228,6 +281,9 @@ def main():
         "max_vertex_step_m": round(max_step, 5),
         "max_vertex_motion_m": round(max_from_first, 5),
         "centroid_travel_m": round(float(np.linalg.norm(centroids[-1] - centroids[0])), 4) if centroids else 0.0,
+        "import_warnings": list(IMPORT_LOG.messages),
+        "obj_frames_compared": len(compared),
+        "obj_max_error_mm": round(max(compared) * 1000, 4) if compared else None,
         "import_s": round(import_s, 3),
         "play_s": round(eval_s, 3),
     }
