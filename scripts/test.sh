@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Runs every test of Avatar Studio. Installs what the tests need first (Debian/Ubuntu, as root
 # or with sudo): lavapipe (software Vulkan) for the studio's screenshot tests, Node.js for the
-# Khronos glTF validator. The cargo target directory lives outside the checkout so that
-# repeated runs (and CI on the same machine) reuse the build.
+# Khronos glTF validator, Blender and numpy (its glTF importer needs numpy, which the Debian
+# package does not pull in) for the headless Blender import check (about 40 s, 680 MB). The
+# cargo target directory lives outside the checkout so that repeated runs (and CI on the same
+# machine) reuse the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -15,6 +17,8 @@ missing=()
 [ -e /usr/share/vulkan/icd.d/lvp_icd.x86_64.json ] || [ -n "$(ls /usr/share/vulkan/icd.d/lvp_icd.*.json 2>/dev/null)" ] || missing+=(mesa-vulkan-drivers libvulkan1)
 command -v node >/dev/null || missing+=(nodejs)
 command -v npm >/dev/null || missing+=(npm)
+command -v blender >/dev/null || missing+=(blender)
+[ -e /usr/lib/python3/dist-packages/numpy/__init__.py ] || missing+=(python3-numpy)
 if [ ${#missing[@]} -gt 0 ]; then
   echo "installing system packages: ${missing[*]}"
   SUDO=""; [ "$(id -u)" = 0 ] || SUDO="sudo"
