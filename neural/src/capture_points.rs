@@ -3,7 +3,9 @@
 //! canonical [-1, 1]^3 cube, with each frame's pose kept for the hypernetwork; and PINA's
 //! off-surface sign prior from the canonical body's SDF.
 
-use avatar_core::body::{BodyModel, BodyParams};
+use crate::encoder::PoseEncoding;
+use crate::hyper_fit::PoseSample;
+use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS};
 use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
 use avatar_core::capture::Capture;
 use avatar_core::error::{Error, Result};
@@ -75,6 +77,20 @@ impl CapturePoints {
             dropped,
             warnings,
         })
+    }
+
+    /// The subject's rest joints (metres).
+    pub fn rest_joints(&self) -> [Vec3; NUM_JOINTS] {
+        self.body.regress_joints(&self.rest)
+    }
+
+    /// Every frame as one hypernetwork sample (its pose input for `encoding`).
+    pub fn pose_samples(&self, encoding: PoseEncoding) -> Vec<PoseSample> {
+        let joints = self.rest_joints();
+        self.frames
+            .iter()
+            .map(|f| PoseSample { pose_input: encoding.input(&f.params, &joints, &self.normalisation), points: f.points.clone(), normals: f.normals.clone() })
+            .collect()
     }
 
     pub fn num_points(&self) -> usize {

@@ -4,6 +4,7 @@
 
 pub mod encoder;
 pub mod eval_rows;
+pub mod bench;
 pub mod capture_points;
 pub mod fit;
 pub mod hyper;

@@ -134,12 +134,7 @@ fn a_short_fine_tune_lowers_the_loss_on_the_demo_capture() {
     let options = HyperFitOptions { steps: 60, poses_per_step: 3, surface_per_pose: 400, off_per_pose: 400, seed: 1, ..HyperFitOptions::default() };
     let init = Init::Scratch { config, seed: 2 };
     // The loss of a fixed evaluation batch before and after.
-    let rest_joints = capture.body.regress_joints(&capture.rest);
-    let samples: Vec<PoseSample> = capture
-        .frames
-        .iter()
-        .map(|f| PoseSample { pose_input: config.encoding.input(&f.params, &rest_joints, &capture.normalisation), points: f.points.clone(), normals: f.normals.clone() })
-        .collect();
+    let samples = capture.pose_samples(config.encoding);
     let refs: Vec<&PoseSample> = samples.iter().collect();
     let device = cpu_training_device();
     let score = |net: &HyperNet| {

@@ -34,8 +34,22 @@ impl Protocol {
         }
     }
 
-    /// The protocols selected by a command-line name.
+    /// The protocols selected by a command-line name, or a comma-separated list of names
+    /// (`few-shot:100`, `few-shot:1/clip` pick one few-shot setting).
     pub fn parse_list(name: &str) -> Option<Vec<Protocol>> {
+        if name.contains(',') {
+            let mut all = Vec::new();
+            for part in name.split(',') {
+                all.extend(Self::parse_list(part.trim())?);
+            }
+            return Some(all);
+        }
+        if let Some(shots) = name.strip_prefix("few-shot:") {
+            return Some(vec![Protocol::FewShot(match shots {
+                "1/clip" => Shots::OnePerClip,
+                percent => Shots::Fraction(percent.parse::<f32>().ok().filter(|p| *p > 0.0 && *p <= 100.0)? / 100.0),
+            })]);
+        }
         Some(match name {
             "interpolation" => vec![Protocol::Interpolation],
             "extrapolation" => vec![Protocol::Extrapolation],
@@ -87,6 +101,16 @@ pub fn training_selection(protocol: &Protocol, clip_lengths: &[usize]) -> Vec<(u
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn protocol_lists_parse() {
+        assert_eq!(Protocol::parse_list("few-shot:100,few-shot:1/clip"), Some(vec![Protocol::FewShot(Shots::Fraction(1.0)), Protocol::FewShot(Shots::OnePerClip)]));
+        assert_eq!(Protocol::parse_list("interpolation,extrapolation").map(|v| v.len()), Some(2));
+        assert_eq!(Protocol::parse_list("all").map(|v| v.len()), Some(8));
+        for bad in ["few-shot:0", "few-shot:250", "few-shot:x", "interp", "few-shot:100,nope"] {
+            assert_eq!(Protocol::parse_list(bad), None, "{bad}");
+        }
+    }
 
     #[test]
     fn interpolation_frames_lie_between_training_frames() {

@@ -1,0 +1,60 @@
+//! The neural speed targets, measured side by side on the embedded demo capture: fine-tuning 8
+//! frames with the compact preset from the shipped meta-model (target: under 3 minutes on 2
+//! CPU cores), a posed mesh at preview resolution (target: under 0.5 s), and fit's peak
+//! memory (target: under 2 GB).
+
+use crate::capture_points::CapturePoints;
+use crate::hyper_fit::HyperFitOptions;
+use crate::meta_avatar::{Init, MetaAvatar};
+use crate::model_file::MetaModel;
+use avatar_core::motion::clip_by_name;
+use std::path::Path;
+use std::time::Instant;
+
+/// Peak resident memory of this process so far (Linux), in bytes.
+pub fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// `steps`: fine-tuning steps (the `fit` default is 300).
+pub fn bench_report(steps: usize) -> String {
+    let mut out = String::from("## neural\n\n| what | measured | target |\n|---|---|---|\n");
+    let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
+    let t = Instant::now();
+    let capture = match CapturePoints::open(&demo, 8) {
+        Ok(c) => c,
+        Err(e) => return out + &format!("| open the demo capture | failed: {e} | |\n"),
+    };
+    let canonical_s = t.elapsed().as_secs_f64();
+    let model = MetaModel::shipped();
+    let options = HyperFitOptions { steps, ..HyperFitOptions::default() };
+    let t = Instant::now();
+    let (mut avatar, report) = MetaAvatar::fit_points(&capture, &Init::MetaLearned(&model), &options, None, &mut |_, _, _| {});
+    let fit_s = t.elapsed().as_secs_f64();
+    out += &format!("| canonicalize 8 demo frames ({} points) | {canonical_s:.1} s | |\n", report.points);
+    out += &format!("| fine-tune compact preset, 8 frames, {steps} steps | {fit_s:.1} s ({:.0} ms/step); with canonicalization {:.1} s | < 180 s |\n", fit_s * 1e3 / steps.max(1) as f64, fit_s + canonical_s);
+    let clip = clip_by_name("walk").expect("library clip");
+    for resolution in [128, 64] {
+        avatar.resolution = resolution;
+        let mut times = Vec::new();
+        let mut vertices = 0;
+        for params in clip.frames.iter().step_by(12).take(5) {
+            let t = Instant::now();
+            match avatar.posed_mesh(params) {
+                Ok(m) => vertices = m.positions.len(),
+                Err(e) => return out + &format!("| posed mesh | failed: {e} | |\n"),
+            }
+            times.push(t.elapsed().as_secs_f64());
+        }
+        times.sort_by(f64::total_cmp);
+        let target = if resolution == 128 { "< 0.5 s" } else { "" };
+        out += &format!("| new posed mesh at resolution {resolution} ({vertices} vertices), median of 5 poses | {:.2} s | {target} |\n", times[times.len() / 2]);
+    }
+    if let Some(peak) = peak_memory_bytes() {
+        out += &format!("| peak memory of this process (fit included) | {:.0} MB | < 2048 MB |\n", peak as f64 / 1e6);
+    }
+    out
+}
