@@ -31,6 +31,9 @@ pub struct Args {
     /// Poses per subject and outfit when generating data.
     #[arg(long, default_value_t = 12)]
     poses: usize,
+    /// Alg. 1's outer Adam learning rate.
+    #[arg(long, default_value_t = 1e-4)]
+    sdf_outer_lr: f64,
     #[arg(long, default_value_t = 0)]
     seed: u64,
 }
@@ -43,7 +46,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let body = avatar_core::body::open_body_ref();
     let data_config = MetaDataConfig { subjects: args.subjects, poses_per_group: args.poses, seed: args.seed, ..MetaDataConfig::default() };
     let data = MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?;
-    let options = MetaOptions { config, sdf_iterations: args.sdf_iterations, hyper_iterations: args.hyper_iterations, seed: args.seed, ..MetaOptions::default() };
+    let options = MetaOptions { config, sdf_iterations: args.sdf_iterations, hyper_iterations: args.hyper_iterations, sdf_outer_lr: args.sdf_outer_lr, seed: args.seed, ..MetaOptions::default() };
     eprintln!(
         "meta-train: {} preset ({} hypernetwork parameters), {} samples, {} + {} iterations, output {}",
         args.preset,
