@@ -1,0 +1,115 @@
+//! The pose worker: the UI sends pose requests, a thread skins the canonical mesh and sends
+//! the posed mesh back. Only the newest request is computed: older ones still queued are
+//! dropped, and results of stale requests are ignored by the UI.
+
+use crate::studio::avatar_job::{CanonicalMesh, StudioAvatar};
+use avatar_core::body::{blend_transform, BodyModel, BodyParams, NUM_JOINTS};
+use crossbeam_channel::{Receiver, Sender};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// What is posed: a canonical mesh with weights, or an avatar whose surface depends on the
+/// pose (then meshed at every request).
+#[derive(Clone)]
+pub enum Posable {
+    Mesh(Arc<CanonicalMesh>),
+    PoseDependent(Arc<dyn StudioAvatar>),
+}
+
+pub struct PoseRequest {
+    pub id: u64,
+    pub params: BodyParams,
+    pub posable: Posable,
+    pub body: Arc<BodyModel>,
+}
+
+pub struct PosedMesh {
+    pub id: u64,
+    pub positions: Vec<Vec3>,
+    pub faces: Vec<[u32; 3]>,
+    pub joints: [Vec3; NUM_JOINTS],
+    pub seconds: f64,
+}
+
+pub struct PoseWorker {
+    requests: Sender<PoseRequest>,
+    pub results: Receiver<Result<PosedMesh, String>>,
+    next_id: u64,
+    /// The id of the newest request sent.
+    pub latest: u64,
+}
+
+impl PoseWorker {
+    pub fn start(wake: impl Fn() + Send + 'static) -> PoseWorker {
+        let (req_tx, req_rx) = crossbeam_channel::unbounded::<PoseRequest>();
+        let (res_tx, res_rx) = crossbeam_channel::unbounded();
+        std::thread::Builder::new()
+            .name("pose worker".into())
+            .spawn(move || {
+                while let Ok(mut req) = req_rx.recv() {
+                    // Newest wins: skip everything but the last queued request.
+                    while let Ok(newer) = req_rx.try_recv() {
+                        req = newer;
+                    }
+                    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| pose(&req))).unwrap_or_else(|_| Err("posing failed".into()));
+                    if res_tx.send(out).is_err() {
+                        break;
+                    }
+                    wake();
+                }
+            })
+            .expect("spawning the pose worker");
+        PoseWorker { requests: req_tx, results: res_rx, next_id: 1, latest: 0 }
+    }
+
+    /// Ask for a pose; returns its id.
+    pub fn request(&mut self, params: BodyParams, posable: Posable, body: Arc<BodyModel>) -> u64 {
+        let id = self.next_id;
+        self.next_id += 1;
+        self.latest = id;
+        let _ = self.requests.send(PoseRequest { id, params, posable, body });
+        id
+    }
+
+    /// The newest finished result, if it answers the newest request (stale ones are dropped).
+    pub fn poll(&mut self) -> Option<Result<PosedMesh, String>> {
+        let mut newest = None;
+        while let Ok(r) = self.results.try_recv() {
+            newest = Some(r);
+        }
+        match newest {
+            Some(Ok(m)) if m.id != self.latest => None,
+            other => other,
+        }
+    }
+
+    pub fn pending(&self) -> bool {
+        !self.requests.is_empty()
+    }
+}
+
+/// Linear blend skinning of the canonical mesh by the pose (the exporter's skinning).
+pub fn pose(req: &PoseRequest) -> Result<PosedMesh, String> {
+    let t = std::time::Instant::now();
+    let posed_body = req.body.pose(&req.params);
+    let bones = &posed_body.bones;
+    let owned;
+    let canonical: &CanonicalMesh = match &req.posable {
+        Posable::Mesh(m) => m,
+        Posable::PoseDependent(a) => {
+            let mesh = a.source().canonical_mesh(&req.params).map_err(|e| e.to_string())?;
+            let weights = a.source().skinning_weights(&mesh.positions);
+            owned = CanonicalMesh { mesh, weights };
+            &owned
+        }
+    };
+    let positions: Vec<Vec3> = canonical
+        .mesh
+        .positions
+        .par_iter()
+        .zip(&canonical.weights)
+        .map(|(p, w)| blend_transform(&bones.transforms, w).transform_point3(*p))
+        .collect();
+    Ok(PosedMesh { id: req.id, positions, faces: canonical.mesh.faces.clone(), joints: posed_body.posed_joints(), seconds: t.elapsed().as_secs_f64() })
+}

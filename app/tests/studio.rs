@@ -1,0 +1,187 @@
+//! The studio under egui_kittest with the wgpu renderer (lavapipe on machines without a GPU;
+//! scripts/test.sh sets WGPU_BACKEND=vulkan). Snapshots live in tests/snapshots/ and are
+//! (re)written with UPDATE_SNAPSHOTS=1.
+
+use avatar_studio::studio::avatar_job::FitConfig;
+use avatar_studio::studio::project::ViewMode;
+use avatar_studio::studio::settings::ScriptedDialogs;
+use avatar_studio::studio::{StudioApp, StudioOptions};
+use egui_kittest::kittest::{Queryable, Role};
+use egui_kittest::{Harness, SnapshotOptions};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+const SIZE: [f32; 2] = [1024.0, 640.0];
+
+fn harness(options: StudioOptions) -> Harness<'static, StudioApp> {
+    Harness::builder().with_size(SIZE).wgpu().build_eframe(move |cc| StudioApp::new(cc, options))
+}
+
+/// Step the UI until the studio has nothing running in the background.
+fn settle(h: &mut Harness<'static, StudioApp>, what: &str) {
+    let t = Instant::now();
+    loop {
+        h.step();
+        if !h.state().busy() {
+            break;
+        }
+        assert!(t.elapsed() < Duration::from_secs(300), "{what}: still busy after 300 s");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    for _ in 0..3 {
+        h.step();
+    }
+}
+
+/// The 3D scene is rendered by lavapipe: allow a few pixels of rasterisation noise, and
+/// (for the fit) of numeric noise in the plotted loss.
+fn tolerant(pixels: usize) -> SnapshotOptions {
+    SnapshotOptions::new().max_failed_pixels(pixels)
+}
+
+fn click(h: &mut Harness<'static, StudioApp>, label: &str) {
+    h.get_by_label(label).click();
+    h.step();
+}
+
+/// A fine-tuning configuration a test can afford (seconds on two cores).
+fn test_fit() -> FitConfig {
+    FitConfig { steps: 40, preview_every: 20, ..FitConfig::tiny() }
+}
+
+#[test]
+fn demo_fit_and_pose_snapshots() {
+    let mut h = harness(StudioOptions { load_demo: true, ..Default::default() });
+    settle(&mut h, "loading the demo");
+    {
+        let app = h.state();
+        let c = app.capture.as_ref().expect("the demo capture is open");
+        assert!(c.usable() >= 8, "the demo has usable frames");
+        assert!(app.error.is_none(), "{:?}", app.error);
+        assert!(app.posed.is_some(), "the body is posed");
+    }
+    click(&mut h, "Depth points");
+    settle(&mut h, "depth view");
+    assert!(!h.state().build_scene().points.is_empty(), "the depth points are in the scene");
+    h.snapshot_options("demo_loaded", &tolerant(200));
+
+    // A fine-tuning job held after its first chunk: progress, plot and the partial result.
+    let (gate_tx, gate_rx) = crossbeam_channel::bounded::<()>(0);
+    h.state_mut().start_fit_gated(test_fit(), gate_rx);
+    h.state_mut().set_mode(ViewMode::Canonical);
+    let t = Instant::now();
+    while h.state().job_view.preview_step.is_none() {
+        h.step();
+        assert!(t.elapsed() < Duration::from_secs(300), "no partial result");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    for _ in 0..3 {
+        h.step();
+    }
+    assert!(h.state().job.is_some(), "the job is still running");
+    assert_eq!(h.state().job_view.step, 20);
+    assert!(h.state().job_view.losses.len() >= 10, "the loss plot has points");
+    h.state_mut().job_view.elapsed_s = 4.0; // the time left shown in the snapshot
+    h.step();
+    h.snapshot_options("fit_in_progress", &tolerant(3000));
+
+    // Let it finish: the avatar replaces the partial result.
+    drop(gate_tx);
+    settle(&mut h, "finishing the fit");
+    assert!(h.state().avatar.is_some(), "the fit produced an avatar: {:?}", h.state().status);
+    h.state_mut().set_mode(ViewMode::Posed);
+    h.state_mut().view.skeleton = true;
+    settle(&mut h, "posing the avatar");
+    let before: Vec<_> = h.state().posed.as_ref().unwrap().positions.clone();
+    h.snapshot_options("avatar_posed", &tolerant(1500));
+    let image_before = h.render().expect("render");
+
+    // Move the pose slider: the newest pose is computed and the mesh changes.
+    let frames = h.state().timeline.frames();
+    h.get_by_role_and_label(Role::Slider, "pose").set_value_accesskit((frames / 2) as f64);
+    h.step();
+    settle(&mut h, "posing after the slider moved");
+    assert_eq!(h.state().timeline.current_frame(), frames / 2);
+    let after = &h.state().posed.as_ref().unwrap().positions;
+    assert_eq!(after.len(), before.len());
+    let moved = before.iter().zip(after).map(|(a, b)| (*a - *b).length()).fold(0.0f32, f32::max);
+    assert!(moved > 0.05, "the posed mesh moved by {moved} m");
+    let image_after = h.render().expect("render");
+    let differing = image_before.pixels().zip(image_after.pixels()).filter(|(a, b)| a != b).count();
+    assert!(differing > 1000, "the viewport changed ({differing} pixels)");
+    h.snapshot_options("avatar_pose_moved", &tolerant(1500));
+}
+
+#[test]
+fn a_bad_capture_shows_an_error_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("capture.json"), "{ \"format\": \"avatar-studio-capture\", \"version\": 1, \"frames\": [ }").unwrap();
+    let mut h = harness(StudioOptions { capture: Some(dir.path().to_path_buf()), ..Default::default() });
+    settle(&mut h, "opening a bad capture");
+    let err = h.state().error.clone().expect("an error is shown");
+    assert!(err.contains("capture.json"), "{err}");
+    assert!(h.state().capture.is_none());
+    // The message is on screen (the left panel), not only in the state.
+    h.get_by_label("⚠ Error");
+    // The temporary folder name changes between runs: show a fixed one in the snapshot.
+    h.state_mut().error = Some("Could not open /captures/broken: /captures/broken/capture.json: bad capture manifest: expected value at line 1 column 65".into());
+    h.state_mut().status = None;
+    h.step();
+    h.snapshot_options("error_bad_capture", &tolerant(200));
+}
+
+#[test]
+fn a_whole_session_through_the_ui() {
+    let out = tempfile::tempdir().unwrap();
+    let glb = out.path().join("walk.glb");
+    let obj = out.path().join("pose.obj");
+    let project = out.path().join("session.studio.json");
+    let mut h = harness(StudioOptions { load_demo: true, ..Default::default() });
+    h.state_mut().set_dialogs(Box::new(ScriptedDialogs::new([glb.clone(), obj.clone()])));
+    settle(&mut h, "loading the demo");
+
+    // Fine-tune a tiny configuration from the panel.
+    click(&mut h, "Quick (tiny)");
+    h.state_mut().settings.fit = test_fit();
+    click(&mut h, "▶ Start fine-tuning");
+    assert!(h.state().job.is_some(), "the job started");
+    settle(&mut h, "fine-tuning");
+    assert!(h.state().avatar.is_some(), "{:?}", h.state().status);
+    assert!(h.state().job_view.losses.len() >= 10);
+
+    // Scrub the pose.
+    h.get_by_role_and_label(Role::Slider, "pose").set_value_accesskit(12.0);
+    h.step();
+    settle(&mut h, "posing");
+    assert_eq!(h.state().timeline.current_frame(), 12);
+
+    // Export the animated glTF and the posed OBJ through the buttons (dialogs scripted).
+    click(&mut h, "Export glTF…");
+    settle(&mut h, "exporting");
+    let (doc, buffers, _) = gltf::import(&glb).expect("the exported glTF parses");
+    let anim = doc.animations().next().expect("an animation");
+    let frames = h.state().timeline.frames();
+    let channel = anim.channels().next().unwrap();
+    let times: Vec<f32> = channel.reader(|b| Some(&buffers[b.index()])).read_inputs().unwrap().collect();
+    assert_eq!(times.len(), frames, "one key per clip frame");
+    assert_eq!(doc.skins().next().unwrap().joints().count(), 24);
+    click(&mut h, "Export OBJ…");
+    let text = std::fs::read_to_string(&obj).expect("the OBJ was written");
+    let verts = text.lines().filter(|l| l.starts_with("v ")).count();
+    assert_eq!(verts, h.state().posed.as_ref().unwrap().positions.len());
+
+    // Save the project (the avatar is saved beside it) and restore it in a new studio.
+    h.state_mut().view.mode = ViewMode::Canonical;
+    h.state_mut().save_project_to(&project);
+    assert!(out.path().join("session.avatar").exists(), "the avatar is saved beside the project");
+    let saved = h.state().project();
+    let mut h2 = harness(StudioOptions { project: Some(project.clone()), ..Default::default() });
+    settle(&mut h2, "opening the project");
+    let s = h2.state();
+    assert!(s.error.is_none(), "{:?}", s.error);
+    assert!(s.capture.is_some() && s.avatar.is_some());
+    assert_eq!(s.timeline.current_frame(), 12);
+    assert_eq!(s.view.mode, ViewMode::Canonical);
+    assert_eq!(s.project().motion, saved.motion);
+    assert!(Path::new(&s.project().avatar.unwrap()).exists());
+}
