@@ -180,7 +180,8 @@ impl StudioApp {
 
     /// True while anything runs in the background or a pose is on its way.
     pub fn busy(&self) -> bool {
-        self.loading.is_some() || self.job.is_some() || self.meshing.is_some() || self.exporting.is_some() || self.pose_needed || self.posed.as_ref().map(|p| p.id) != Some(self.poser.latest)
+        let posing = self.poser.latest != 0 && self.posed.as_ref().map(|p| p.id) != Some(self.poser.latest);
+        self.loading.is_some() || self.job.is_some() || self.meshing.is_some() || self.exporting.is_some() || self.pose_needed || posing
     }
 
     pub fn body(&self) -> Arc<BodyModel> {
@@ -302,6 +303,7 @@ impl StudioApp {
         }
         let ctx = self.ctx.clone();
         self.job_view = JobView { steps: config.steps, ..JobView::default() };
+        self.settings.fit = config.clone();
         self.preview = None;
         self.job = Some(FitJob::start_gated(capture.dir.clone(), config, move || ctx.request_repaint(), gate));
         self.status = Some(Status::Info("Fine-tuning started".into()));
@@ -382,6 +384,7 @@ impl StudioApp {
     }
 
     pub fn request_pose(&mut self) {
+        self.pose_needed = false;
         let Some(posable) = self.posable() else { return };
         let params = self.timeline.params(&self.betas());
         self.poser.request(params, posable, self.body());

@@ -96,7 +96,7 @@ impl Default for FitConfig {
             off_surface: 2000,
             learning_rate: 1e-4,
             seed: 0,
-            preview_every: 50,
+            preview_every: 100,
             preview_resolution: 48,
             final_resolution: 96,
         }
@@ -104,9 +104,21 @@ impl Default for FitConfig {
 }
 
 impl FitConfig {
-    /// A few seconds on two cores: for tests and a quick look.
+    /// Seconds on two cores (a rough body shape): for tests and a quick look.
     pub fn tiny() -> Self {
-        FitConfig { frames: 2, steps: 12, hidden: 32, layers: 2, batch: 300, off_surface: 300, preview_every: 6, preview_resolution: 24, final_resolution: 32, ..FitConfig::default() }
+        FitConfig {
+            frames: 4,
+            steps: 150,
+            hidden: 64,
+            layers: 3,
+            batch: 1000,
+            off_surface: 1000,
+            learning_rate: 5e-4,
+            preview_every: 75,
+            preview_resolution: 40,
+            final_resolution: 64,
+            ..FitConfig::default()
+        }
     }
 }
 

@@ -71,7 +71,7 @@ fn handle_keys(app: &mut StudioApp, ctx: &egui::Context) {
 }
 
 fn handle_drops(app: &mut StudioApp, ctx: &egui::Context) {
-    let dropped: Vec<PathBuf> = ctx.input(|i| i.raw.dropped_files.iter().filter_map(|f| f.path.clone()).collect());
+    let dropped: Vec<PathBuf> = ctx.input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).filter(|p| !p.as_os_str().is_empty()).collect());
     for p in dropped {
         let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_string();
         if p.is_dir() || name == "capture.json" {
@@ -174,7 +174,7 @@ fn status_bar(app: &mut StudioApp, ui: &mut egui::Ui) {
                 ui.label(egui::RichText::new(m).small());
             }
             Some(Status::Error(m)) => {
-                ui.label(egui::RichText::new(format!("⚠ {m}")).small().color(ERROR));
+                ui.label(egui::RichText::new(format!("Error: {m}")).small().color(ERROR));
             }
             None => {
                 ui.label(egui::RichText::new("Ready").small());
@@ -194,7 +194,7 @@ fn status_bar(app: &mut StudioApp, ui: &mut egui::Ui) {
 fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
     style::heading(ui, "Capture");
     ui.horizontal(|ui| {
-        if ui.button("📂 Open…").on_hover_text("Open a capture folder (or drop it on the window)").clicked() {
+        if ui.button("Open…").on_hover_text("Open a capture folder (or drop it on the window)").clicked() {
             if let Some(p) = app.dialogs.pick_folder("Open a capture folder") {
                 app.open_capture(p.display().to_string());
             }
@@ -211,7 +211,7 @@ fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
     }
     if let Some(e) = app.error.clone() {
         egui::Frame::new().fill(egui::Color32::from_rgb(60, 28, 28)).corner_radius(4.0).inner_margin(6.0).show(ui, |ui| {
-            ui.label(egui::RichText::new("⚠ Error").strong().color(ERROR));
+            ui.label(egui::RichText::new("Error").strong().color(ERROR));
             ui.label(egui::RichText::new(e).small());
             if ui.small_button("Dismiss").clicked() {
                 app.error = None;
@@ -225,7 +225,7 @@ fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
     ui.label(egui::RichText::new(if app.capture_source.as_deref() == Some(DEMO) { "Demo capture".to_string() } else { c.name.clone() }).strong());
     ui.label(egui::RichText::new(format!("{} frames · {} usable · {} × {} px · {:.0} fps", c.frames.len(), c.usable(), c.manifest.intrinsics.width, c.manifest.intrinsics.height, c.fps)).small().weak());
     if c.flagged() > 0 {
-        ui.label(egui::RichText::new(format!("⚠ {} frames flagged", c.flagged())).small().color(WARN));
+        ui.label(egui::RichText::new(format!("{} frames flagged", c.flagged())).small().color(WARN));
     }
     ui.add_space(4.0);
     let size = 72.0;
@@ -252,7 +252,7 @@ fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
             painter.rect_stroke(rect, 3.0, border, egui::StrokeKind::Inside);
             painter.text(rect.left_bottom() + egui::vec2(4.0, -3.0), egui::Align2::LEFT_BOTTOM, format!("{}", f.index), egui::FontId::monospace(10.0), egui::Color32::from_white_alpha(200));
             if f.problem.is_some() {
-                painter.text(rect.right_top() + egui::vec2(-4.0, 3.0), egui::Align2::RIGHT_TOP, "⚠", egui::FontId::proportional(13.0), ERROR);
+                painter.text(rect.right_top() + egui::vec2(-4.0, 3.0), egui::Align2::RIGHT_TOP, "!", egui::FontId::proportional(13.0), ERROR);
             }
             let resp = match &f.problem {
                 Some(p) => resp.on_hover_text(format!("Frame {} is not used: {p}", f.index)),
@@ -275,7 +275,7 @@ fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
         ui.add_space(6.0);
         style::heading(ui, "Flagged frames");
         for (i, file, p) in flagged {
-            ui.label(egui::RichText::new(format!("⚠ frame {i} ({}): {p}", file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())).small().color(WARN));
+            ui.label(egui::RichText::new(format!("frame {i} ({}): {p}", file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())).small().color(WARN));
         }
     }
 }
@@ -309,24 +309,28 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
     ui.add_enabled_ui(!running, |ui| {
         let cfg = &mut app.settings.fit;
         egui::Grid::new("fit config").num_columns(2).spacing([8.0, 3.0]).show(ui, |ui| {
-            ui.label("Frames");
-            ui.add(egui::DragValue::new(&mut cfg.frames).range(1..=64));
+            let l = ui.label("Frames");
+            ui.add(egui::DragValue::new(&mut cfg.frames).range(1..=64)).labelled_by(l.id);
             ui.end_row();
-            ui.label("Steps");
-            ui.add(egui::DragValue::new(&mut cfg.steps).range(1..=20000).speed(10.0));
+            let l = ui.label("Steps");
+            ui.add(egui::DragValue::new(&mut cfg.steps).range(1..=20000).speed(10.0)).labelled_by(l.id);
             ui.end_row();
-            ui.label("Network");
-            egui::ComboBox::from_id_salt("net").selected_text(format!("{} × {}", cfg.layers, cfg.hidden)).show_ui(ui, |ui| {
-                for (l, h, name) in [(2, 32, "tiny"), (3, 64, "small"), (4, 128, "compact"), (5, 256, "paper")] {
-                    if ui.selectable_label(cfg.layers == l && cfg.hidden == h, format!("{name}: {l} × {h}")).clicked() {
-                        cfg.layers = l;
-                        cfg.hidden = h;
+            let l = ui.label("Network");
+            egui::ComboBox::from_id_salt("net")
+                .selected_text(format!("{} × {}", cfg.layers, cfg.hidden))
+                .show_ui(ui, |ui| {
+                    for (layers, h, name) in [(2, 32, "tiny"), (3, 64, "small"), (4, 128, "compact"), (5, 256, "paper")] {
+                        if ui.selectable_label(cfg.layers == layers && cfg.hidden == h, format!("{name}: {layers} × {h}")).clicked() {
+                            cfg.layers = layers;
+                            cfg.hidden = h;
+                        }
                     }
-                }
-            });
+                })
+                .response
+                .labelled_by(l.id);
             ui.end_row();
-            ui.label("Points / step");
-            ui.add(egui::DragValue::new(&mut cfg.batch).range(100..=20000).speed(50.0));
+            let l = ui.label("Points / step");
+            ui.add(egui::DragValue::new(&mut cfg.batch).range(100..=20000).speed(50.0)).labelled_by(l.id);
             ui.end_row();
         });
         ui.horizontal(|ui| {
@@ -341,10 +345,10 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
     ui.horizontal(|ui| {
         if running {
             let cancelling = app.job.as_ref().is_some_and(|j| j.is_cancelling());
-            if ui.add_enabled(!cancelling, egui::Button::new("■ Cancel")).clicked() {
+            if ui.add_enabled(!cancelling, egui::Button::new("Cancel")).clicked() {
                 app.cancel_fit();
             }
-        } else if ui.add_enabled(app.capture.is_some(), egui::Button::new(egui::RichText::new("▶ Start fine-tuning").strong())).clicked() {
+        } else if ui.add_enabled(app.capture.is_some(), egui::Button::new(egui::RichText::new("Start fine-tuning").strong())).clicked() {
             app.start_fit(app.settings.fit.clone());
         }
     });
@@ -368,7 +372,7 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
             .allow_zoom(false)
             .allow_drag(false)
             .show_x(false)
-            .y_axis_label("log₁₀ loss")
+            .y_axis_label("log10 loss")
             .include_x(0.0)
             .include_x(jv.steps.max(1) as f64)
             .show(ui, |p| p.line(line));

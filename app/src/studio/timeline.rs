@@ -104,21 +104,21 @@ pub struct TimelineActions {
 pub fn timeline_bar(ui: &mut egui::Ui, t: &mut Timeline) -> TimelineActions {
     let mut a = TimelineActions::default();
     ui.horizontal(|ui| {
-        let label = if t.playing { "⏸ Pause" } else { "▶ Play" };
+        let label = if t.playing { "Pause" } else { "Play" };
         if ui.add_sized([78.0, 22.0], egui::Button::new(label)).on_hover_text("Space").clicked() {
             t.playing = !t.playing;
         }
-        if ui.button("⏮").on_hover_text("Previous frame (,)").clicked() {
+        if ui.button("<").on_hover_text("Previous frame (,)").clicked() {
             t.step(-1);
             a.changed = true;
         }
-        if ui.button("⏭").on_hover_text("Next frame (.)").clicked() {
+        if ui.button(">").on_hover_text("Next frame (.)").clicked() {
             t.step(1);
             a.changed = true;
         }
         let n = t.frames();
         let mut f = t.current_frame();
-        ui.spacing_mut().slider_width = (ui.available_width() - 330.0).max(120.0);
+        ui.spacing_mut().slider_width = (ui.available_width() - 400.0).max(120.0);
         let r = ui.add(egui::Slider::new(&mut f, 0..=n - 1).text("frame").clamping(egui::SliderClamping::Always));
         if r.changed() {
             t.set_frame(f);
@@ -127,11 +127,18 @@ pub fn timeline_bar(ui: &mut egui::Ui, t: &mut Timeline) -> TimelineActions {
         }
         ui.label(egui::RichText::new(format!("{:.2} s", t.current_frame() as f32 / t.clip.fps.max(1e-3))).monospace().weak());
         ui.separator();
-        egui::ComboBox::from_id_salt("speed").width(58.0).selected_text(format!("{}x", t.speed)).show_ui(ui, |ui| {
-            for s in [0.25, 0.5, 1.0, 2.0] {
-                ui.selectable_value(&mut t.speed, s, format!("{s}x"));
-            }
-        });
+        let speed_label = ui.label("speed");
+        egui::ComboBox::from_id_salt("speed")
+            .width(58.0)
+            .selected_text(format!("{}x", t.speed))
+            .show_ui(ui, |ui| {
+                for s in [0.25, 0.5, 1.0, 2.0] {
+                    ui.selectable_value(&mut t.speed, s, format!("{s}x"));
+                }
+            })
+            .response
+            .labelled_by(speed_label.id);
+        let clip_label = ui.label("clip");
         egui::ComboBox::from_id_salt("clip").width(110.0).selected_text(t.clip.name.clone()).show_ui(ui, |ui| {
             for name in clip_names() {
                 if ui.selectable_label(t.clip.name == name, name).clicked() {
@@ -141,7 +148,9 @@ pub fn timeline_bar(ui: &mut egui::Ui, t: &mut Timeline) -> TimelineActions {
             if ui.button("Open motion file…").clicked() {
                 a.open_file = true;
             }
-        });
+        })
+        .response
+        .labelled_by(clip_label.id);
     });
     a
 }
@@ -151,9 +160,9 @@ pub fn joint_controls(ui: &mut egui::Ui, t: &mut Timeline) -> bool {
     let mut changed = false;
     egui::Grid::new("joints").num_columns(4).spacing([6.0, 2.0]).show(ui, |ui| {
         for &j in &MAJOR_JOINTS {
-            ui.label(pretty_joint(JOINT_NAMES[j]));
+            let l = ui.label(pretty_joint(JOINT_NAMES[j]));
             for (k, axis) in ["x", "y", "z"].iter().enumerate() {
-                let r = ui.add(egui::DragValue::new(&mut t.offsets[j][k]).range(-120.0..=120.0).speed(0.5).suffix("°").prefix(*axis));
+                let r = ui.add(egui::DragValue::new(&mut t.offsets[j][k]).range(-120.0..=120.0).speed(0.5).suffix("°").prefix(*axis)).labelled_by(l.id);
                 changed |= r.changed();
             }
             ui.end_row();
