@@ -34,6 +34,9 @@ pub struct StudioArgs {
     /// Print start-up timings to stderr (also AVATAR_STUDIO_TIMING=1).
     #[arg(long, hide = true)]
     pub timing: bool,
+    /// Start the quick fine-tuning configuration as soon as the capture is open.
+    #[arg(long, hide = true)]
+    pub quick_fit: bool,
 }
 
 #[derive(Subcommand)]

@@ -32,6 +32,8 @@ pub struct StudioOptions {
     pub started: Option<Instant>,
     /// Print timings to stderr.
     pub timing: bool,
+    /// Start this fine-tuning as soon as the capture is open (README screenshots).
+    pub auto_fit: Option<FitConfig>,
 }
 
 /// A message in the status bar.
@@ -236,6 +238,9 @@ impl StudioApp {
         }
         self.capture = Some(Arc::new(capture));
         self.capture_source = Some(source);
+        if let Some(cfg) = self.options.auto_fit.take() {
+            self.start_fit(cfg);
+        }
         self.error = None;
         self.framed = false;
         self.pose_needed = true;

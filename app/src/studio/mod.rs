@@ -7,6 +7,7 @@
 
 pub mod app;
 pub mod avatar_job;
+pub mod bench;
 pub mod camera;
 pub mod demo;
 pub mod panels;

@@ -31,7 +31,7 @@ pub fn draw(app: &mut StudioApp, ui: &mut egui::Ui) {
         }
         ui.add_space(1.0);
     });
-    egui::Panel::left("capture").resizable(true).default_size(250.0).show(ui, |ui| {
+    egui::Panel::left("capture").resizable(true).default_size(190.0).max_size(420.0).show(ui, |ui| {
         egui::ScrollArea::vertical().show(ui, |ui| capture_panel(app, ui));
     });
     egui::Panel::right("avatar").resizable(true).default_size(300.0).show(ui, |ui| {
