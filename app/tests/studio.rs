@@ -200,3 +200,30 @@ fn a_whole_session_through_the_ui() {
     assert_eq!(s.project().motion, saved.motion);
     assert!(Path::new(&s.project().avatar.unwrap()).exists());
 }
+
+#[test]
+fn frames_with_problems_are_flagged_with_the_reason() {
+    // The demo with one depth image truncated: that frame is flagged, the others load.
+    let dir = tempfile::tempdir().unwrap();
+    let demo = avatar_studio::studio::demo::demo_capture_dir().unwrap();
+    std::fs::create_dir_all(dir.path().join("depth")).unwrap();
+    std::fs::copy(demo.join("capture.json"), dir.path().join("capture.json")).unwrap();
+    for e in std::fs::read_dir(demo.join("depth")).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), dir.path().join("depth").join(e.file_name())).unwrap();
+    }
+    let broken = dir.path().join("depth/000003.png");
+    let bytes = std::fs::read(&broken).unwrap();
+    std::fs::write(&broken, &bytes[..bytes.len() / 3]).unwrap();
+    let mut h = harness(StudioOptions { capture: Some(dir.path().to_path_buf()), ..Default::default() });
+    settle(&mut h, "opening a capture with a bad frame");
+    let c = h.state().capture.clone().expect("the capture opens");
+    assert!(h.state().error.is_none());
+    let flagged: Vec<_> = c.frames.iter().filter(|f| f.problem.is_some()).collect();
+    assert_eq!(flagged.len(), 1);
+    assert_eq!(flagged[0].index, 3);
+    assert_eq!(c.usable(), c.frames.len() - 1);
+    // The reason is listed in the capture panel, naming the file.
+    let listed = h.query_all_by_label_contains("frame 3 (000003.png)").count();
+    assert_eq!(listed, 1, "the flagged frame is listed with its file");
+}

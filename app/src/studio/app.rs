@@ -610,7 +610,7 @@ impl StudioApp {
             ViewMode::Capture => {
                 if let Some(c) = &self.capture {
                     if let Some(f) = c.frames.get(self.view.selected_frame) {
-                        s.add_points(&f.points, [0.35, 0.85, 0.95], 1.0);
+                        s.add_lit_points(&f.points, &f.normals, [0.35, 0.85, 0.95], 1.0);
                         if let Some(params) = &f.params {
                             let posed = body.pose(params);
                             s.add_mesh(&posed.vertices, &body.faces, [0.42, 0.40, 0.40]);

@@ -31,7 +31,7 @@ pub fn draw(app: &mut StudioApp, ui: &mut egui::Ui) {
         }
         ui.add_space(1.0);
     });
-    egui::Panel::left("capture").resizable(true).default_size(190.0).max_size(420.0).show(ui, |ui| {
+    egui::Panel::left("capture").resizable(true).default_size(214.0).max_size(420.0).show(ui, |ui| {
         egui::ScrollArea::vertical().show(ui, |ui| capture_panel(app, ui));
     });
     egui::Panel::right("avatar").resizable(true).default_size(300.0).show(ui, |ui| {
@@ -228,8 +228,8 @@ fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
         ui.label(egui::RichText::new(format!("{} frames flagged", c.flagged())).small().color(WARN));
     }
     ui.add_space(4.0);
-    let size = 72.0;
-    let cols = ((ui.available_width() + 4.0) / (size + 6.0)).floor().max(1.0) as usize;
+    let size = 60.0;
+    let cols = ((ui.available_width() + 4.0) / (size + 4.0)).floor().max(1.0) as usize;
     egui::Grid::new("thumbs").spacing([4.0, 4.0]).show(ui, |ui| {
         for (i, f) in c.frames.iter().enumerate() {
             let selected = app.view.selected_frame == i;

@@ -20,6 +20,8 @@ pub struct FrameView {
     pub problem: Option<String>,
     /// World-space points of the person (empty for flagged frames).
     pub points: Vec<Vec3>,
+    /// Unit normals of the points (facing the camera).
+    pub normals: Vec<Vec3>,
     pub params: Option<BodyParams>,
 }
 
@@ -56,7 +58,7 @@ pub fn load_capture(path: &Path) -> anyhow::Result<LoadedCapture> {
         .frames
         .iter()
         .enumerate()
-        .map(|(i, rec)| FrameView { index: i, file: dir.join(&rec.depth), thumbnail: None, problem: None, points: Vec::new(), params: None })
+        .map(|(i, rec)| FrameView { index: i, file: dir.join(&rec.depth), thumbnail: None, problem: None, points: Vec::new(), normals: Vec::new(), params: None })
         .collect();
     for w in &capture.warnings {
         if let Some(f) = frames.get_mut(w.index) {
@@ -66,6 +68,7 @@ pub fn load_capture(path: &Path) -> anyhow::Result<LoadedCapture> {
     for f in &capture.frames {
         if let Some(v) = frames.get_mut(f.index) {
             v.points = f.points.clone();
+            v.normals = f.normals.clone();
             v.params = Some(f.params.clone());
         }
     }

@@ -67,6 +67,15 @@ impl Scene {
         self.points.extend(points.iter().map(|p| ColoredPoint { pos: p.to_array(), color: [color[0], color[1], color[2], size] }));
     }
 
+    /// Points with normals, lit by a fixed key light (so that the cloud reads as a surface).
+    pub fn add_lit_points(&mut self, points: &[Vec3], normals: &[Vec3], color: [f32; 3], size: f32) {
+        let key = Vec3::new(-0.4, 0.6, 0.7).normalize();
+        self.points.extend(points.iter().zip(normals.iter().chain(std::iter::repeat(&Vec3::Z))).map(|(p, n)| {
+            let l = 0.25 + 0.75 * n.dot(key).abs();
+            ColoredPoint { pos: p.to_array(), color: [color[0] * l, color[1] * l, color[2] * l, size] }
+        }));
+    }
+
     /// A skeleton drawn over the meshes: bones as lines from each joint to its parent.
     pub fn add_skeleton(&mut self, joints: &[Vec3], parents: &[i32], color: [f32; 3]) {
         for (j, &p) in parents.iter().enumerate() {
