@@ -6,6 +6,7 @@ use avatar_studio::studio::avatar_job::FitConfig;
 use avatar_studio::studio::project::ViewMode;
 use avatar_studio::studio::settings::ScriptedDialogs;
 use avatar_studio::studio::{StudioApp, StudioOptions};
+use eframe::egui;
 use eframe::egui::accesskit::Role;
 use egui_kittest::kittest::Queryable;
 use egui_kittest::{Harness, SnapshotOptions};
@@ -166,6 +167,22 @@ fn a_whole_session_through_the_ui() {
     h.step();
     settle(&mut h, "posing");
     assert_eq!(h.state().timeline.current_frame(), 12);
+    // Keys: . and , step a frame, Space plays and pauses.
+    h.key_press(egui::Key::Period);
+    h.step();
+    assert_eq!(h.state().timeline.current_frame(), 13);
+    h.key_press(egui::Key::Comma);
+    h.step();
+    assert_eq!(h.state().timeline.current_frame(), 12);
+    h.key_press(egui::Key::Space);
+    h.step();
+    assert!(h.state().timeline.playing);
+    h.key_press(egui::Key::Space);
+    h.step();
+    assert!(!h.state().timeline.playing);
+    h.state_mut().timeline.set_frame(12);
+    h.state_mut().pose_needed_for_tests();
+    settle(&mut h, "posing");
 
     // Export the animated glTF and the posed OBJ through the buttons (dialogs scripted).
     click(&mut h, "Export glTF…");
@@ -204,14 +221,7 @@ fn a_whole_session_through_the_ui() {
 #[test]
 fn frames_with_problems_are_flagged_with_the_reason() {
     // The demo with one depth image truncated: that frame is flagged, the others load.
-    let dir = tempfile::tempdir().unwrap();
-    let demo = avatar_studio::studio::demo::demo_capture_dir().unwrap();
-    std::fs::create_dir_all(dir.path().join("depth")).unwrap();
-    std::fs::copy(demo.join("capture.json"), dir.path().join("capture.json")).unwrap();
-    for e in std::fs::read_dir(demo.join("depth")).unwrap() {
-        let e = e.unwrap();
-        std::fs::copy(e.path(), dir.path().join("depth").join(e.file_name())).unwrap();
-    }
+    let dir = private_demo();
     let broken = dir.path().join("depth/000003.png");
     let bytes = std::fs::read(&broken).unwrap();
     std::fs::write(&broken, &bytes[..bytes.len() / 3]).unwrap();
@@ -226,4 +236,139 @@ fn frames_with_problems_are_flagged_with_the_reason() {
     // The reason is listed in the capture panel, naming the file.
     let listed = h.query_all_by_label_contains("frame 3 (000003.png)").count();
     assert_eq!(listed, 1, "the flagged frame is listed with its file");
+}
+
+/// A pose-dependent avatar (the meta avatar's shape): the poser projects the reference mesh
+/// onto each pose's surface. Checked with the synthetic avatar, whose clothing moves with the
+/// pose.
+#[test]
+fn pose_dependent_avatars_are_projected_per_pose() {
+    use avatar_core::export::{AvatarSource, SyntheticAvatar};
+    use avatar_studio::studio::avatar_job::{canonical_of, StudioAvatar};
+    use avatar_studio::studio::posing::{Posable, PoseWorker};
+    use avatar_studio::studio::timeline::Timeline;
+    use std::sync::Arc;
+    struct Synthetic(SyntheticAvatar);
+    impl StudioAvatar for Synthetic {
+        fn describe(&self) -> String {
+            "synthetic".into()
+        }
+        fn source(&self) -> &dyn AvatarSource {
+            &self.0
+        }
+        fn pose_dependent(&self) -> bool {
+            true
+        }
+        fn save(&self, _: &Path) -> anyhow::Result<()> {
+            anyhow::bail!("not saved")
+        }
+    }
+    let body = avatar_core::body::open_body();
+    let synthetic = SyntheticAvatar::new(body.clone(), 2024, avatar_core::synth::Outfit::LongsleeveTrousers, &Default::default()).unwrap();
+    let avatar: Arc<dyn StudioAvatar> = Arc::new(Synthetic(synthetic));
+    let betas = avatar.source().betas().to_vec();
+    let reference = Arc::new(canonical_of(avatar.as_ref(), &betas).unwrap());
+    let mut worker = PoseWorker::start(|| {});
+    let mut timeline = Timeline::library("squat").unwrap();
+    let body = Arc::new(body);
+    let f = timeline.frames() / 2;
+    let mut pose_at = |f: usize, posable: Posable| {
+        timeline.set_frame(f);
+        worker.request(timeline.params(&betas), posable, body.clone());
+        let t = Instant::now();
+        loop {
+            if let Some(r) = worker.poll() {
+                return r.unwrap().positions;
+            }
+            assert!(t.elapsed() < Duration::from_secs(60));
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    };
+    let projected = pose_at(f, Posable::PoseDependent { avatar: avatar.clone(), reference: reference.clone() });
+    let rigid = pose_at(f, Posable::Mesh(reference.clone()));
+    assert_eq!(projected.len(), rigid.len());
+    let differs = projected.iter().zip(&rigid).map(|(a, b)| (*a - *b).length()).fold(0.0f32, f32::max);
+    assert!(differs > 1e-3, "the clothing follows the pose ({differs} m)");
+}
+
+/// Cancelling keeps the partial avatar; dropping a job (the window closed) stops its thread and
+/// leaves the capture folder untouched.
+#[test]
+fn cancelled_and_dropped_jobs() {
+    use avatar_studio::studio::avatar_job::{FitJob, JobEvent};
+    let private = private_demo();
+    let dir = private.path().to_path_buf();
+    let listing = || -> Vec<(std::path::PathBuf, u64, std::time::SystemTime)> {
+        let mut v: Vec<_> = walk(&dir).into_iter().map(|p| {
+            let m = std::fs::metadata(&p).unwrap();
+            (p, m.len(), m.modified().unwrap())
+        }).collect();
+        v.sort();
+        v
+    };
+    let before = listing();
+    let long = FitConfig { steps: 100_000, preview_every: 0, ..FitConfig::tiny() };
+    let wait_progress = |job: &FitJob| loop {
+        match job.events.recv_timeout(Duration::from_secs(120)).expect("the job reports") {
+            JobEvent::Progress { .. } => break,
+            JobEvent::Failed(e) => panic!("{e}"),
+            _ => {}
+        }
+    };
+    let job = FitJob::start(dir.clone(), long.clone(), || {});
+    wait_progress(&job);
+    job.cancel();
+    let t = Instant::now();
+    loop {
+        match job.events.recv_timeout(Duration::from_secs(60)).expect("the job ends") {
+            JobEvent::Finished { cancelled, avatar, .. } => {
+                assert!(cancelled);
+                assert!(!avatar.describe().is_empty());
+                break;
+            }
+            JobEvent::Failed(e) => panic!("{e}"),
+            _ => {}
+        }
+    }
+    assert!(t.elapsed() < Duration::from_secs(30), "cancel is prompt");
+    let job = FitJob::start(dir.clone(), long, || {});
+    wait_progress(&job);
+    let events = job.events.clone();
+    drop(job);
+    let t = Instant::now();
+    loop {
+        match events.recv_timeout(Duration::from_secs(60)) {
+            Err(crossbeam_channel::RecvTimeoutError::Disconnected) => break,
+            Err(e) => panic!("the job thread did not stop: {e}"),
+            Ok(_) => {}
+        }
+    }
+    assert!(t.elapsed() < Duration::from_secs(30), "the thread stops promptly");
+    assert_eq!(listing(), before, "the capture folder is untouched");
+}
+
+fn walk(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// A copy of the demo capture that no other test touches.
+fn private_demo() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = avatar_studio::studio::demo::demo_capture_dir().unwrap();
+    std::fs::create_dir_all(dir.path().join("depth")).unwrap();
+    std::fs::copy(demo.join("capture.json"), dir.path().join("capture.json")).unwrap();
+    for e in std::fs::read_dir(demo.join("depth")).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), dir.path().join("depth").join(e.file_name())).unwrap();
+    }
+    dir
 }

@@ -175,6 +175,11 @@ impl StudioApp {
         app
     }
 
+    /// Ask for the current pose again (tests change the timeline directly).
+    pub fn pose_needed_for_tests(&mut self) {
+        self.pose_needed = true;
+    }
+
     /// Replace the file dialogs (tests answer them with fixed paths).
     pub fn set_dialogs(&mut self, dialogs: Box<dyn Dialogs>) {
         self.dialogs = dialogs;
@@ -377,13 +382,11 @@ impl StudioApp {
                 return Some(Posable::Mesh(p.clone()));
             }
         }
-        if let Some(a) = &self.avatar {
-            if a.pose_dependent() {
-                return Some(Posable::PoseDependent(a.clone()));
-            }
-        }
         if let Some(c) = &self.avatar_canonical {
-            return Some(Posable::Mesh(c.clone()));
+            return Some(match &self.avatar {
+                Some(a) if a.pose_dependent() => Posable::PoseDependent { avatar: a.clone(), reference: c.clone() },
+                _ => Posable::Mesh(c.clone()),
+            });
         }
         self.body_rest.clone().map(Posable::Mesh)
     }

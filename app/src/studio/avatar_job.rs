@@ -27,7 +27,8 @@ pub trait StudioAvatar: Send + Sync {
     /// The exporter's and poser's view of it.
     fn source(&self) -> &dyn AvatarSource;
     /// Whether the canonical surface changes with the pose (the meta avatar's clothing does):
-    /// then the poser asks for the canonical mesh at every pose.
+    /// then the poser projects the reference mesh onto each pose's surface
+    /// (`AvatarSource::project`) before skinning, as the exporter does.
     fn pose_dependent(&self) -> bool {
         false
     }

@@ -10,12 +10,17 @@ use rayon::prelude::*;
 use std::sync::Arc;
 
 /// What is posed: a canonical mesh with weights, or an avatar whose surface depends on the
-/// pose (then meshed at every request).
+/// pose. For the latter the reference mesh's vertices are projected onto the pose's canonical
+/// surface (Newton steps on its SDF) and skinned: the exporter's recipe, so the viewport shows
+/// what the glTF will hold, without marching cubes at every pose.
 #[derive(Clone)]
 pub enum Posable {
     Mesh(Arc<CanonicalMesh>),
-    PoseDependent(Arc<dyn StudioAvatar>),
+    PoseDependent { avatar: Arc<dyn StudioAvatar>, reference: Arc<CanonicalMesh> },
 }
+
+/// Newton steps of the projection onto a pose's surface (the exporter's default).
+pub const PROJECTION_STEPS: usize = 2;
 
 pub struct PoseRequest {
     pub id: u64,
@@ -97,10 +102,10 @@ pub fn pose(req: &PoseRequest) -> Result<PosedMesh, String> {
     let owned;
     let canonical: &CanonicalMesh = match &req.posable {
         Posable::Mesh(m) => m,
-        Posable::PoseDependent(a) => {
-            let mesh = a.source().canonical_mesh(&req.params).map_err(|e| e.to_string())?;
-            let weights = a.source().skinning_weights(&mesh.positions);
-            owned = CanonicalMesh { mesh, weights };
+        Posable::PoseDependent { avatar, reference } => {
+            let projected = avatar.source().project(&req.params, &reference.mesh.positions, PROJECTION_STEPS).map_err(|e| e.to_string())?;
+            let weights = avatar.source().skinning_weights(&projected);
+            owned = CanonicalMesh { mesh: avatar_core::mesh::TriMesh::new(projected, reference.mesh.faces.clone()), weights };
             &owned
         }
     };
