@@ -113,6 +113,8 @@ pub struct StudioApp {
     pub(crate) first_frame_reported: bool,
     pub(crate) ready_reported: bool,
     pub(crate) screenshot_state: Option<Arc<std::sync::atomic::AtomicU8>>,
+    /// The capture panel's path field (for systems without a file dialog portal).
+    pub(crate) path_field: String,
 }
 
 impl StudioApp {
@@ -164,6 +166,7 @@ impl StudioApp {
             first_frame_reported: false,
             ready_reported: false,
             screenshot_state: None,
+            path_field: String::new(),
         };
         if let Some(p) = &options.project {
             app.open_project(p);

@@ -34,7 +34,7 @@ pub fn draw(app: &mut StudioApp, ui: &mut egui::Ui) {
     egui::Panel::left("capture").resizable(true).default_size(214.0).max_size(420.0).show(ui, |ui| {
         egui::ScrollArea::vertical().show(ui, |ui| capture_panel(app, ui));
     });
-    egui::Panel::right("avatar").resizable(true).default_size(300.0).show(ui, |ui| {
+    egui::Panel::right("avatar").resizable(true).default_size(280.0).show(ui, |ui| {
         egui::ScrollArea::vertical().show(ui, |ui| {
             avatar_panel(app, ui);
             ui.separator();
@@ -73,6 +73,14 @@ fn handle_keys(app: &mut StudioApp, ctx: &egui::Context) {
 fn handle_drops(app: &mut StudioApp, ctx: &egui::Context) {
     let dropped: Vec<PathBuf> = ctx.input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).filter(|p| !p.as_os_str().is_empty()).collect());
     for p in dropped {
+        open_path(app, p);
+    }
+}
+
+/// Open whatever a path is: a capture folder (or its capture.json), a project, an avatar or a
+/// motion file.
+pub fn open_path(app: &mut StudioApp, p: PathBuf) {
+    {
         let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_string();
         if p.is_dir() || name == "capture.json" {
             app.open_capture(p.display().to_string());
@@ -82,6 +90,8 @@ fn handle_drops(app: &mut StudioApp, ctx: &egui::Context) {
             app.open_avatar(&p);
         } else if name.ends_with(".json") || name.ends_with(".npz") {
             app.load_motion(&p.display().to_string());
+        } else if !p.exists() {
+            app.fail(format!("{}: no such file or folder", p.display()));
         } else {
             app.fail(format!("{}: not a capture folder, project, avatar or motion", p.display()));
         }
@@ -201,6 +211,14 @@ fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
         }
         if ui.button("Demo").on_hover_text("The embedded demo capture").clicked() {
             app.open_capture(DEMO.into());
+        }
+    });
+    ui.horizontal(|ui| {
+        let field = ui.add(egui::TextEdit::singleline(&mut app.path_field).hint_text("or type a folder path").desired_width(ui.available_width() - 40.0));
+        let go = ui.add_enabled(!app.path_field.trim().is_empty(), egui::Button::new("Go")).on_hover_text("Open the capture folder, project, avatar or motion at this path");
+        if go.clicked() || (field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) && !app.path_field.trim().is_empty()) {
+            let p = PathBuf::from(app.path_field.trim());
+            open_path(app, p);
         }
     });
     if let Some((src, _)) = &app.loading {
@@ -441,7 +459,8 @@ fn viewport_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
     // Toolbar over the viewport.
     let mut bar = ui.new_child(egui::UiBuilder::new().max_rect(rect.shrink(8.0)).layout(egui::Layout::left_to_right(egui::Align::TOP)));
     egui::Frame::new().fill(egui::Color32::from_rgba_unmultiplied(24, 26, 30, 225)).corner_radius(5.0).inner_margin(4.0).show(&mut bar, |ui| {
-        ui.horizontal(|ui| {
+        ui.set_max_width(rect.width() - 24.0);
+        ui.horizontal_wrapped(|ui| {
             for (mode, label, tip) in [
                 (ViewMode::Capture, "Depth points", "The selected frame's back-projected points and fitted body"),
                 (ViewMode::Canonical, "Canonical", "The avatar's canonical SDF mesh"),
