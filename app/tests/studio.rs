@@ -183,6 +183,18 @@ fn a_whole_session_through_the_ui() {
     h.state_mut().timeline.set_frame(12);
     h.state_mut().pose_needed_for_tests();
     settle(&mut h, "posing");
+    // P saves the viewport as a PNG.
+    let shots = out.path().join("shots");
+    std::fs::create_dir_all(&shots).unwrap();
+    h.state_mut().screenshot_dir = shots.clone();
+    h.key_press(egui::Key::P);
+    h.step();
+    h.step();
+    let png: Vec<_> = std::fs::read_dir(&shots).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(png.len(), 1, "one screenshot");
+    let img = image::open(&png[0]).expect("the screenshot is a PNG");
+    let vp = h.state().viewport_rect().unwrap();
+    assert_eq!((img.width(), img.height()), (vp.width().round() as u32, vp.height().round() as u32), "the viewport is cropped");
 
     // Export the animated glTF and the posed OBJ through the buttons (dialogs scripted).
     click(&mut h, "Export glTF…");

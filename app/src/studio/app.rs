@@ -113,6 +113,8 @@ pub struct StudioApp {
     pub(crate) first_frame_reported: bool,
     pub(crate) ready_reported: bool,
     pub(crate) screenshot_state: Option<Arc<std::sync::atomic::AtomicU8>>,
+    /// Where P saves screenshots.
+    pub screenshot_dir: PathBuf,
     /// The capture panel's path field (for systems without a file dialog portal).
     pub(crate) path_field: String,
 }
@@ -167,6 +169,7 @@ impl StudioApp {
             ready_reported: false,
             screenshot_state: None,
             path_field: String::new(),
+            screenshot_dir: crate::studio::screenshot::default_screenshot_dir(),
         };
         if let Some(p) = &options.project {
             app.open_project(p);
@@ -176,6 +179,11 @@ impl StudioApp {
             app.open_capture(DEMO.to_string());
         }
         app
+    }
+
+    /// The viewport's rectangle in the last frame (points).
+    pub fn viewport_rect(&self) -> Option<egui::Rect> {
+        self.viewport_rect
     }
 
     /// Ask for the current pose again (tests change the timeline directly).

@@ -32,16 +32,26 @@ pub fn save_png(image: &egui::ColorImage, crop: Option<egui::Rect>, path: &Path)
     Ok(())
 }
 
-fn default_screenshot_path() -> PathBuf {
-    let dir = std::env::var_os("AVATAR_STUDIO_SCREENSHOT_DIR").map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."));
+/// Where P saves screenshots: `AVATAR_STUDIO_SCREENSHOT_DIR`, else the current folder.
+pub fn default_screenshot_dir() -> PathBuf {
+    std::env::var_os("AVATAR_STUDIO_SCREENSHOT_DIR").filter(|v| !v.is_empty()).map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."))
+}
+
+fn screenshot_path(dir: &Path) -> PathBuf {
     let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
-    dir.join(format!("avatar-studio-{secs}.png"))
+    let mut path = dir.join(format!("avatar-studio-{secs}.png"));
+    let mut n = 1;
+    while path.exists() {
+        n += 1;
+        path = dir.join(format!("avatar-studio-{secs}-{n}.png"));
+    }
+    path
 }
 
 impl StudioApp {
     /// Save the viewport as a PNG (P).
     pub fn screenshot_viewport(&mut self) {
-        let path = default_screenshot_path();
+        let path = screenshot_path(&self.screenshot_dir);
         let ppp = self.ctx.pixels_per_point();
         let crop = self.viewport_rect.map(|r| egui::Rect::from_min_max((r.min.to_vec2() * ppp).to_pos2(), (r.max.to_vec2() * ppp).to_pos2()));
         let p = path.clone();
