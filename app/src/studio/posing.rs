@@ -118,3 +118,54 @@ pub fn pose(req: &PoseRequest) -> Result<PosedMesh, String> {
         .collect();
     Ok(PosedMesh { id: req.id, positions, faces: canonical.mesh.faces.clone(), joints: posed_body.posed_joints(), seconds: t.elapsed().as_secs_f64() })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::studio::avatar_job::body_canonical;
+
+    #[test]
+    fn the_newest_pose_wins_and_stale_requests_are_dropped() {
+        let body = Arc::new(avatar_core::body::open_body_ref().clone());
+        let posable = Posable::Mesh(Arc::new(body_canonical(&body, &[])));
+        let mut worker = PoseWorker::start(|| {});
+        let n = 40;
+        for k in 0..n {
+            let mut p = BodyParams::default();
+            p.pose[16] = Vec3::new(0.0, 0.0, -1.2 * k as f32 / n as f32);
+            worker.request(p, posable.clone(), body.clone());
+        }
+        let t = std::time::Instant::now();
+        let mut computed = 0;
+        let last = loop {
+            // Count every result the worker sends (poll() would hide stale ones).
+            match worker.results.recv_timeout(std::time::Duration::from_secs(30)) {
+                Ok(Ok(m)) => {
+                    computed += 1;
+                    if m.id == worker.latest {
+                        break m;
+                    }
+                }
+                other => panic!("{:?}", other.err()),
+            }
+            assert!(t.elapsed().as_secs() < 60);
+        };
+        assert_eq!(last.id, worker.latest);
+        assert!(computed < n, "queued requests were skipped ({computed} of {n} computed)");
+        // A stale result is never handed to the UI.
+        let mut p = BodyParams::default();
+        p.pose[17] = Vec3::new(0.0, 0.0, 1.0);
+        let stale = worker.request(p.clone(), posable.clone(), body.clone());
+        let newest = worker.request(p, posable, body);
+        assert!(newest > stale);
+        let t = std::time::Instant::now();
+        loop {
+            if let Some(r) = worker.poll() {
+                assert_eq!(r.unwrap().id, newest);
+                break;
+            }
+            assert!(t.elapsed().as_secs() < 60);
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+    }
+}
