@@ -36,6 +36,13 @@ pub struct StudioOptions {
     pub auto_fit: Option<FitConfig>,
 }
 
+/// An avatar loaded (or fitted) and meshed off the UI thread.
+pub struct AvatarReady {
+    pub avatar: Arc<dyn StudioAvatar>,
+    pub path: Option<PathBuf>,
+    pub mesh: Arc<CanonicalMesh>,
+}
+
 /// A message in the status bar.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Status {
@@ -86,7 +93,7 @@ pub struct StudioApp {
     pub avatar_path: Option<PathBuf>,
     pub avatar_saved: bool,
     pub(crate) avatar_canonical: Option<Arc<CanonicalMesh>>,
-    pub(crate) meshing: Option<Receiver<Result<Arc<CanonicalMesh>, String>>>,
+    pub(crate) meshing: Option<Receiver<Result<AvatarReady, String>>>,
     // Fine-tuning.
     pub job: Option<FitJob>,
     pub job_view: JobView,
@@ -206,7 +213,11 @@ impl StudioApp {
         self.capture.as_ref().map(|c| c.body.clone()).unwrap_or_else(|| Arc::new(open_body_ref().clone()))
     }
 
+    /// The shape posed and shown: the avatar's own, else the capture's.
     pub fn betas(&self) -> Vec<f32> {
+        if let Some(a) = &self.avatar {
+            return a.source().betas().to_vec();
+        }
         self.capture.as_ref().map(|c| c.betas.clone()).unwrap_or_default()
     }
 
@@ -268,30 +279,36 @@ impl StudioApp {
     pub fn set_avatar(&mut self, avatar: Arc<dyn StudioAvatar>, path: Option<PathBuf>) {
         self.avatar = Some(avatar.clone());
         self.avatar_saved = path.is_some();
-        self.avatar_path = path;
+        self.avatar_path = path.clone();
         self.avatar_canonical = None;
+        self.spawn_avatar_work(move || Ok((avatar, path)));
+    }
+
+    /// Open an avatar file in the background (loading builds its skinning field; then it is
+    /// meshed): the UI keeps running.
+    pub fn open_avatar(&mut self, path: &Path) {
+        let resolution = self.settings.fit.final_resolution;
+        let path = path.to_path_buf();
+        self.status = Some(Status::Info(format!("Opening the avatar {}…", path.display())));
+        self.spawn_avatar_work(move || load_avatar(&path, resolution).map(|a| (a, Some(path.clone()))).map_err(|e| format!("Could not open the avatar {}: {e:#}", path.display())));
+    }
+
+    fn spawn_avatar_work(&mut self, get: impl FnOnce() -> Result<(Arc<dyn StudioAvatar>, Option<PathBuf>), String> + Send + 'static) {
         let (tx, rx) = crossbeam_channel::bounded(1);
         let ctx = self.ctx.clone();
-        let betas = self.betas();
         std::thread::Builder::new()
             .name("avatar mesher".into())
             .spawn(move || {
-                let r = canonical_of(avatar.as_ref(), &betas).map(Arc::new).map_err(|e| format!("{e:#}"));
+                let r = get().and_then(|(avatar, path)| {
+                    let betas = avatar.source().betas().to_vec();
+                    let mesh = canonical_of(avatar.as_ref(), &betas).map_err(|e| format!("Could not mesh the avatar: {e:#}"))?;
+                    Ok(AvatarReady { avatar, path, mesh: Arc::new(mesh) })
+                });
                 let _ = tx.send(r);
                 ctx.request_repaint();
             })
             .expect("spawning the mesher");
         self.meshing = Some(rx);
-    }
-
-    pub fn open_avatar(&mut self, path: &Path) {
-        match load_avatar(path, self.settings.fit.final_resolution) {
-            Ok(a) => {
-                self.status = Some(Status::Info(format!("Opened avatar {} ({})", path.display(), a.describe())));
-                self.set_avatar(a, Some(path.to_path_buf()));
-            }
-            Err(e) => self.fail(format!("Could not open the avatar: {e:#}")),
-        }
     }
 
     pub fn save_avatar_to(&mut self, path: &Path) {
@@ -569,13 +586,20 @@ impl StudioApp {
             if let Ok(r) = rx.try_recv() {
                 self.meshing = None;
                 match r {
-                    Ok(m) => {
-                        self.avatar_canonical = Some(m);
+                    Ok(ready) => {
+                        let already = self.avatar.as_ref().is_some_and(|a| Arc::ptr_eq(a, &ready.avatar));
+                        if !already {
+                            self.status = Some(Status::Info(format!("Opened the avatar ({})", ready.avatar.describe())));
+                            self.avatar_saved = ready.path.is_some();
+                            self.avatar_path = ready.path.clone();
+                            self.avatar = Some(ready.avatar);
+                        }
+                        self.avatar_canonical = Some(ready.mesh);
                         self.preview = None;
                         self.pose_needed = true;
                         self.scene_dirty = true;
                     }
-                    Err(e) => self.fail(format!("Could not mesh the avatar: {e}")),
+                    Err(e) => self.fail(e),
                 }
             }
         }

@@ -278,9 +278,7 @@ fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
             };
             if resp.clicked() {
                 app.view.selected_frame = i;
-                if f.problem.is_none() {
-                    app.set_mode(ViewMode::Capture);
-                }
+                app.set_mode(ViewMode::Capture);
                 app.scene_dirty = true;
             }
             if (i + 1) % cols == 0 {
@@ -488,8 +486,20 @@ fn viewport_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
     let info = scene_info(app);
     ui.painter().text(rect.left_bottom() + egui::vec2(10.0, -8.0), egui::Align2::LEFT_BOTTOM, info, egui::FontId::monospace(11.0), egui::Color32::from_white_alpha(150));
     if app.scene.is_empty() || (app.scene.indices.is_empty() && app.scene.points.is_empty()) {
-        let msg = if app.loading.is_some() { "Loading…" } else if app.error.is_some() { "Nothing to show: see the error on the left" } else { "Nothing to show yet" };
-        ui.painter().text(rect.center(), egui::Align2::CENTER_CENTER, msg, egui::FontId::proportional(16.0), egui::Color32::from_white_alpha(120));
+        let flagged = (app.view.mode == ViewMode::Capture)
+            .then(|| app.capture.as_ref().and_then(|c| c.frames.get(app.view.selected_frame)).and_then(|f| f.problem.as_ref().map(|p| format!("Frame {} is not used: {p}", f.index))))
+            .flatten();
+        let msg = if app.loading.is_some() {
+            "Loading…".to_string()
+        } else if let Some(f) = flagged {
+            f
+        } else if app.error.is_some() {
+            "Nothing to show: see the error on the left".to_string()
+        } else {
+            "Nothing to show yet".to_string()
+        };
+        let galley = ui.painter().layout(msg, egui::FontId::proportional(15.0), egui::Color32::from_white_alpha(140), rect.width() - 60.0);
+        ui.painter().galley(rect.center() - galley.size() / 2.0, galley, egui::Color32::WHITE);
     }
 }
 
