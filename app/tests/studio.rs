@@ -222,6 +222,8 @@ fn a_whole_session_through_the_ui() {
 
     // Save the project (the avatar is saved beside it) and restore it in a new studio.
     h.state_mut().view.mode = ViewMode::Canonical;
+    h.state_mut().view.camera.yaw += 0.5;
+    h.state_mut().view.camera.distance *= 1.3;
     h.state_mut().save_project_to(&project);
     assert!(out.path().join("session.avatar").exists(), "the avatar is saved beside the project");
     let saved = h.state().project();
@@ -232,6 +234,7 @@ fn a_whole_session_through_the_ui() {
     assert!(s.capture.is_some() && s.avatar.is_some());
     assert_eq!(s.timeline.current_frame(), 12);
     assert_eq!(s.view.mode, ViewMode::Canonical);
+    assert_eq!(s.view.camera, saved.view.camera, "the camera is restored");
     assert_eq!(s.project().motion, saved.motion);
     assert!(Path::new(&s.project().avatar.unwrap()).exists());
 }

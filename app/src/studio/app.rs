@@ -120,6 +120,8 @@ pub struct StudioApp {
     pub(crate) first_frame_reported: bool,
     pub(crate) ready_reported: bool,
     pub(crate) screenshot_state: Option<Arc<std::sync::atomic::AtomicU8>>,
+    /// The view of a project being opened, applied once its capture is loaded.
+    pub(crate) pending_view: Option<ViewState>,
     /// Where P saves screenshots.
     pub screenshot_dir: PathBuf,
     /// The capture panel's path field (for systems without a file dialog portal).
@@ -176,6 +178,7 @@ impl StudioApp {
             ready_reported: false,
             screenshot_state: None,
             path_field: String::new(),
+            pending_view: None,
             screenshot_dir: crate::studio::screenshot::default_screenshot_dir(),
         };
         if let Some(p) = &options.project {
@@ -250,7 +253,17 @@ impl StudioApp {
             .map(|f| f.thumbnail.clone().map(|img| self.ctx.load_texture(format!("thumb-{}-{}", capture.name, f.index), img, egui::TextureOptions::LINEAR)))
             .collect();
         self.body_rest = Some(Arc::new(body_canonical(&capture.body, &capture.betas)));
-        self.view.selected_frame = capture.first_usable().unwrap_or(0);
+        match self.pending_view.take() {
+            Some(v) => {
+                self.view = v;
+                self.view.selected_frame = self.view.selected_frame.min(capture.frames.len().saturating_sub(1));
+                self.framed = true;
+            }
+            None => {
+                self.view.selected_frame = capture.first_usable().unwrap_or(0);
+                self.framed = false;
+            }
+        }
         let flagged = capture.flagged();
         let msg = format!(
             "Opened {}: {} frames, {} usable{}",
@@ -269,7 +282,6 @@ impl StudioApp {
             self.start_fit(cfg);
         }
         self.error = None;
-        self.framed = false;
         self.pose_needed = true;
         self.scene_dirty = true;
     }
@@ -538,6 +550,9 @@ impl StudioApp {
         }
         self.view = p.view.clone();
         self.framed = true;
+        if p.capture.is_some() {
+            self.pending_view = Some(p.view.clone());
+        }
         if let Some(a) = &p.avatar {
             self.open_avatar(Path::new(a));
         }

@@ -52,8 +52,10 @@ fn handle_keys(app: &mut StudioApp, ctx: &egui::Context) {
     if ctx.egui_wants_keyboard_input() {
         return;
     }
-    let (space, prev, next, frame, shot) = ctx.input(|i| {
-        (i.key_pressed(egui::Key::Space), i.key_pressed(egui::Key::Comma), i.key_pressed(egui::Key::Period), i.key_pressed(egui::Key::F), i.key_pressed(egui::Key::P))
+    // Consumed here, before any widget runs, so that a focused button does not also see them.
+    let (space, prev, next, frame, shot) = ctx.input_mut(|i| {
+        let none = egui::Modifiers::NONE;
+        (i.consume_key(none, egui::Key::Space), i.consume_key(none, egui::Key::Comma), i.consume_key(none, egui::Key::Period), i.consume_key(none, egui::Key::F), i.consume_key(none, egui::Key::P))
     });
     if space {
         app.timeline.playing = !app.timeline.playing;
