@@ -16,7 +16,9 @@ use std::time::{Duration, Instant};
 const SIZE: [f32; 2] = [920.0, 560.0];
 
 fn harness(options: StudioOptions) -> Harness<'static, StudioApp> {
-    Harness::builder().with_size(SIZE).wgpu().build_eframe(move |cc| StudioApp::new(cc, options))
+    let mut h = Harness::builder().with_size(SIZE).wgpu().build_eframe(move |cc| StudioApp::new(cc, options));
+    h.state_mut().show_timings = false; // timings vary from run to run
+    h
 }
 
 /// Step the UI until the studio has nothing running in the background.

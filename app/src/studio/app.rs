@@ -120,6 +120,8 @@ pub struct StudioApp {
     pub(crate) first_frame_reported: bool,
     pub(crate) ready_reported: bool,
     pub(crate) screenshot_state: Option<Arc<std::sync::atomic::AtomicU8>>,
+    /// Show the pose round-trip time in the status bar (tests turn it off: it varies).
+    pub show_timings: bool,
     /// The view of a project being opened, applied once its capture is loaded.
     pub(crate) pending_view: Option<ViewState>,
     /// Where P saves screenshots.
@@ -179,6 +181,7 @@ impl StudioApp {
             screenshot_state: None,
             path_field: String::new(),
             pending_view: None,
+            show_timings: true,
             screenshot_dir: crate::studio::screenshot::default_screenshot_dir(),
         };
         if let Some(p) = &options.project {

@@ -196,7 +196,7 @@ fn status_bar(app: &mut StudioApp, ui: &mut egui::Ui) {
             if app.busy() {
                 ui.spinner();
             }
-            if let Some(s) = app.last_request_to_mesh {
+            if let Some(s) = app.last_request_to_mesh.filter(|_| app.show_timings) {
                 ui.label(egui::RichText::new(format!("pose {:.0} ms", s * 1000.0)).small().weak());
             }
         });
