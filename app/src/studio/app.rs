@@ -103,6 +103,7 @@ pub struct StudioApp {
     pub posed: Option<PosedMesh>,
     pub(crate) pose_needed: bool,
     pub last_pose_seconds: Option<f64>,
+    pub(crate) pose_failed: Option<u64>,
     pub(crate) pose_requested_at: Option<Instant>,
     pub last_request_to_mesh: Option<f64>,
     // Timeline and view.
@@ -164,6 +165,7 @@ impl StudioApp {
             posed: None,
             pose_needed: true,
             last_pose_seconds: None,
+            pose_failed: None,
             pose_requested_at: None,
             last_request_to_mesh: None,
             timeline,
@@ -211,7 +213,8 @@ impl StudioApp {
 
     /// True while anything runs in the background or a pose is on its way.
     pub fn busy(&self) -> bool {
-        let posing = self.poser.latest != 0 && self.posed.as_ref().map(|p| p.id) != Some(self.poser.latest);
+        let answered = self.posed.as_ref().map(|p| p.id) == Some(self.poser.latest) || self.pose_failed == Some(self.poser.latest);
+        let posing = self.poser.latest != 0 && !answered;
         self.loading.is_some() || self.job.is_some() || self.meshing.is_some() || self.exporting.is_some() || self.pose_needed || posing
     }
 
@@ -454,7 +457,10 @@ impl StudioApp {
                     self.posed = Some(m);
                     self.scene_dirty = true;
                 }
-                Err(e) => self.fail(format!("Posing failed: {e}")),
+                Err(e) => {
+                    self.pose_failed = Some(e.id);
+                    self.fail(format!("Posing failed: {e}"));
+                }
             }
         }
     }

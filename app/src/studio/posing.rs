@@ -37,9 +37,22 @@ pub struct PosedMesh {
     pub seconds: f64,
 }
 
+/// A pose that could not be computed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseError {
+    pub id: u64,
+    pub message: String,
+}
+
+impl std::fmt::Display for PoseError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
 pub struct PoseWorker {
     requests: Sender<PoseRequest>,
-    pub results: Receiver<Result<PosedMesh, String>>,
+    pub results: Receiver<Result<PosedMesh, PoseError>>,
     next_id: u64,
     /// The id of the newest request sent.
     pub latest: u64,
@@ -57,7 +70,9 @@ impl PoseWorker {
                     while let Ok(newer) = req_rx.try_recv() {
                         req = newer;
                     }
-                    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| pose(&req))).unwrap_or_else(|_| Err("posing failed".into()));
+                    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| pose(&req)))
+                        .unwrap_or_else(|_| Err("posing failed".into()))
+                        .map_err(|message| PoseError { id: req.id, message });
                     if res_tx.send(out).is_err() {
                         break;
                     }
@@ -78,13 +93,14 @@ impl PoseWorker {
     }
 
     /// The newest finished result, if it answers the newest request (stale ones are dropped).
-    pub fn poll(&mut self) -> Option<Result<PosedMesh, String>> {
+    pub fn poll(&mut self) -> Option<Result<PosedMesh, PoseError>> {
         let mut newest = None;
         while let Ok(r) = self.results.try_recv() {
             newest = Some(r);
         }
         match newest {
             Some(Ok(m)) if m.id != self.latest => None,
+            Some(Err(e)) if e.id != self.latest => None,
             other => other,
         }
     }
