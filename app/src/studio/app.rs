@@ -282,6 +282,8 @@ impl StudioApp {
         if source != DEMO {
             Settings::push_recent(&mut self.settings.recent_captures, &source);
         }
+        let title = if source == DEMO { "Avatar Studio - demo capture".to_string() } else { format!("Avatar Studio - {}", capture.name) };
+        self.ctx.send_viewport_cmd(egui::ViewportCommand::Title(title));
         self.capture = Some(Arc::new(capture));
         self.capture_source = Some(source);
         if let Some(cfg) = self.options.auto_fit.take() {

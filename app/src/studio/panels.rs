@@ -308,6 +308,11 @@ fn avatar_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
                 _ => "not saved".into(),
             };
             ui.label(egui::RichText::new(where_).small().weak());
+            if ui.button("Save avatar…").on_hover_text("The .avatar file the command line reads too").clicked() {
+                if let Some(p) = app.dialogs.save_file("Save the avatar", "avatar.avatar", ("Avatar", &["avatar"])) {
+                    app.save_avatar_to(&p);
+                }
+            }
             if app.meshing.is_some() {
                 ui.horizontal(|ui| {
                     ui.spinner();
@@ -317,6 +322,12 @@ fn avatar_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
         }
         None => {
             ui.weak("No avatar yet: fine-tune one below, or open a .avatar file. The body of the capture's fitting is shown meanwhile.");
+            if app.meshing.is_some() {
+                ui.horizontal(|ui| {
+                    ui.spinner();
+                    ui.label("Opening the avatar…");
+                });
+            }
         }
     }
 }
