@@ -71,6 +71,13 @@ impl StaticAvatar {
         let model = init.unwrap_or_else(|| siren.init(options.seed, &device));
         let prior = capture.sign_prior();
         let model = fit_sdf(model, &points, &normals, options, &device, Some(&prior), cancel, progress);
+        let report = FitReport { frames: capture.frames.len(), points: points.len(), dropped: capture.dropped, warnings: capture.warnings.clone() };
+        (Self::from_fitted(capture, siren, &model), report)
+    }
+
+    /// The avatar of a SIREN fitted to a canonicalized capture (for callers that run the fit
+    /// themselves, like the studio's chunked job).
+    pub fn from_fitted(capture: &CapturePoints, siren: SirenConfig, model: &Siren) -> StaticAvatar {
         let header = AvatarHeader {
             format: AVATAR_FORMAT.into(),
             version: AVATAR_VERSION,
@@ -81,9 +88,7 @@ impl StaticAvatar {
             body_model: "open_body".into(),
             field_cells: capture.field_cells,
         };
-        let report = FitReport { frames: capture.frames.len(), points: points.len(), dropped: capture.dropped, warnings: capture.warnings.clone() };
-        let avatar = StaticAvatar { header, model: model.valid(), body: capture.body.clone(), field: capture.field.clone(), device: crate::cpu_device(), resolution: 128 };
-        (avatar, report)
+        StaticAvatar { header, model: model.valid(), body: capture.body.clone(), field: capture.field.clone(), device: crate::cpu_device(), resolution: 128 }
     }
 
     /// The skinning field of the avatar's body shape.

@@ -17,6 +17,26 @@ use clap::{Parser, Subcommand};
 pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,
+    #[command(flatten)]
+    pub studio: StudioArgs,
+}
+
+/// Options of the studio window (no subcommand).
+#[derive(clap::Args, Debug, Default)]
+pub struct StudioArgs {
+    /// A capture folder or a project (.studio.json) to open instead of the demo.
+    #[arg(long, global = false)]
+    pub open: Option<std::path::PathBuf>,
+    /// Save a screenshot of the window here once it is idle, then exit (also
+    /// AVATAR_STUDIO_SCREENSHOT).
+    #[arg(long, hide = true)]
+    pub screenshot: Option<std::path::PathBuf>,
+    /// Print start-up timings to stderr (also AVATAR_STUDIO_TIMING=1).
+    #[arg(long, hide = true)]
+    pub timing: bool,
+    /// Start the quick fine-tuning configuration as soon as the capture is open.
+    #[arg(long, hide = true)]
+    pub quick_fit: bool,
 }
 
 #[derive(Subcommand)]

@@ -1,0 +1,3 @@
+//! `avatar-studio` as a library: the studio (egui), so that tests can drive it.
+
+pub mod studio;

@@ -1,0 +1,282 @@
+//! The studio's avatar layer: what the studio needs from an avatar ([`StudioAvatar`]) and the
+//! background fine-tuning job ([`FitJob`]) that talks to the UI through a crossbeam channel.
+//!
+//! Today's avatar is `avatar_neural::StaticAvatar`. The meta-learned avatar drops in by
+//! implementing [`StudioAvatar`] (it already implements `AvatarSource`), adding a variant to
+//! [`AvatarKind`] with its fit in [`run_fit`], and a branch in [`load_avatar`].
+
+use avatar_core::body::{BodyModel, Weights};
+use avatar_core::export::AvatarSource;
+use avatar_core::mesh::extract::{extract, ExtractOptions};
+use avatar_core::mesh::TriMesh;
+use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::{fit_sdf, sdf_values, FitOptions, SirenConfig, StaticAvatar};
+use crossbeam_channel::Receiver;
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// What the studio needs from an avatar.
+pub trait StudioAvatar: Send + Sync {
+    /// A short name for the UI ("static SDF 4 x 128").
+    fn describe(&self) -> String;
+    /// The exporter's and poser's view of it.
+    fn source(&self) -> &dyn AvatarSource;
+    /// Whether the canonical surface changes with the pose (the meta avatar's clothing does):
+    /// then the poser projects the reference mesh onto each pose's surface
+    /// (`AvatarSource::project`) before skinning, as the exporter does.
+    fn pose_dependent(&self) -> bool {
+        false
+    }
+    /// Marching-cubes resolution used for the studio's meshes.
+    fn set_resolution(&mut self, _cells: usize) {}
+    fn save(&self, path: &Path) -> anyhow::Result<()>;
+}
+
+impl StudioAvatar for StaticAvatar {
+    fn describe(&self) -> String {
+        format!("static SDF {} x {}", self.header.siren.layers, self.header.siren.hidden)
+    }
+    fn source(&self) -> &dyn AvatarSource {
+        self
+    }
+    fn set_resolution(&mut self, cells: usize) {
+        self.resolution = cells.clamp(16, 512);
+    }
+    fn save(&self, path: &Path) -> anyhow::Result<()> {
+        Ok(StaticAvatar::save(self, path)?)
+    }
+}
+
+/// Open an avatar file of any kind this build reads.
+pub fn load_avatar(path: &Path, resolution: usize) -> anyhow::Result<Arc<dyn StudioAvatar>> {
+    let mut a = StaticAvatar::load(path)?;
+    a.set_resolution(resolution);
+    Ok(Arc::new(a))
+}
+
+/// Which avatar a fit produces.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum AvatarKind {
+    /// A SIREN SDF fitted from scratch to the canonical points (pose-independent).
+    StaticSdf,
+}
+
+/// A fine-tuning configuration (what the job panel edits).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FitConfig {
+    pub kind: AvatarKind,
+    pub frames: usize,
+    pub steps: usize,
+    pub hidden: usize,
+    pub layers: usize,
+    pub batch: usize,
+    pub off_surface: usize,
+    pub learning_rate: f64,
+    pub seed: u64,
+    /// A preview mesh of the partial result every this many steps (0 = none).
+    pub preview_every: usize,
+    /// Marching-cubes resolution of previews and of the final mesh.
+    pub preview_resolution: usize,
+    pub final_resolution: usize,
+}
+
+impl Default for FitConfig {
+    fn default() -> Self {
+        FitConfig {
+            kind: AvatarKind::StaticSdf,
+            frames: 8,
+            steps: 500,
+            hidden: 128,
+            layers: 4,
+            batch: 2000,
+            off_surface: 2000,
+            learning_rate: 1e-4,
+            seed: 0,
+            preview_every: 100,
+            preview_resolution: 48,
+            final_resolution: 96,
+        }
+    }
+}
+
+impl FitConfig {
+    /// Seconds on two cores (a rough body shape): for tests and a quick look.
+    pub fn tiny() -> Self {
+        FitConfig {
+            frames: 4,
+            steps: 150,
+            hidden: 64,
+            layers: 3,
+            batch: 1000,
+            off_surface: 1000,
+            learning_rate: 5e-4,
+            preview_every: 75,
+            preview_resolution: 40,
+            final_resolution: 64,
+            ..FitConfig::default()
+        }
+    }
+}
+
+/// A mesh in canonical space with skinning weights per vertex: what the poser needs.
+pub struct CanonicalMesh {
+    pub mesh: TriMesh,
+    pub weights: Vec<Weights>,
+}
+
+/// What the job tells the UI.
+pub enum JobEvent {
+    /// Preparation finished: the canonical points are ready.
+    Started { points: usize, frames: usize },
+    Progress { step: usize, steps: usize, loss: f32, terms: [f32; 4], elapsed_s: f64 },
+    /// The partial result.
+    Preview { step: usize, mesh: Arc<CanonicalMesh> },
+    /// The fit ended (cancelled fits finish too, with the partial avatar).
+    Finished { avatar: Arc<dyn StudioAvatar>, cancelled: bool, warnings: Vec<String>, seconds: f64 },
+    Failed(String),
+}
+
+/// A running fine-tuning job. Dropping it cancels the fit (the thread finishes its step and
+/// exits; nothing is written to disk by the job).
+pub struct FitJob {
+    pub events: Receiver<JobEvent>,
+    cancel: Arc<AtomicBool>,
+    pub config: FitConfig,
+    pub capture: PathBuf,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl FitJob {
+    /// Start a fit on its own thread. `wake` is called after each event (the UI repaints).
+    pub fn start(capture: PathBuf, config: FitConfig, wake: impl Fn() + Send + 'static) -> FitJob {
+        FitJob::start_gated(capture, config, wake, None)
+    }
+
+    /// Like [`FitJob::start`], but after each chunk of steps the job waits for a message (or
+    /// the sender's drop) on `gate`: tests hold a job in a known state.
+    pub fn start_gated(capture: PathBuf, config: FitConfig, wake: impl Fn() + Send + 'static, gate: Option<Receiver<()>>) -> FitJob {
+        let (tx, rx) = crossbeam_channel::unbounded();
+        let cancel = Arc::new(AtomicBool::new(false));
+        let (c, dir, cfg) = (cancel.clone(), capture.clone(), config.clone());
+        let thread = std::thread::Builder::new()
+            .name("fit job".into())
+            .spawn(move || {
+                let send = |e: JobEvent| {
+                    let _ = tx.send(e);
+                    wake();
+                };
+                let t = Instant::now();
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_fit(&dir, &cfg, &c, gate.as_ref(), &send)));
+                match result {
+                    Ok(Ok((avatar, warnings))) => send(JobEvent::Finished { avatar, cancelled: c.load(Ordering::Relaxed), warnings, seconds: t.elapsed().as_secs_f64() }),
+                    Ok(Err(e)) => send(JobEvent::Failed(format!("{e:#}"))),
+                    Err(_) => send(JobEvent::Failed("the fit stopped on an internal error".into())),
+                }
+            })
+            .expect("spawning the fit thread");
+        FitJob { events: rx, cancel, config, capture, thread: Some(thread) }
+    }
+
+    pub fn cancel(&self) {
+        self.cancel.store(true, Ordering::Relaxed);
+    }
+
+    pub fn is_cancelling(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+}
+
+impl Drop for FitJob {
+    fn drop(&mut self) {
+        self.cancel();
+        // Do not block the UI on the thread: it exits after the current step.
+        drop(self.thread.take());
+    }
+}
+
+/// The fit itself (runs on the job thread).
+pub fn run_fit(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Receiver<()>>, send: &dyn Fn(JobEvent)) -> anyhow::Result<(Arc<dyn StudioAvatar>, Vec<String>)> {
+    match cfg.kind {
+        AvatarKind::StaticSdf => fit_static(dir, cfg, cancel, gate, send),
+    }
+}
+
+/// The static SDF fit of `StaticAvatar::fit_capture` (same canonical points, same
+/// off-surface sign prior, same loss), run in chunks of `preview_every` steps so that the
+/// partial result can be shown: after each chunk the current network is meshed.
+fn fit_static(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Receiver<()>>, send: &dyn Fn(JobEvent)) -> anyhow::Result<(Arc<dyn StudioAvatar>, Vec<String>)> {
+    if cfg.steps == 0 || cfg.frames == 0 || cfg.hidden == 0 || cfg.layers == 0 {
+        anyhow::bail!("steps, frames, width and layers must be at least 1");
+    }
+    let t = Instant::now();
+    let capture = CapturePoints::open(dir, cfg.frames)?;
+    let warnings = capture.warnings.clone();
+    let norm = capture.normalisation;
+    let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
+    let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
+    send(JobEvent::Started { points: points.len(), frames: capture.frames.len() });
+    let prior = capture.sign_prior();
+    let siren = SirenConfig { hidden: cfg.hidden, layers: cfg.layers };
+    let device = avatar_neural::cpu_training_device();
+    let mut model = siren.init(cfg.seed, &device);
+    let chunk = if cfg.preview_every == 0 { cfg.steps } else { cfg.preview_every.min(cfg.steps) };
+    let (lo, hi) = (norm.from_unit(Vec3::splat(-1.0)), norm.from_unit(Vec3::splat(1.0)));
+    let mut done = 0;
+    while done < cfg.steps && !cancel.load(Ordering::Relaxed) {
+        if done > 0 {
+            if let Some(g) = gate {
+                while let Err(crossbeam_channel::RecvTimeoutError::Timeout) = g.recv_timeout(std::time::Duration::from_millis(50)) {
+                    if cancel.load(Ordering::Relaxed) {
+                        break;
+                    }
+                }
+            }
+        }
+        let n = chunk.min(cfg.steps - done);
+        let options = FitOptions {
+            steps: n,
+            learning_rate: cfg.learning_rate,
+            batch: cfg.batch,
+            off_surface: cfg.off_surface,
+            seed: cfg.seed.wrapping_add(done as u64),
+            ..FitOptions::default()
+        };
+        let base = done;
+        let mut progress = |step: usize, loss: f32, terms: [f32; 4]| {
+            send(JobEvent::Progress { step: base + step + 1, steps: cfg.steps, loss, terms, elapsed_s: t.elapsed().as_secs_f64() });
+        };
+        model = fit_sdf(model, &points, &normals, &options, &device, Some(&prior), Some(cancel), &mut progress);
+        done += n;
+        if cfg.preview_every > 0 && done < cfg.steps && !cancel.load(Ordering::Relaxed) {
+            let f = |p: &[Vec3]| -> Vec<f32> {
+                let unit: Vec<Vec3> = p.iter().map(|q| norm.to_unit(*q)).collect();
+                sdf_values(&model, &unit, &device).into_iter().map(|v| v * norm.metres_per_unit()).collect()
+            };
+            if let Ok(mesh) = extract(f, &ExtractOptions::new(lo, hi, cfg.preview_resolution.clamp(8, 256))).map(|e| e.mesh) {
+                let weights = mesh.positions.iter().map(|&p| capture.field.weights_at(p)).collect();
+                send(JobEvent::Preview { step: done, mesh: Arc::new(CanonicalMesh { mesh, weights }) });
+            }
+        }
+    }
+    let mut avatar = StaticAvatar::from_fitted(&capture, siren, &model);
+    avatar.set_resolution(cfg.final_resolution);
+    Ok((Arc::new(avatar), warnings))
+}
+
+
+/// The canonical mesh of an avatar (at the rest pose) with its skinning weights.
+pub fn canonical_of(avatar: &dyn StudioAvatar, body_betas: &[f32]) -> anyhow::Result<CanonicalMesh> {
+    let params = avatar_core::body::BodyParams { betas: body_betas.to_vec(), ..Default::default() };
+    let mesh = avatar.source().canonical_mesh(&params)?;
+    let weights = avatar.source().skinning_weights(&mesh.positions);
+    Ok(CanonicalMesh { mesh, weights })
+}
+
+/// The body model's own skinning of its rest mesh (the placeholder before an avatar exists).
+pub fn body_canonical(body: &BodyModel, betas: &[f32]) -> CanonicalMesh {
+    let rest = body.pose(&avatar_core::body::BodyParams { betas: betas.to_vec(), ..Default::default() }).rest_vertices;
+    CanonicalMesh { mesh: body.mesh(rest), weights: body.weights.clone() }
+}

@@ -1,0 +1,82 @@
+//! The studio's speed numbers for `avatar-studio bench --only studio`: opening the demo,
+//! meshing an avatar, and the pose slider's round trip (request to posed mesh) through the pose
+//! worker. Start-to-first-frame needs a window: `avatar-studio --timing` prints it.
+
+use crate::studio::avatar_job::{body_canonical, canonical_of, run_fit, FitConfig};
+use crate::studio::posing::{Posable, PoseWorker};
+use crate::studio::session::load_capture;
+use crate::studio::timeline::Timeline;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+fn round_trip(worker: &mut PoseWorker, timeline: &mut Timeline, posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, betas: &[f32]) -> f64 {
+    let mut times = Vec::new();
+    for f in (0..timeline.frames()).step_by((timeline.frames() / 12).max(1)) {
+        timeline.set_frame(f);
+        let t = Instant::now();
+        worker.request(timeline.params(betas), posable.clone(), body.clone());
+        loop {
+            if let Some(r) = worker.poll() {
+                r.expect("posing works");
+                break;
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+        times.push(t.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+pub fn bench_report() -> String {
+    let mut out = String::from("## studio\n\n| what | median | note |\n|---|---|---|\n");
+    let dir = match crate::studio::demo::demo_capture_dir() {
+        Ok(d) => d,
+        Err(e) => return out + &format!("| the demo capture | | {e} |\n"),
+    };
+    let t = Instant::now();
+    let capture = match load_capture(&dir) {
+        Ok(c) => c,
+        Err(e) => return out + &format!("| open the demo | | {e} |\n"),
+    };
+    out += &format!("| open the demo capture for the studio ({} frames, thumbnails) | {:.0} ms | start-up shows the window before this finishes |\n", capture.frames.len(), t.elapsed().as_secs_f64() * 1e3);
+    let body = capture.body.clone();
+    let betas = capture.betas.clone();
+    let mut worker = PoseWorker::start(|| {});
+    let mut timeline = Timeline::library("walk").expect("library clip");
+    let rest = Posable::Mesh(Arc::new(body_canonical(&body, &betas)));
+    let s = round_trip(&mut worker, &mut timeline, &rest, &body, &betas);
+    out += &format!("| pose slider to posed mesh: the capture's body ({} vertices) | {:.1} ms | target: under 0.5 s on 2 cores |\n", body.num_vertices(), s * 1e3);
+    let t = Instant::now();
+    let cfg = FitConfig::tiny();
+    let fitted = run_fit(&dir, &cfg, &AtomicBool::new(false), None, &|_| {});
+    let fit_s = t.elapsed().as_secs_f64();
+    match fitted {
+        Ok((avatar, _)) => {
+            out += &format!("| fine-tune the quick configuration ({} steps, {} x {}, {} frames) | {:.1} s | |\n", cfg.steps, cfg.layers, cfg.hidden, cfg.frames, fit_s);
+            let file = std::env::temp_dir().join(format!("avatar-studio-bench-{}.avatar", std::process::id()));
+            if let Err(e) = avatar.save(&file) {
+                return out + &format!("| save the avatar | | {e:#} |\n");
+            }
+            for res in [96usize, 128] {
+                let a = match crate::studio::avatar_job::load_avatar(&file, res) {
+                    Ok(a) => a,
+                    Err(e) => return out + &format!("| load the avatar | | {e:#} |\n"),
+                };
+                let t = Instant::now();
+                let m = canonical_of(a.as_ref(), &betas).expect("meshing works");
+                let mesh_s = t.elapsed().as_secs_f64();
+                let n = m.mesh.positions.len();
+                let posable = Posable::Mesh(Arc::new(m));
+                let s = round_trip(&mut worker, &mut timeline, &posable, &body, &betas);
+                out += &format!("| mesh the avatar at {res} cells (once per avatar) | {:.2} s | {n} vertices |\n", mesh_s);
+                out += &format!("| pose slider to posed mesh: the avatar at {res} cells | {:.1} ms | target: under 0.5 s on 2 cores |\n", s * 1e3);
+            }
+            let _ = std::fs::remove_file(&file);
+        }
+        Err(e) => out += &format!("| fine-tune | | {e:#} |\n"),
+    }
+    out += "| start to first frame, start to demo loaded and posed | | a real window: `avatar-studio --timing` (see README) |\n";
+    out
+}
