@@ -10,7 +10,7 @@ use avatar_core::export::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
 use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::{fit_sdf, sdf_values, FitOptions, SirenConfig, StaticAvatar};
+use avatar_neural::{fit_sdf, sdf_values, AnyAvatar, FitOptions, MetaAvatar, SirenConfig, StaticAvatar};
 use crossbeam_channel::Receiver;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -50,11 +50,36 @@ impl StudioAvatar for StaticAvatar {
     }
 }
 
-/// Open an avatar file of any kind this build reads.
+impl StudioAvatar for MetaAvatar {
+    fn describe(&self) -> String {
+        format!("MetaAvatar ({}, {} frames)", self.header.init, self.header.frames)
+    }
+    fn source(&self) -> &dyn AvatarSource {
+        self
+    }
+    fn pose_dependent(&self) -> bool {
+        true
+    }
+    fn set_resolution(&mut self, cells: usize) {
+        self.resolution = cells.clamp(16, 512);
+    }
+    fn save(&self, path: &Path) -> anyhow::Result<()> {
+        Ok(MetaAvatar::save(self, path)?)
+    }
+}
+
+/// Open an avatar file of any kind this build reads (`avatar-studio fit` writes both).
 pub fn load_avatar(path: &Path, resolution: usize) -> anyhow::Result<Arc<dyn StudioAvatar>> {
-    let mut a = StaticAvatar::load(path)?;
-    a.set_resolution(resolution);
-    Ok(Arc::new(a))
+    Ok(match AnyAvatar::load(path)? {
+        AnyAvatar::Static(mut a) => {
+            a.set_resolution(resolution);
+            Arc::new(a)
+        }
+        AnyAvatar::Meta(mut a) => {
+            StudioAvatar::set_resolution(&mut a, resolution);
+            Arc::new(a)
+        }
+    })
 }
 
 /// Which avatar a fit produces.
