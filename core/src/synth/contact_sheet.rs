@@ -29,21 +29,37 @@ fn shade(cam: &PinholeCamera, eye: Vec3, target: Vec3, mesh: &TriMesh) -> Vec<u8
 
 /// Rows = outfits, columns = poses. Writes an 8-bit greyscale PNG (atomic).
 pub fn write_contact_sheet(path: &Path, body: &BodyModel, betas: &[f32], outfits: &[Outfit], poses: &[BodyParams]) -> Result<()> {
+    let rows: Vec<Vec<TriMesh>> = outfits
+        .iter()
+        .map(|&outfit| {
+            let template = ClothedTemplate::build(body, betas, outfit);
+            poses
+                .iter()
+                .map(|p| {
+                    let posed_body = body.pose(p);
+                    let canonical = canonical_surface(&template, &PoseFeatures::of(&posed_body.bones), 0);
+                    TriMesh::new(pose_surface(&template, &canonical, &posed_body.bones), template.faces.clone())
+                })
+                .collect()
+        })
+        .collect();
+    write_mesh_sheet(path, &rows)
+}
+
+/// Any meshes on a grid of tiles (rows of equal length), each framed on its own bounding box
+/// from a three-quarter view. Writes an 8-bit greyscale PNG (atomic).
+pub fn write_mesh_sheet(path: &Path, rows: &[Vec<TriMesh>]) -> Result<()> {
+    let cols = rows.iter().map(|r| r.len()).max().unwrap_or(0);
     let cam = PinholeCamera { fx: 230.0, fy: 230.0, cx: TILE_W as f32 / 2.0, cy: TILE_H as f32 / 2.0, width: TILE_W, height: TILE_H, near: 0.5, far: 10.0 };
-    let (w, h) = (TILE_W * poses.len() as u32, TILE_H * outfits.len() as u32);
+    let (w, h) = (TILE_W * cols as u32, TILE_H * rows.len() as u32);
     let mut img = vec![255u8; (w * h) as usize];
-    for (r, &outfit) in outfits.iter().enumerate() {
-        let template = ClothedTemplate::build(body, betas, outfit);
-        for (c, p) in poses.iter().enumerate() {
-            let posed_body = body.pose(p);
-            let canonical = canonical_surface(&template, &PoseFeatures::of(&posed_body.bones), 0);
-            let posed = pose_surface(&template, &canonical, &posed_body.bones);
-            let mesh = TriMesh::new(posed, template.faces.clone());
+    for (r, row) in rows.iter().enumerate() {
+        for (c, mesh) in row.iter().enumerate() {
             let (lo, hi) = mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
             let target = (lo + hi) * 0.5;
             // A three-quarter view so that panels and folds show.
             let eye = target + Vec3::new(1.2, 0.3, 2.6);
-            let tile = shade(&cam, eye, target, &mesh);
+            let tile = shade(&cam, eye, target, mesh);
             for y in 0..TILE_H {
                 for x in 0..TILE_W {
                     img[((r as u32 * TILE_H + y) * w + c as u32 * TILE_W + x) as usize] = tile[(y * TILE_W + x) as usize];
