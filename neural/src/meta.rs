@@ -15,7 +15,6 @@ use crate::siren::Siren;
 use crate::weights_file;
 use avatar_core::error::{Error, Result};
 use burn::optim::AdamConfig;
-use burn::tensor::Device;
 use rand::seq::index::sample as sample_indices;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -230,11 +229,6 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
     let meta = MetaModel::from_parts(options.config, &model, &meta_sdf, format!("meta-train seed {} ({} + {} iterations, {:.0} s)", options.seed, options.sdf_iterations, options.hyper_iterations, elapsed(&started)));
     meta.save(&path)?;
     Ok(path)
-}
-
-/// The inference device.
-pub fn device() -> Device {
-    crate::cpu_device()
 }
 
 /// The meta-SDF as a trainable SIREN on the training device.

@@ -38,7 +38,7 @@ pub fn parse<H: DeserializeOwned>(bytes: &[u8], origin: &Path) -> Result<(H, Vec
     let len = u64::from_le_bytes(bytes[8..16].try_into().expect("8 bytes")) as usize;
     let body = 16usize.checked_add(len).filter(|&e| e <= bytes.len()).ok_or_else(|| Error::file(origin, "truncated file (header)"))?;
     let header: H = serde_json::from_slice(&bytes[16..body]).map_err(|e| Error::file(origin, format!("bad header: {e}")))?;
-    if (bytes.len() - body) % 4 != 0 {
+    if !(bytes.len() - body).is_multiple_of(4) {
         return Err(Error::file(origin, "truncated file (weights)"));
     }
     let weights: Vec<f32> = bytes[body..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
