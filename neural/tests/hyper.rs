@@ -185,3 +185,11 @@ fn a_saved_and_reloaded_meta_avatar_gives_identical_sdf_values_and_bad_files_are
     let err = StaticAvatar::load(&path).err().unwrap().to_string();
     assert!(err.contains("me.avatar") && err.contains("meta-hyper"), "{err}");
 }
+
+#[test]
+fn the_shipped_model_parses_with_the_compact_configuration() {
+    let m = MetaModel::shipped();
+    assert_eq!(m.header.config, HyperConfig::compact());
+    assert_eq!((m.hyper.len(), m.static_sdf.len()), (HyperConfig::compact().num_params(), SirenConfig::compact().num_params()));
+    assert!(m.header.provenance.contains("meta-train seed 0"), "{}", m.header.provenance);
+}
