@@ -12,7 +12,7 @@ fn main() {
     let n = avatar.header.normalisation;
     for res in [64, 128] {
         let t = Instant::now();
-        let layers = avatar.siren_at(&params);
+        let sdf = avatar.sdf_at(&params);
         let predict = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let (lo, hi) = (n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)));
@@ -20,10 +20,10 @@ fn main() {
             let t = Instant::now();
             let mut o = ExtractOptions::new(lo, hi, res);
             o.margin = margin;
-            let e = extract(|p: &[Vec3]| avatar.sdf_with(&layers, p), &o).unwrap();
+            let e = extract(|p: &[Vec3]| sdf.sdf(p), &o).unwrap();
             println!("  margin {margin}: {} evaluations, {} vertices, {} faces, {:.2} s", e.stats.evaluations(), e.mesh.positions.len(), e.mesh.faces.len(), t.elapsed().as_secs_f64());
         }
-        let e = extract(|p: &[Vec3]| avatar.sdf_with(&layers, p), &ExtractOptions::new(lo, hi, res)).unwrap();
+        let e = extract(|p: &[Vec3]| sdf.sdf(p), &ExtractOptions::new(lo, hi, res)).unwrap();
         let ex = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let _ = avatar.posed_mesh(&params).unwrap();

@@ -1,13 +1,19 @@
 //! The neural speed targets, measured side by side on the embedded demo capture: fine-tuning 8
 //! frames with the compact preset from the shipped meta-model (target: under 3 minutes on 2
 //! CPU cores), a posed mesh at preview resolution (target: under 0.5 s), and fit's peak
-//! memory (target: under 2 GB).
+//! memory (target: under 2 GB); a 300-frame animated glTF of the fitted avatar (target: under
+//! 30 s); the SDF evaluation of a posed mesh with burn's forward against `siren_eval`'s.
 
 use crate::capture_points::CapturePoints;
 use crate::hyper_fit::HyperFitOptions;
 use crate::meta_avatar::{Init, MetaAvatar};
 use crate::model_file::MetaModel;
-use avatar_core::motion::clip_by_name;
+use avatar_core::body::BodyParams;
+use avatar_core::export::{export_glb, ExportOptions};
+use avatar_core::motion::{clip_by_name, library, MotionClip};
+use avatar_core::mesh::extract::{extract, ExtractOptions};
+use burn::tensor::{Tensor, TensorData};
+use glam::Vec3;
 use std::path::Path;
 use std::time::Instant;
 
@@ -53,8 +59,68 @@ pub fn bench_report(steps: usize) -> String {
         let target = if resolution == 128 { "< 0.5 s" } else { "" };
         out += &format!("| new posed mesh at resolution {resolution} ({vertices} vertices), median of 5 poses | {:.2} s | {target} |\n", times[times.len() / 2]);
     }
+    out += &burn_against_fast_path(&avatar, &clip.frames[36]);
+    avatar.resolution = 128;
+    out += &export_row(&avatar);
     if let Some(peak) = peak_memory_bytes() {
         out += &format!("| peak memory of this process (fit included) | {:.0} MB | < 2048 MB |\n", peak as f64 / 1e6);
     }
     out
+}
+
+/// The posed mesh's SDF evaluations through burn's forward (the path before `siren_eval`) and
+/// through `siren_eval`, side by side on one pose at resolution 128.
+fn burn_against_fast_path(avatar: &MetaAvatar, params: &BodyParams) -> String {
+    let n = avatar.header.normalisation;
+    let mut options = ExtractOptions::new(n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)), 128);
+    options.margin = 0.25;
+    let (w, b) = avatar.siren_at(params);
+    let device = crate::cpu_device();
+    let burn_sdf = |points: &[Vec3]| -> Vec<f32> {
+        use rayon::prelude::*;
+        points
+            .par_chunks(points.len().div_ceil(rayon::current_num_threads().max(1)).clamp(1024, 16_384))
+            .flat_map_iter(|chunk| {
+                let flat: Vec<f32> = chunk.iter().flat_map(|p| n.to_unit(*p).to_array()).collect();
+                let f = crate::siren::sdf_only(&w, &b, Tensor::from_data(TensorData::new(flat, [chunk.len(), 3]), &device));
+                f.into_data().as_slice::<f32>().expect("f32 tensor").iter().map(|v| v * n.metres_per_unit()).collect::<Vec<f32>>()
+            })
+            .collect()
+    };
+    let t = Instant::now();
+    let slow = extract(burn_sdf, &options);
+    let burn_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let sdf = avatar.sdf_at(params);
+    let fast = extract(|p: &[Vec3]| sdf.sdf(p), &options);
+    let fast_s = t.elapsed().as_secs_f64();
+    match (slow, fast) {
+        (Ok(slow), Ok(fast)) => format!(
+            "| canonical mesh at 128, one pose: burn forward vs siren_eval ({} evaluations; {} vs {} vertices) | {burn_s:.2} s vs {fast_s:.2} s = {:.1}x faster | |\n",
+            fast.stats.evaluations(),
+            slow.mesh.positions.len(),
+            fast.mesh.positions.len(),
+            burn_s / fast_s
+        ),
+        (Err(e), _) | (_, Err(e)) => format!("| burn vs siren_eval | failed: {e} | |\n"),
+    }
+}
+
+/// A 300-frame animated glTF of the fitted avatar (library clips back to back at 30 fps).
+fn export_row(avatar: &MetaAvatar) -> String {
+    let frames: Vec<_> = library().into_iter().flat_map(|c| c.frames).take(300).collect();
+    let clip = MotionClip::new("bench", 30.0, frames);
+    let t = Instant::now();
+    match export_glb(avatar, &clip, &ExportOptions::default()) {
+        Ok(e) => format!(
+            "| export {} frames to GLB ({} vertices, {} morph targets, {:.2} MB, largest compression error {:.2} mm) | {:.1} s | < 30 s |\n",
+            clip.frames.len(),
+            e.rest.positions.len(),
+            e.morphs.targets.len() + 1,
+            e.glb.len() as f64 / 1e6,
+            e.max_compression_error * 1000.0,
+            t.elapsed().as_secs_f64()
+        ),
+        Err(e) => format!("| export 300 frames | failed: {e} | < 30 s |\n"),
+    }
 }

@@ -16,6 +16,7 @@ pub mod meta_data;
 pub mod model_file;
 pub mod params;
 pub mod siren;
+pub mod siren_eval;
 pub mod static_avatar;
 pub mod weights_file;
 

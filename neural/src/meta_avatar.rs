@@ -9,7 +9,7 @@ use crate::hyper::{HyperConfig, HyperNet};
 use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
 use crate::model_file::MetaModel;
 use crate::params::{flatten, load_flat};
-use crate::siren::sdf_only;
+use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::static_avatar::{avatar_field, check_avatar_header, FitReport, AVATAR_FORMAT, AVATAR_VERSION};
 use crate::weights_file;
 use avatar_core::body::{open_body_ref, BodyModel, BodyParams, Weights, NUM_JOINTS};
@@ -19,7 +19,7 @@ use avatar_core::export::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
 use burn::module::Module;
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::tensor::{Device, Tensor};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -97,27 +97,55 @@ impl MetaAvatar {
 
     /// Fine-tune on a canonicalized capture: every frame is one pose sample.
     pub fn fit_points(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
+        Self::fit_points_in_chunks(capture, init, options, None, cancel, progress)
+    }
+
+    /// Like [`MetaAvatar::fit_points`], but with `Some((every, look))` the fit runs in chunks
+    /// of `every` steps (the optimisers' state carried over; each chunk draws its batches from
+    /// seed + steps done) and `look` sees the partial avatar after each chunk but the last:
+    /// the studio's live preview. `look` may block (a test holds the job there).
+    pub fn fit_points_in_chunks(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, mut chunks: Option<(usize, &mut dyn FnMut(usize, &MetaAvatar))>, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
         let config = init.config();
-        let rest_joints = capture.rest_joints();
         let samples = capture.pose_samples(config.encoding);
         let device = crate::cpu_training_device();
         let prior = capture.sign_prior();
-        let model = fit_hyper(init.network(), &samples, options, &mut HyperOptimisers::default(), &device, Some(&prior), cancel, progress);
+        let mut optimisers = HyperOptimisers::default();
+        let mut model = init.network();
+        let every = chunks.as_ref().map_or(options.steps, |(every, _)| (*every).clamp(1, options.steps.max(1)));
+        let mut done = 0;
+        while done < options.steps && !cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {
+            let n = every.min(options.steps - done);
+            let chunk_options = HyperFitOptions { steps: n, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
+            let base = done;
+            let mut chunk_progress = |step: usize, loss: f32, terms: [f32; 4]| progress(base + step, loss, terms);
+            model = fit_hyper(model, &samples, &chunk_options, &mut optimisers, &device, Some(&prior), cancel, &mut chunk_progress);
+            done += n;
+            if let Some((_, look)) = chunks.as_mut()
+                && done < options.steps
+            {
+                look(done, &Self::from_fitted(capture, init, options.steps, &model).0);
+            }
+        }
+        Self::from_fitted(capture, init, options.steps, &model)
+    }
+
+    /// The avatar of a fitted hypernetwork (inference copy of its weights).
+    fn from_fitted(capture: &CapturePoints, init: &Init, steps: usize, model: &HyperNet) -> (MetaAvatar, FitReport) {
         let header = MetaAvatarHeader {
             format: AVATAR_FORMAT.into(),
             version: AVATAR_VERSION,
             kind: META_AVATAR_KIND.into(),
-            config,
+            config: init.config(),
             normalisation: capture.normalisation,
             betas: capture.betas.clone(),
             body_model: "open_body".into(),
             field_cells: capture.field_cells,
             init: init.label().into(),
             frames: capture.frames.len(),
-            steps: options.steps,
+            steps,
         };
         let report = FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() };
-        let avatar = MetaAvatar { header, model: model.valid(), body: capture.body.clone(), field: capture.field.clone(), rest_joints, device: crate::cpu_device(), resolution: 128 };
+        let avatar = MetaAvatar { header, model: model.valid(), body: capture.body.clone(), field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 };
         (avatar, report)
     }
 
@@ -142,32 +170,22 @@ impl MetaAvatar {
         Ok(MetaAvatar { header, model, body, field, rest_joints, device, resolution: 128 })
     }
 
-    /// The SIREN of a pose (predicted once, then evaluated as often as meshing needs).
+    /// The SIREN layers of a pose, as burn tensors (the hypernetwork's prediction).
     pub fn siren_at(&self, params: &BodyParams) -> (Vec<Tensor<2>>, Vec<Tensor<1>>) {
         let input = self.header.config.encoding.input(params, &self.rest_joints, &self.header.normalisation);
         self.model.siren_for(&input, &self.device)
     }
 
-    /// SDF values (metres) of canonical points for a predicted SIREN, chunks evaluated in
-    /// parallel (the CPU backend's matrix multiply keeps to one core).
-    pub fn sdf_with(&self, layers: &(Vec<Tensor<2>>, Vec<Tensor<1>>), points: &[Vec3]) -> Vec<f32> {
-        use rayon::prelude::*;
-        let n = self.header.normalisation;
-        let chunk_len = points.len().div_ceil(rayon::current_num_threads().max(1)).clamp(1024, 16_384);
-        points
-            .par_chunks(chunk_len)
-            .map(|chunk| {
-                let flat: Vec<f32> = chunk.iter().flat_map(|p| n.to_unit(*p).to_array()).collect();
-                let f = sdf_only(&layers.0, &layers.1, Tensor::from_data(TensorData::new(flat, [chunk.len(), 3]), &self.device));
-                f.into_data().as_slice::<f32>().expect("f32 tensor").iter().map(|v| v * n.metres_per_unit()).collect::<Vec<f32>>()
-            })
-            .flatten()
-            .collect()
+    /// The SDF of a pose, predicted once and then evaluated as often as meshing or projection
+    /// needs (fast CPU path: `siren_eval`).
+    pub fn sdf_at(&self, params: &BodyParams) -> MetricSdf {
+        let (w, b) = self.siren_at(params);
+        MetricSdf { siren: SirenEval::from_tensors(&w, &b), normalisation: self.header.normalisation }
     }
 
     /// The clothed surface at a pose in canonical space (metres).
     pub fn canonical_mesh_at(&self, params: &BodyParams, resolution: usize) -> Result<TriMesh> {
-        let layers = self.siren_at(params);
+        let sdf = self.sdf_at(params);
         let n = self.header.normalisation;
         let (lo, hi) = (n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)));
         // Only blocks whose corners come within a quarter block diagonal of the surface are
@@ -176,7 +194,7 @@ impl MetaAvatar {
         // (neural/examples/pose_timing.rs).
         let mut options = ExtractOptions::new(lo, hi, resolution);
         options.margin = 0.25;
-        Ok(extract(|p: &[Vec3]| self.sdf_with(&layers, p), &options)?.mesh)
+        Ok(extract(|p: &[Vec3]| sdf.sdf(p), &options)?.mesh)
     }
 
     /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh).
@@ -204,7 +222,11 @@ impl AvatarSource for MetaAvatar {
         self.canonical_mesh_at(params, self.resolution)
     }
     fn sdf(&self, params: &BodyParams, points: &[Vec3]) -> Result<Vec<f32>> {
-        Ok(self.sdf_with(&self.siren_at(params), points))
+        Ok(self.sdf_at(params).sdf(points))
+    }
+    /// Newton steps with the analytic gradient (reverse mode, `siren_eval`).
+    fn project(&self, params: &BodyParams, points: &[Vec3], steps: usize) -> Result<Vec<Vec3>> {
+        Ok(self.sdf_at(params).project(points, steps))
     }
     fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights> {
         points.iter().map(|&p| self.field.weights_at(p)).collect()

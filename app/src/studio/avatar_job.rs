@@ -1,8 +1,9 @@
 //! The studio's avatar layer: what the studio needs from an avatar ([`StudioAvatar`]) and the
 //! background fine-tuning job ([`FitJob`]) that talks to the UI through a crossbeam channel.
 //!
-//! Today's avatar is `avatar_neural::StaticAvatar`. The meta-learned avatar drops in by
-//! implementing [`StudioAvatar`] (it already implements `AvatarSource`), adding a variant to
+//! The job fine-tunes the MetaAvatar (the shipped meta-model's hypernetwork, pose-dependent
+//! clothing) by default, or fits a static SIREN SDF from scratch; both implement
+//! [`StudioAvatar`]. Another avatar drops in by implementing it, adding a variant to
 //! [`AvatarKind`] with its fit in [`run_fit`], and a branch in [`load_avatar`].
 
 use avatar_core::body::{BodyModel, Weights};
@@ -10,7 +11,7 @@ use avatar_core::export::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
 use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::{fit_sdf, sdf_values, AnyAvatar, FitOptions, MetaAvatar, SirenConfig, StaticAvatar};
+use avatar_neural::{fit_sdf, sdf_values, AnyAvatar, FitOptions, HyperFitOptions, Init, MetaAvatar, MetaModel, SirenConfig, StaticAvatar};
 use crossbeam_channel::Receiver;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -85,8 +86,20 @@ pub fn load_avatar(path: &Path, resolution: usize) -> anyhow::Result<Arc<dyn Stu
 /// Which avatar a fit produces.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum AvatarKind {
+    /// MetaAvatar: the shipped meta-learned hypernetwork fine-tuned on the frames (clothing
+    /// that deforms with the pose).
+    MetaAvatar,
     /// A SIREN SDF fitted from scratch to the canonical points (pose-independent).
     StaticSdf,
+}
+
+impl AvatarKind {
+    pub fn label(self) -> &'static str {
+        match self {
+            AvatarKind::MetaAvatar => "MetaAvatar (meta-learned)",
+            AvatarKind::StaticSdf => "Static SDF (from scratch)",
+        }
+    }
 }
 
 /// A fine-tuning configuration (what the job panel edits).
@@ -95,10 +108,13 @@ pub struct FitConfig {
     pub kind: AvatarKind,
     pub frames: usize,
     pub steps: usize,
+    /// The static SDF's network (the MetaAvatar's comes with the meta-model).
     pub hidden: usize,
     pub layers: usize,
+    /// Surface and off-surface points per step (MetaAvatar: per pose and step).
     pub batch: usize,
     pub off_surface: usize,
+    /// The static SDF's Adam rate (the MetaAvatar uses the fine-tuning rates of `fit`).
     pub learning_rate: f64,
     pub seed: u64,
     /// A preview mesh of the partial result every this many steps (0 = none).
@@ -109,7 +125,29 @@ pub struct FitConfig {
 }
 
 impl Default for FitConfig {
+    /// `avatar-studio fit`'s defaults: the MetaAvatar, 8 frames, 300 steps.
     fn default() -> Self {
+        let fit = HyperFitOptions::default();
+        FitConfig {
+            kind: AvatarKind::MetaAvatar,
+            frames: 8,
+            steps: fit.steps,
+            hidden: 128,
+            layers: 4,
+            batch: fit.surface_per_pose,
+            off_surface: fit.off_per_pose,
+            learning_rate: 1e-4,
+            seed: 0,
+            preview_every: 50,
+            preview_resolution: 64,
+            final_resolution: 128,
+        }
+    }
+}
+
+impl FitConfig {
+    /// The static SDF from scratch: 500 steps of 2000 + 2000 points.
+    pub fn static_sdf() -> Self {
         FitConfig {
             kind: AvatarKind::StaticSdf,
             frames: 8,
@@ -125,11 +163,23 @@ impl Default for FitConfig {
             final_resolution: 96,
         }
     }
-}
 
-impl FitConfig {
-    /// Seconds on two cores (a rough body shape): for tests and a quick look.
+    /// The defaults of a kind (the panel's kind selector).
+    pub fn for_kind(kind: AvatarKind) -> Self {
+        match kind {
+            AvatarKind::MetaAvatar => FitConfig::default(),
+            AvatarKind::StaticSdf => FitConfig::static_sdf(),
+        }
+    }
+
+    /// Seconds on two cores: for tests and a quick look. The MetaAvatar starts from the
+    /// meta-model, so a few small steps already give a body-shaped, posable avatar.
     pub fn tiny() -> Self {
+        FitConfig { frames: 4, steps: 20, batch: 300, off_surface: 300, preview_every: 10, preview_resolution: 40, final_resolution: 64, ..FitConfig::default() }
+    }
+
+    /// A rough static SDF from scratch in seconds.
+    pub fn tiny_static() -> Self {
         FitConfig {
             frames: 4,
             steps: 150,
@@ -141,7 +191,7 @@ impl FitConfig {
             preview_every: 75,
             preview_resolution: 40,
             final_resolution: 64,
-            ..FitConfig::default()
+            ..FitConfig::static_sdf()
         }
     }
 }
@@ -225,8 +275,50 @@ impl Drop for FitJob {
 /// The fit itself (runs on the job thread).
 pub fn run_fit(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Receiver<()>>, send: &dyn Fn(JobEvent)) -> anyhow::Result<(Arc<dyn StudioAvatar>, Vec<String>)> {
     match cfg.kind {
+        AvatarKind::MetaAvatar => fit_meta(dir, cfg, cancel, gate, send),
         AvatarKind::StaticSdf => fit_static(dir, cfg, cancel, gate, send),
     }
+}
+
+/// Between chunks a gated job (tests) waits for the gate's message, its sender's drop or a
+/// cancel.
+fn wait_at_gate(gate: Option<&Receiver<()>>, cancel: &AtomicBool) {
+    if let Some(g) = gate {
+        while let Err(crossbeam_channel::RecvTimeoutError::Timeout) = g.recv_timeout(std::time::Duration::from_millis(50)) {
+            if cancel.load(Ordering::Relaxed) {
+                break;
+            }
+        }
+    }
+}
+
+/// `avatar-studio fit`'s MetaAvatar fine-tuning from the shipped meta-model, in chunks of
+/// `preview_every` steps: after each the partial avatar's canonical surface at the rest pose
+/// is meshed for the preview.
+fn fit_meta(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Receiver<()>>, send: &dyn Fn(JobEvent)) -> anyhow::Result<(Arc<dyn StudioAvatar>, Vec<String>)> {
+    if cfg.steps == 0 || cfg.frames == 0 || cfg.batch == 0 {
+        anyhow::bail!("steps, frames and points per step must be at least 1");
+    }
+    let t = Instant::now();
+    let capture = CapturePoints::open(dir, cfg.frames)?;
+    send(JobEvent::Started { points: capture.num_points(), frames: capture.frames.len() });
+    let model = MetaModel::shipped();
+    let options = HyperFitOptions { steps: cfg.steps, surface_per_pose: cfg.batch, off_per_pose: cfg.off_surface, seed: cfg.seed, ..HyperFitOptions::default() };
+    let mut progress = |step: usize, loss: f32, terms: [f32; 4]| {
+        send(JobEvent::Progress { step: step + 1, steps: cfg.steps, loss, terms, elapsed_s: t.elapsed().as_secs_f64() });
+    };
+    let rest = avatar_core::body::BodyParams { betas: capture.betas.clone(), ..Default::default() };
+    let mut look = |done: usize, partial: &MetaAvatar| {
+        if let Ok(mesh) = partial.canonical_mesh_at(&rest, cfg.preview_resolution.clamp(8, 256)) {
+            let weights = partial.skinning_weights(&mesh.positions);
+            send(JobEvent::Preview { step: done, mesh: Arc::new(CanonicalMesh { mesh, weights }) });
+        }
+        wait_at_gate(gate, cancel);
+    };
+    let chunks: Option<(usize, &mut dyn FnMut(usize, &MetaAvatar))> = (cfg.preview_every > 0).then_some((cfg.preview_every, &mut look as &mut dyn FnMut(usize, &MetaAvatar)));
+    let (mut avatar, report) = MetaAvatar::fit_points_in_chunks(&capture, &Init::MetaLearned(&model), &options, chunks, Some(cancel), &mut progress);
+    StudioAvatar::set_resolution(&mut avatar, cfg.final_resolution);
+    Ok((Arc::new(avatar), report.warnings))
 }
 
 /// The static SDF fit of `StaticAvatar::fit_capture` (same canonical points, same
@@ -252,13 +344,7 @@ fn fit_static(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Re
     let mut done = 0;
     while done < cfg.steps && !cancel.load(Ordering::Relaxed) {
         if done > 0 {
-            if let Some(g) = gate {
-                while let Err(crossbeam_channel::RecvTimeoutError::Timeout) = g.recv_timeout(std::time::Duration::from_millis(50)) {
-                    if cancel.load(Ordering::Relaxed) {
-                        break;
-                    }
-                }
-            }
+            wait_at_gate(gate, cancel);
         }
         let n = chunk.min(cfg.steps - done);
         let options = FitOptions {

@@ -54,7 +54,7 @@ pub fn bench_report() -> String {
     let fit_s = t.elapsed().as_secs_f64();
     match fitted {
         Ok((avatar, _)) => {
-            out += &format!("| fine-tune the quick configuration ({} steps, {} x {}, {} frames) | {:.1} s | |\n", cfg.steps, cfg.layers, cfg.hidden, cfg.frames, fit_s);
+            out += &format!("| fine-tune the quick configuration ({}, {} steps, {} frames) | {:.1} s | |\n", avatar.describe(), cfg.steps, cfg.frames, fit_s);
             let file = std::env::temp_dir().join(format!("avatar-studio-bench-{}.avatar", std::process::id()));
             if let Err(e) = avatar.save(&file) {
                 return out + &format!("| save the avatar | | {e:#} |\n");
@@ -68,7 +68,7 @@ pub fn bench_report() -> String {
                 let m = canonical_of(a.as_ref(), &betas).expect("meshing works");
                 let mesh_s = t.elapsed().as_secs_f64();
                 let n = m.mesh.positions.len();
-                let posable = Posable::Mesh(Arc::new(m));
+                let posable = if a.pose_dependent() { Posable::PoseDependent { avatar: a.clone(), reference: Arc::new(m) } } else { Posable::Mesh(Arc::new(m)) };
                 let s = round_trip(&mut worker, &mut timeline, &posable, &body, &betas);
                 out += &format!("| mesh the avatar at {res} cells (once per avatar) | {:.2} s | {n} vertices |\n", mesh_s);
                 out += &format!("| pose slider to posed mesh: the avatar at {res} cells | {:.1} ms | target: under 0.5 s on 2 cores |\n", s * 1e3);

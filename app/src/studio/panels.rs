@@ -2,7 +2,7 @@
 //! (right), timeline (bottom), viewport (centre). Each is a small function over the app.
 
 use crate::studio::app::{Status, StudioApp};
-use crate::studio::avatar_job::FitConfig;
+use crate::studio::avatar_job::{AvatarKind, FitConfig};
 use crate::studio::project::{ViewMode, DEMO, PROJECT_EXTENSION};
 use crate::studio::style::{self, ACCENT, ERROR, WARN};
 use crate::studio::timeline::{joint_controls, timeline_bar};
@@ -338,36 +338,54 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui) {
     ui.add_enabled_ui(!running, |ui| {
         let cfg = &mut app.settings.fit;
         egui::Grid::new("fit config").num_columns(2).spacing([8.0, 3.0]).show(ui, |ui| {
-            let l = ui.label("Frames");
-            ui.add(egui::DragValue::new(&mut cfg.frames).range(1..=64)).labelled_by(l.id);
-            ui.end_row();
-            let l = ui.label("Steps");
-            ui.add(egui::DragValue::new(&mut cfg.steps).range(1..=20000).speed(10.0)).labelled_by(l.id);
-            ui.end_row();
-            let l = ui.label("Network");
-            egui::ComboBox::from_id_salt("net")
-                .selected_text(format!("{} × {}", cfg.layers, cfg.hidden))
+            let l = ui.label("Avatar");
+            egui::ComboBox::from_id_salt("kind")
+                .selected_text(cfg.kind.label())
                 .show_ui(ui, |ui| {
-                    for (layers, h, name) in [(2, 32, "tiny"), (3, 64, "small"), (4, 128, "compact"), (5, 256, "paper")] {
-                        if ui.selectable_label(cfg.layers == layers && cfg.hidden == h, format!("{name}: {layers} × {h}")).clicked() {
-                            cfg.layers = layers;
-                            cfg.hidden = h;
+                    for kind in [AvatarKind::MetaAvatar, AvatarKind::StaticSdf] {
+                        if ui.selectable_label(cfg.kind == kind, kind.label()).clicked() && cfg.kind != kind {
+                            *cfg = FitConfig::for_kind(kind);
                         }
                     }
                 })
                 .response
                 .labelled_by(l.id);
             ui.end_row();
-            let l = ui.label("Points / step");
+            let l = ui.label("Frames");
+            ui.add(egui::DragValue::new(&mut cfg.frames).range(1..=64)).labelled_by(l.id);
+            ui.end_row();
+            let l = ui.label("Steps");
+            ui.add(egui::DragValue::new(&mut cfg.steps).range(1..=20000).speed(10.0)).labelled_by(l.id);
+            ui.end_row();
+            if cfg.kind == AvatarKind::StaticSdf {
+                let l = ui.label("Network");
+                egui::ComboBox::from_id_salt("net")
+                    .selected_text(format!("{} × {}", cfg.layers, cfg.hidden))
+                    .show_ui(ui, |ui| {
+                        for (layers, h, name) in [(2, 32, "tiny"), (3, 64, "small"), (4, 128, "compact"), (5, 256, "paper")] {
+                            if ui.selectable_label(cfg.layers == layers && cfg.hidden == h, format!("{name}: {layers} × {h}")).clicked() {
+                                cfg.layers = layers;
+                                cfg.hidden = h;
+                            }
+                        }
+                    })
+                    .response
+                    .labelled_by(l.id);
+                ui.end_row();
+            }
+            let l = ui.label(if cfg.kind == AvatarKind::MetaAvatar { "Points / pose" } else { "Points / step" });
             ui.add(egui::DragValue::new(&mut cfg.batch).range(100..=20000).speed(50.0)).labelled_by(l.id);
             ui.end_row();
         });
         ui.horizontal(|ui| {
             if ui.small_button("Quick (tiny)").clicked() {
-                *cfg = FitConfig::tiny();
+                *cfg = match cfg.kind {
+                    AvatarKind::MetaAvatar => FitConfig::tiny(),
+                    AvatarKind::StaticSdf => FitConfig::tiny_static(),
+                };
             }
             if ui.small_button("Default").clicked() {
-                *cfg = FitConfig::default();
+                *cfg = FitConfig::for_kind(cfg.kind);
             }
         });
     });

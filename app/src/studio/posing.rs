@@ -19,8 +19,9 @@ pub enum Posable {
     PoseDependent { avatar: Arc<dyn StudioAvatar>, reference: Arc<CanonicalMesh> },
 }
 
-/// Newton steps of the projection onto a pose's surface (the exporter's default).
-pub const PROJECTION_STEPS: usize = 2;
+/// Newton steps (at most) of the projection onto a pose's surface: the exporter's, so the
+/// studio shows what the export holds. A point stops as soon as it is on the surface.
+pub const PROJECTION_STEPS: usize = 4;
 
 pub struct PoseRequest {
     pub id: u64,

@@ -26,7 +26,7 @@ pub struct ExportOptions {
 
 impl Default for ExportOptions {
     fn default() -> Self {
-        ExportOptions { max_targets: 64, newton_steps: 3, min_target_effect: 1e-4 }
+        ExportOptions { max_targets: 64, newton_steps: 4, min_target_effect: 1e-4 }
     }
 }
 
