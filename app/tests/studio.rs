@@ -93,7 +93,7 @@ fn demo_fit_and_pose_snapshots() {
         h.step();
     }
     assert!(h.state().job.is_some(), "the job is still running");
-    assert_eq!(h.state().job_view.step, 75);
+    assert_eq!(h.state().job_view.step, test_fit().preview_every);
     assert!(h.state().job_view.losses.len() >= 10, "the loss plot has points");
     h.state_mut().job_view.elapsed_s = 4.0; // the time left shown in the snapshot
     h.step();
