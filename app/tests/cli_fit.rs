@@ -46,6 +46,10 @@ fn bad_arguments_are_named() {
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("huge"));
     let o = studio().arg("fit").arg(dir.path()).arg("--out").arg(dir.path().join("a.avatar")).output().unwrap();
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("capture.json"));
-    let o = studio().arg("fit").arg(&demo).arg("--out").arg(dir.path().join("a.avatar")).args(["--device", "gpu"]).output().unwrap();
-    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("CPU backend only"));
+    if !cfg!(feature = "gpu") {
+        let o = studio().arg("fit").arg(&demo).arg("--out").arg(dir.path().join("a.avatar")).args(["--device", "gpu"]).output().unwrap();
+        assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("no GPU support"), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let o = studio().arg("fit").arg(&demo).arg("--out").arg(dir.path().join("a.avatar")).args(["--device", "tpu"]).output().unwrap();
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("expected cpu or gpu"));
 }

@@ -103,12 +103,8 @@ pub(crate) fn gauss(rng: &mut ChaCha8Rng) -> f32 {
     (-2.0 * u1.ln()).sqrt() * (std::f32::consts::TAU * u2).cos()
 }
 
-/// SDF values of points (no gradient), in chunks.
-pub fn sdf_values(model: &Siren, points: &[Vec3], device: &Device) -> Vec<f32> {
-    let mut out = Vec::with_capacity(points.len());
-    for chunk in points.chunks(16_384) {
-        let f = model.sdf(to_tensor(chunk, device));
-        out.extend_from_slice(f.to_data().as_slice::<f32>().expect("float tensor"));
-    }
-    out
+/// SDF values of points (no gradient), through the fast evaluation path (`siren_eval`).
+pub fn sdf_values(model: &Siren, points: &[Vec3], _device: &Device) -> Vec<f32> {
+    let (w, b) = model.params();
+    crate::siren_eval::SirenEval::from_tensors(&w, &b).sdf(&points.iter().map(|p| p.to_array()).collect::<Vec<_>>())
 }

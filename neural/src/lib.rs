@@ -6,6 +6,7 @@ pub mod encoder;
 pub mod eval_rows;
 pub mod bench;
 pub mod capture_points;
+pub mod compute;
 pub mod fit;
 pub mod hyper;
 pub mod hyper_fit;

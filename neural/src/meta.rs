@@ -113,7 +113,7 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
     if data.is_empty() {
         return Err(Error::invalid("meta-training data is empty"));
     }
-    let train_device = crate::cpu_training_device();
+    let train_device = crate::compute::training_device();
     let ckpt_path = out.join(CHECKPOINT);
     let log_path = out.join("loss.csv");
     let mut resume: Option<(Checkpoint, Vec<f32>)> = None;
@@ -233,11 +233,11 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
 
 /// The meta-SDF as a trainable SIREN on the training device.
 pub fn trainable_siren(config: &crate::siren::SirenConfig, flat: &[f32], seed: u64) -> std::result::Result<Siren, String> {
-    load_flat(config.init(seed, &crate::cpu_training_device()), flat)
+    load_flat(config.init(seed, &crate::compute::training_device()), flat)
 }
 
 /// The hypernetwork (its base SDF included) as a trainable module on the training device.
 pub fn trainable_hyper(config: &HyperConfig, flat: &[f32], seed: u64) -> std::result::Result<HyperNet, String> {
-    let device = crate::cpu_training_device();
+    let device = crate::compute::training_device();
     load_flat(config.init(config.siren.init(seed, &device), seed, &device), flat)
 }

@@ -107,10 +107,10 @@ impl MetaAvatar {
     pub fn fit_points_in_chunks(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, mut chunks: Option<(usize, &mut dyn FnMut(usize, &MetaAvatar))>, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
         let config = init.config();
         let samples = capture.pose_samples(config.encoding);
-        let device = crate::cpu_training_device();
+        let device = crate::compute::training_device();
         let prior = capture.sign_prior();
         let mut optimisers = HyperOptimisers::default();
-        let mut model = init.network();
+        let mut model = init.network().to_device(&device);
         let every = chunks.as_ref().map_or(options.steps, |(every, _)| (*every).clamp(1, options.steps.max(1)));
         let mut done = 0;
         while done < options.steps && !cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {
@@ -145,7 +145,7 @@ impl MetaAvatar {
             steps,
         };
         let report = FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() };
-        let avatar = MetaAvatar { header, model: model.valid(), body: capture.body.clone(), field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 };
+        let avatar = MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body: capture.body.clone(), field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 };
         (avatar, report)
     }
 

@@ -4,7 +4,7 @@
 
 use burn::module::{Module, ModuleMapper, ModuleVisitor, Param};
 use burn::optim::GradientsParams;
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::tensor::{Tensor, TensorData};
 
 struct Flatten<'a>(&'a mut Vec<f32>);
 
@@ -58,19 +58,20 @@ struct Difference<'a> {
     adapted: &'a [f32],
     offset: usize,
     grads: GradientsParams,
-    device: Device,
 }
 
 impl ModuleVisitor for Difference<'_> {
     fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
         let value = param.val();
+        // Gradients live on the parameter's device without autodiff (CPU or GPU).
+        let device = value.device().without_autodiff();
         let shape = value.shape();
         let n = shape.num_elements();
         let data = value.into_data().convert::<f32>();
         let theta = data.as_slice::<f32>().expect("f32 tensor");
         let diff: Vec<f32> = theta.iter().zip(&self.adapted[self.offset..self.offset + n]).map(|(a, b)| a - b).collect();
         self.offset += n;
-        self.grads.register(param.id, Tensor::<D>::from_data(TensorData::new(diff, shape), &self.device));
+        self.grads.register(param.id, Tensor::<D>::from_data(TensorData::new(diff, shape), &device));
     }
 }
 
@@ -79,7 +80,7 @@ impl ModuleVisitor for Difference<'_> {
 /// along it moves theta towards theta'.
 pub fn reptile_gradients<M: Module>(module: &M, adapted: &[f32]) -> GradientsParams {
     assert_eq!(adapted.len(), module.num_params(), "adapted parameters do not match the module");
-    let mut v = Difference { adapted, offset: 0, grads: GradientsParams::new(), device: crate::cpu_device() };
+    let mut v = Difference { adapted, offset: 0, grads: GradientsParams::new() };
     module.visit(&mut v);
     v.grads
 }

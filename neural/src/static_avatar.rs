@@ -67,8 +67,8 @@ impl StaticAvatar {
     pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
         let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
         let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
-        let device = crate::cpu_training_device();
-        let model = init.unwrap_or_else(|| siren.init(options.seed, &device));
+        let device = crate::compute::training_device();
+        let model = init.unwrap_or_else(|| siren.init(options.seed, &device)).to_device(&device);
         let prior = capture.sign_prior();
         let model = fit_sdf(model, &points, &normals, options, &device, Some(&prior), cancel, progress);
         let report = FitReport { frames: capture.frames.len(), points: points.len(), dropped: capture.dropped, warnings: capture.warnings.clone() };
@@ -88,7 +88,7 @@ impl StaticAvatar {
             body_model: "open_body".into(),
             field_cells: capture.field_cells,
         };
-        StaticAvatar { header, model: model.valid(), body: capture.body.clone(), field: capture.field.clone(), device: crate::cpu_device(), resolution: 128 }
+        StaticAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body: capture.body.clone(), field: capture.field.clone(), device: crate::cpu_device(), resolution: 128 }
     }
 
     /// The skinning field of the avatar's body shape.
@@ -155,7 +155,10 @@ impl AvatarSource for StaticAvatar {
     fn canonical_mesh(&self, _params: &BodyParams) -> Result<TriMesh> {
         let n = self.header.normalisation;
         let (lo, hi) = (n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)));
-        Ok(extract(|p: &[Vec3]| self.sdf_metres(p), &ExtractOptions::new(lo, hi, self.resolution))?.mesh)
+        // The quarter-diagonal refinement margin of the meta avatar (see its canonical_mesh_at).
+        let mut options = ExtractOptions::new(lo, hi, self.resolution);
+        options.margin = 0.25;
+        Ok(extract(|p: &[Vec3]| self.sdf_metres(p), &options)?.mesh)
     }
     fn sdf(&self, _params: &BodyParams, points: &[Vec3]) -> Result<Vec<f32>> {
         Ok(self.sdf_metres(points))

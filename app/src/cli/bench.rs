@@ -8,7 +8,7 @@ use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Only run sections whose name contains this text (body, capture, canonical, eval, export,
+    /// Only run sections whose name contains this text, or one of several separated by commas (body, capture, canonical, eval, export,
     /// neural, studio).
     #[arg(long)]
     only: Option<String>,
@@ -96,7 +96,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if cfg!(debug_assertions) { "dev (debug assertions)" } else { "release" }
     );
     for (name, section) in sections {
-        if args.only.as_deref().is_some_and(|o| !name.contains(o)) {
+        if args.only.as_deref().is_some_and(|o| !o.split(',').any(|o| name.contains(o.trim()))) {
             continue;
         }
         let text = section();

@@ -36,7 +36,7 @@ pub struct Args {
     /// Network preset for --from-scratch: compact or paper.
     #[arg(long, default_value = "compact")]
     preset: String,
-    /// cpu (gpu needs a build with the `gpu` feature, not in this build).
+    /// cpu, or gpu in a build with the `gpu` feature (`cargo build --release --features gpu`).
     #[arg(long, default_value = "cpu")]
     device: String,
     #[arg(long, default_value_t = 0)]
@@ -44,9 +44,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if args.device != "cpu" {
-        bail!("--device {}: this build has the CPU backend only", args.device);
-    }
+    avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&args.device).map_err(anyhow::Error::msg)?);
     if args.steps == 0 || args.frames == 0 {
         bail!("--steps and --frames must be at least 1");
     }

@@ -34,11 +34,15 @@ pub struct Args {
     /// Alg. 1's outer Adam learning rate.
     #[arg(long, default_value_t = 1e-4)]
     sdf_outer_lr: f64,
+    /// cpu, or gpu in a build with the `gpu` feature (`cargo build --release --features gpu`).
+    #[arg(long, default_value = "cpu")]
+    device: String,
     #[arg(long, default_value_t = 0)]
     seed: u64,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&args.device).map_err(anyhow::Error::msg)?);
     let config = HyperConfig::preset(&args.preset).with_context(|| format!("unknown --preset {:?}: use compact or paper", args.preset))?;
     if args.subjects == 0 || args.poses == 0 {
         bail!("--subjects and --poses must be at least 1");

@@ -1,0 +1,83 @@
+//! Where training runs: the CPU (burn's flex backend, always built) or a GPU (burn's wgpu
+//! backend, behind the `gpu` feature so that CI and laptops without a GPU never build it).
+//! Inference (meshing, projection, the pose slider) stays on the CPU path of `siren_eval`.
+//!
+//! The choice is process-wide: the command line sets it once from `--device` before any fit
+//! starts, and every fitting entry point asks [`training_device`].
+
+use burn::tensor::Device;
+use std::sync::atomic::{AtomicU8, Ordering};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Compute {
+    #[default]
+    Cpu,
+    Gpu,
+}
+
+static SELECTED: AtomicU8 = AtomicU8::new(0);
+
+impl Compute {
+    /// `cpu` or `gpu`; `gpu` in a build without the `gpu` feature is refused with the reason.
+    pub fn parse(name: &str) -> Result<Compute, String> {
+        match name {
+            "cpu" => Ok(Compute::Cpu),
+            "gpu" if cfg!(feature = "gpu") => Ok(Compute::Gpu),
+            "gpu" => Err("--device gpu: this build has no GPU support (rebuild with `cargo build --release --features gpu`)".into()),
+            other => Err(format!("--device {other:?}: expected cpu or gpu")),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Compute::Cpu => "cpu",
+            Compute::Gpu => "gpu",
+        }
+    }
+}
+
+/// Select where later fits train.
+pub fn select(compute: Compute) {
+    SELECTED.store(compute as u8, Ordering::Relaxed);
+}
+
+pub fn selected() -> Compute {
+    if SELECTED.load(Ordering::Relaxed) == Compute::Gpu as u8 { Compute::Gpu } else { Compute::Cpu }
+}
+
+/// The device fits train on (with autodiff).
+pub fn training_device() -> Device {
+    match selected() {
+        Compute::Cpu => crate::cpu_training_device(),
+        Compute::Gpu => gpu_device().autodiff(),
+    }
+}
+
+#[cfg(feature = "gpu")]
+fn gpu_device() -> Device {
+    // The best adapter wgpu finds (CUBECL_WGPU_DEFAULT_DEVICE overrides it).
+    Device::wgpu(burn::tensor::DeviceKind::DefaultDevice)
+}
+
+#[cfg(not(feature = "gpu"))]
+fn gpu_device() -> Device {
+    // Unreachable: `Compute::parse` refuses gpu in this build and `select` is only given parsed
+    // values; fall back to the CPU rather than panic.
+    crate::cpu_device()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Compute;
+
+    #[test]
+    fn device_names_parse_and_a_cpu_build_refuses_gpu_with_the_reason() {
+        assert_eq!(Compute::parse("cpu"), Ok(Compute::Cpu));
+        assert!(Compute::parse("tpu").unwrap_err().contains("expected cpu or gpu"));
+        if cfg!(feature = "gpu") {
+            assert_eq!(Compute::parse("gpu"), Ok(Compute::Gpu));
+        } else {
+            assert!(Compute::parse("gpu").unwrap_err().contains("--features gpu"));
+        }
+    }
+}
