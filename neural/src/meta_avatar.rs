@@ -110,7 +110,7 @@ impl MetaAvatar {
         let device = crate::compute::training_device();
         let prior = capture.sign_prior();
         let mut optimisers = HyperOptimisers::default();
-        let mut model = init.network().to_device(&device);
+        let mut model = init.network().fork(&device);
         let every = chunks.as_ref().map_or(options.steps, |(every, _)| (*every).clamp(1, options.steps.max(1)));
         let mut done = 0;
         while done < options.steps && !cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {

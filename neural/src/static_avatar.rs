@@ -68,7 +68,7 @@ impl StaticAvatar {
         let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
         let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
         let device = crate::compute::training_device();
-        let model = init.unwrap_or_else(|| siren.init(options.seed, &device)).to_device(&device);
+        let model = init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device);
         let prior = capture.sign_prior();
         let model = fit_sdf(model, &points, &normals, options, &device, Some(&prior), cancel, progress);
         let report = FitReport { frames: capture.frames.len(), points: points.len(), dropped: capture.dropped, warnings: capture.warnings.clone() };

@@ -175,7 +175,7 @@ impl FitConfig {
     /// Seconds on two cores: for tests and a quick look. The MetaAvatar starts from the
     /// meta-model, so a few small steps already give a body-shaped, posable avatar.
     pub fn tiny() -> Self {
-        FitConfig { frames: 4, steps: 20, batch: 300, off_surface: 300, preview_every: 10, preview_resolution: 40, final_resolution: 64, ..FitConfig::default() }
+        FitConfig { frames: 4, steps: 20, batch: 300, off_surface: 300, preview_every: 10, preview_resolution: 40, final_resolution: 96, ..FitConfig::default() }
     }
 
     /// A rough static SDF from scratch in seconds.
