@@ -77,6 +77,71 @@ pub fn bench_report() -> String {
         }
         Err(e) => out += &format!("| fine-tune | | {e:#} |\n"),
     }
+    out += &viewport_row();
     out += "| start to first frame, start to demo loaded and posed | | a real window: `avatar-studio --timing` (see README) |\n";
     out
+}
+
+/// The viewport's frame rate with a 50k-triangle avatar: the studio's own renderer (offscreen
+/// 4x MSAA target, depth, lit shading) drawing a 1280 x 800 viewport headless, on whichever
+/// adapter wgpu picks (`WGPU_BACKEND` chooses the API; the row names the adapter, so a GPU
+/// machine's run is told apart from lavapipe's). Each frame is submitted and waited for.
+pub fn viewport_row() -> String {
+    use crate::studio::camera::OrbitCamera;
+    use crate::studio::viewport::{Scene, Shading, ViewportResources};
+    use eframe::egui_wgpu::wgpu;
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = match pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions { power_preference: wgpu::PowerPreference::HighPerformance, ..Default::default() })) {
+        Ok(a) => a,
+        Err(e) => return format!("| viewport frame rate | | no wgpu adapter: {e} |\n"),
+    };
+    let info = adapter.get_info();
+    let (device, queue) = match pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())) {
+        Ok(d) => d,
+        Err(e) => return format!("| viewport frame rate | | no device on {}: {e} |\n", info.name),
+    };
+    // The shipped meta-SDF meshed finely enough for about 50k triangles.
+    let siren = avatar_neural::MetaModel::shipped().static_siren();
+    let (w, b) = siren.params();
+    let sdf = avatar_neural::siren_eval::SirenEval::from_tensors(&w, &b);
+    let options = avatar_core::mesh::extract::ExtractOptions::new(glam::Vec3::splat(-1.0), glam::Vec3::splat(1.0), 230);
+    let mesh = match avatar_core::mesh::extract::extract(|p: &[glam::Vec3]| sdf.sdf(&p.iter().map(|q| q.to_array()).collect::<Vec<_>>()), &options) {
+        Ok(e) => e.mesh,
+        Err(e) => return format!("| viewport frame rate | | meshing failed: {e} |\n"),
+    };
+    let mut scene = Scene::new();
+    scene.add_mesh(&mesh.positions, &mesh.faces, [0.85, 0.87, 0.9]);
+    scene.add_grid(glam::Vec3::ZERO, -1.0, 2.0, 0.2);
+    let size = [1280u32, 800u32];
+    let mut camera = OrbitCamera::default();
+    if let Some((lo, hi)) = scene.bounds() {
+        camera.frame(lo, hi);
+    }
+    let mut resources = ViewportResources::new(&device, wgpu::TextureFormat::Rgba8Unorm);
+    let mut frame = |yaw: f32| {
+        camera.yaw = yaw; // a turning camera: nothing is cached between frames but the buffers
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench frame") });
+        resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), Shading::Lit, 3.0, size);
+        queue.submit([encoder.finish()]);
+        device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ())
+    };
+    for i in 0..3 {
+        if let Err(e) = frame(i as f32 * 0.01) {
+            return format!("| viewport frame rate | | {e} |\n");
+        }
+    }
+    let (frames, t) = (60, Instant::now());
+    for i in 0..frames {
+        if let Err(e) = frame(i as f32 * 0.02) {
+            return format!("| viewport frame rate | | {e} |\n");
+        }
+    }
+    let fps = frames as f64 / t.elapsed().as_secs_f64();
+    format!(
+        "| viewport: {} triangles at 1280 x 800, 4x MSAA, headless on {} ({:?}, {:?}) | {fps:.1} fps | target: 60 fps on a GPU |\n",
+        mesh.faces.len(),
+        info.name,
+        info.device_type,
+        info.backend
+    )
 }

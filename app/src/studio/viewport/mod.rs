@@ -215,7 +215,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
 }
 
 impl ViewportResources {
-    fn new(device: &wgpu::Device, target_format: wgpu::TextureFormat) -> ViewportResources {
+    pub fn new(device: &wgpu::Device, target_format: wgpu::TextureFormat) -> ViewportResources {
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("viewport"), source: wgpu::ShaderSource::Wgsl(include_str!("shaders.wgsl").into()) });
         let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("viewport globals"),
@@ -312,6 +312,73 @@ impl ViewportResources {
         ViewportResources { mesh_pipeline, point_pipeline, line_pipeline, overlay_point_pipeline, overlay_line_pipeline, blit_pipeline, blit_layout, globals, globals_group, targets: None, uploaded: None }
     }
 
+    /// Draw the scene into the offscreen MSAA target (resolved into `resolved`, which `paint`
+    /// blits into egui's pass). Used by the paint callback and by the headless benchmark.
+    #[allow(clippy::too_many_arguments)]
+    pub fn render(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, scene: &Scene, camera: &CameraMatrices, shading: Shading, point_size: f32, size: [u32; 2]) {
+        self.ensure_targets(device, size);
+        self.upload(device, queue, scene);
+        let mode = match shading {
+            Shading::Lit => 0.0,
+            Shading::Normals => 1.0,
+        };
+        let globals = Globals {
+            view_proj: (camera.proj * camera.view).to_cols_array_2d(),
+            view: camera.view.to_cols_array_2d(),
+            params: [mode, point_size, size[0] as f32, size[1] as f32],
+            light: [0.0, 1.0, 0.0, 0.0],
+        };
+        queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
+        let (Some(targets), Some(up)) = (&self.targets, &self.uploaded) else {
+            return;
+        };
+        let [r, g, b] = BACKGROUND;
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("viewport scene"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &targets.msaa,
+                depth_slice: None,
+                resolve_target: Some(&targets.resolved),
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }), store: wgpu::StoreOp::Discard },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &targets.depth,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &self.globals_group, &[]);
+        if let (Some(v), Some(i)) = (&up.vertices, &up.indices) {
+            pass.set_pipeline(&self.mesh_pipeline);
+            pass.set_vertex_buffer(0, v.slice(..));
+            pass.set_index_buffer(i.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..up.index_count, 0, 0..1);
+        }
+        if let Some(l) = &up.lines {
+            pass.set_pipeline(&self.line_pipeline);
+            pass.set_vertex_buffer(0, l.slice(..));
+            pass.draw(0..up.line_count, 0..1);
+        }
+        if let Some(p) = &up.points {
+            pass.set_pipeline(&self.point_pipeline);
+            pass.set_vertex_buffer(0, p.slice(..));
+            pass.draw(0..4, 0..up.point_count);
+        }
+        if let Some(l) = &up.overlay_lines {
+            pass.set_pipeline(&self.overlay_line_pipeline);
+            pass.set_vertex_buffer(0, l.slice(..));
+            pass.draw(0..up.overlay_line_count, 0..1);
+        }
+        if let Some(p) = &up.overlay_points {
+            pass.set_pipeline(&self.overlay_point_pipeline);
+            pass.set_vertex_buffer(0, p.slice(..));
+            pass.draw(0..4, 0..up.overlay_point_count);
+        }
+    }
+
     fn ensure_targets(&mut self, device: &wgpu::Device, size: [u32; 2]) {
         if self.targets.as_ref().is_some_and(|t| t.size == size) {
             return;
@@ -371,69 +438,8 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
         encoder: &mut wgpu::CommandEncoder,
         resources: &mut egui_wgpu::CallbackResources,
     ) -> Vec<wgpu::CommandBuffer> {
-        let Some(res) = resources.get_mut::<ViewportResources>() else {
-            return Vec::new();
-        };
-        res.ensure_targets(device, self.size);
-        res.upload(device, queue, &self.scene);
-        let mode = match self.shading {
-            Shading::Lit => 0.0,
-            Shading::Normals => 1.0,
-        };
-        let globals = Globals {
-            view_proj: (self.camera.proj * self.camera.view).to_cols_array_2d(),
-            view: self.camera.view.to_cols_array_2d(),
-            params: [mode, self.point_size, self.size[0] as f32, self.size[1] as f32],
-            light: [0.0, 1.0, 0.0, 0.0],
-        };
-        queue.write_buffer(&res.globals, 0, bytemuck::bytes_of(&globals));
-        let (Some(targets), Some(up)) = (&res.targets, &res.uploaded) else {
-            return Vec::new();
-        };
-        let [r, g, b] = BACKGROUND;
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("viewport scene"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &targets.msaa,
-                depth_slice: None,
-                resolve_target: Some(&targets.resolved),
-                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }), store: wgpu::StoreOp::Discard },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &targets.depth,
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_bind_group(0, &res.globals_group, &[]);
-        if let (Some(v), Some(i)) = (&up.vertices, &up.indices) {
-            pass.set_pipeline(&res.mesh_pipeline);
-            pass.set_vertex_buffer(0, v.slice(..));
-            pass.set_index_buffer(i.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..up.index_count, 0, 0..1);
-        }
-        if let Some(l) = &up.lines {
-            pass.set_pipeline(&res.line_pipeline);
-            pass.set_vertex_buffer(0, l.slice(..));
-            pass.draw(0..up.line_count, 0..1);
-        }
-        if let Some(p) = &up.points {
-            pass.set_pipeline(&res.point_pipeline);
-            pass.set_vertex_buffer(0, p.slice(..));
-            pass.draw(0..4, 0..up.point_count);
-        }
-        if let Some(l) = &up.overlay_lines {
-            pass.set_pipeline(&res.overlay_line_pipeline);
-            pass.set_vertex_buffer(0, l.slice(..));
-            pass.draw(0..up.overlay_line_count, 0..1);
-        }
-        if let Some(p) = &up.overlay_points {
-            pass.set_pipeline(&res.overlay_point_pipeline);
-            pass.set_vertex_buffer(0, p.slice(..));
-            pass.draw(0..4, 0..up.overlay_point_count);
+        if let Some(res) = resources.get_mut::<ViewportResources>() {
+            res.render(device, queue, encoder, &self.scene, &self.camera, self.shading, self.point_size, self.size);
         }
         Vec::new()
     }
