@@ -53,6 +53,12 @@ pub struct Args {
     /// Marching-cubes resolution of the neural rows' meshes.
     #[arg(long, default_value_t = 128)]
     resolution: usize,
+    /// Fine-tuning Adam rate of the hypernetwork's heads (default: `fit`'s).
+    #[arg(long)]
+    lr_heads: Option<f64>,
+    /// Weight of the residual regulariser in fine-tuning (default: `fit`'s).
+    #[arg(long)]
+    residual_weight: Option<f32>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -74,7 +80,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut rows: Vec<Box<dyn Predictor>> = vec![Box::new(NakedBody::new(body.clone()))];
     if !args.rows.is_empty() {
         let model = std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?);
-        let options = HyperFitOptions { steps: args.steps.max(1), seed: args.seed, ..HyperFitOptions::default() };
+        let defaults = HyperFitOptions::default();
+        let options = HyperFitOptions {
+            steps: args.steps.max(1),
+            seed: args.seed,
+            lr_heads: args.lr_heads.unwrap_or(defaults.lr_heads),
+            residual_weight: args.residual_weight.unwrap_or(defaults.residual_weight),
+            ..defaults
+        };
         for name in &args.rows {
             let kind = match name.as_str() {
                 "meta" => RowKind::MetaLearned,
