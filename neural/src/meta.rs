@@ -65,7 +65,9 @@ impl Default for MetaOptions {
             hyper_iterations: 400,
             hyper_max_task: 8,
             hyper_inner_epochs: 4,
-            hyper_inner: HyperFitOptions { poses_per_step: 4, surface_per_pose: 500, off_per_pose: 500, ..HyperFitOptions::default() },
+            // The inner rates the shipped model was meta-trained with (heads 1e-5), pinned here so
+            // fine-tuning's defaults can change without touching meta-training or its checkpoints.
+            hyper_inner: HyperFitOptions { poses_per_step: 4, surface_per_pose: 500, off_per_pose: 500, lr_heads: 1e-5, ..HyperFitOptions::default() },
             hyper_outer: RatesConfig { heads: 1e-5, encoder: 1e-4, sdf: 1e-5 },
             points_per_step: 1000,
             checkpoint_every: 10,
