@@ -65,6 +65,16 @@ impl HyperConfig {
         }
     }
 
+    /// Refuse sizes no network of this build has (a corrupt or hostile file header): checked
+    /// before any size arithmetic, which then cannot overflow.
+    pub fn check(&self) -> Result<(), String> {
+        self.siren.check()?;
+        if !(1..=4096).contains(&self.head_hidden) || self.rank.is_some_and(|r| !(1..=4096).contains(&r)) {
+            return Err(format!("hypernetwork head width {} or rank {:?} out of range (1-4096)", self.head_hidden, self.rank));
+        }
+        Ok(())
+    }
+
     /// Parameters of the whole hypernetwork: encoder, heads, low-rank bases and base SDF.
     pub fn num_params(&self) -> usize {
         self.encoder_params() + self.head_params() + self.siren.num_params()

@@ -157,6 +157,7 @@ impl MetaAvatar {
         let path = path.as_ref();
         check_avatar_header(path, META_AVATAR_KIND)?;
         let (header, weights): (MetaAvatarHeader, Vec<f32>) = weights_file::read(path)?;
+        header.config.check().map_err(|e| Error::file(path, e))?;
         let expected = header.config.num_params();
         if weights.len() != expected {
             return Err(Error::file(path, format!("truncated avatar file: {} weights, expected {expected}", weights.len())));

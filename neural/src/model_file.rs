@@ -77,6 +77,7 @@ impl MetaModel {
         if header.format != MODEL_FORMAT || header.version != MODEL_VERSION {
             return Err(Error::file(origin, format!("meta-model format {:?} version {} is not supported by this build (it reads {MODEL_FORMAT:?} version {MODEL_VERSION})", header.format, header.version)));
         }
+        header.config.check().map_err(|e| Error::file(origin, e))?;
         if header.hyper_params != header.config.num_params() || header.static_params != header.config.siren.num_params() {
             return Err(Error::file(origin, "the header's parameter counts do not match its network configuration"));
         }

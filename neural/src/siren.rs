@@ -45,6 +45,14 @@ impl SirenConfig {
         w
     }
 
+    /// Refuse sizes no network of this build has (checked before any size arithmetic).
+    pub fn check(&self) -> Result<(), String> {
+        if !(1..=4096).contains(&self.hidden) || !(1..=64).contains(&self.layers) {
+            return Err(format!("SDF network {} x {} out of range (1-64 layers of 1-4096)", self.layers, self.hidden));
+        }
+        Ok(())
+    }
+
     pub fn num_params(&self) -> usize {
         self.widths().windows(2).map(|p| p[0] * p[1] + p[1]).sum()
     }

@@ -111,6 +111,7 @@ impl StaticAvatar {
         let path = path.as_ref();
         check_avatar_header(path, "static-sdf")?;
         let (header, weights): (AvatarHeader, Vec<f32>) = weights_file::read(path)?;
+        header.siren.check().map_err(|e| Error::file(path, e))?;
         let expected = header.siren.num_params();
         if weights.len() != expected {
             return Err(Error::file(path, format!("truncated avatar file: {} weights, expected {expected}", weights.len())));

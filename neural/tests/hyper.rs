@@ -181,6 +181,13 @@ fn a_saved_and_reloaded_meta_avatar_gives_identical_sdf_values_and_bad_files_are
     std::fs::write(&cut, &bytes[..bytes.len() - 40]).unwrap();
     let err = MetaAvatar::load(&cut).err().unwrap().to_string();
     assert!(err.contains("cut.avatar") && err.contains("truncated"), "{err}");
+    // Absurd layer sizes in the header: a clean error naming the file, no overflow.
+    let mut absurd = avatar.header.clone();
+    absurd.config.siren.hidden = usize::MAX / 3;
+    let p = dir.path().join("absurd.avatar");
+    avatar_neural::weights_file::write(&p, &absurd, &[0.0f32; 16]).unwrap();
+    let err = MetaAvatar::load(&p).err().unwrap().to_string();
+    assert!(err.contains("absurd.avatar") && err.contains("out of range"), "{err}");
     // A static avatar is not a meta avatar.
     let err = StaticAvatar::load(&path).err().unwrap().to_string();
     assert!(err.contains("me.avatar") && err.contains("meta-hyper"), "{err}");
