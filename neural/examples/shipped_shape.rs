@@ -9,8 +9,7 @@ fn main() {
     let path = std::env::args().nth(1);
     let model = MetaModel::load_or_shipped(path.as_deref().map(std::path::Path::new)).expect("a meta-model");
     println!("{}", model.header.provenance);
-    let device = cpu_device();
-    let sdf = model.static_siren();
-    let e = extract(|p: &[Vec3]| sdf_values(&sdf, p, &device), &ExtractOptions::new(Vec3::splat(-1.0), Vec3::splat(1.0), 48)).expect("extraction");
+    let sdf = siren_eval::SirenEval::of(&model.static_siren());
+    let e = extract(|p: &[Vec3]| sdf.sdf(&p.iter().map(|q| q.to_array()).collect::<Vec<_>>()), &ExtractOptions::new(Vec3::splat(-1.0), Vec3::splat(1.0), 48)).expect("extraction");
     println!("static meta-SDF at 48^3: {} vertices, bounds {:?}", e.mesh.positions.len(), e.mesh.bounds());
 }

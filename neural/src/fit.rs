@@ -104,7 +104,6 @@ pub(crate) fn gauss(rng: &mut ChaCha8Rng) -> f32 {
 }
 
 /// SDF values of points (no gradient), through the fast evaluation path (`siren_eval`).
-pub fn sdf_values(model: &Siren, points: &[Vec3], _device: &Device) -> Vec<f32> {
-    let (w, b) = model.params();
-    crate::siren_eval::SirenEval::from_tensors(&w, &b).sdf(&points.iter().map(|p| p.to_array()).collect::<Vec<_>>())
+pub fn sdf_values(model: &Siren, points: &[Vec3]) -> Vec<f32> {
+    crate::siren_eval::SirenEval::of(model).sdf(&points.iter().map(|p| p.to_array()).collect::<Vec<_>>())
 }

@@ -46,6 +46,12 @@ impl SirenEval {
         SirenEval { layers }
     }
 
+    /// From a SIREN module (a static SDF, the meta-SDF, a network being trained).
+    pub fn of(siren: &crate::siren::Siren) -> SirenEval {
+        let (w, b) = siren.params();
+        SirenEval::from_tensors(&w, &b)
+    }
+
     fn widest(&self) -> usize {
         self.layers.iter().map(|l| l.fan_out.max(l.fan_in)).max().unwrap_or(1)
     }
@@ -183,6 +189,10 @@ pub struct MetricSdf {
 }
 
 impl MetricSdf {
+    pub fn of(siren: &crate::siren::Siren, normalisation: Normalisation) -> MetricSdf {
+        MetricSdf { siren: SirenEval::of(siren), normalisation }
+    }
+
     fn unit(&self, points: &[Vec3]) -> Vec<[f32; 3]> {
         points.iter().map(|p| self.normalisation.to_unit(*p).to_array()).collect()
     }

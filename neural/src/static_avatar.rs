@@ -4,7 +4,8 @@
 //! the static SDF with a pose-conditioned one (issue 6).
 
 use crate::capture_points::CapturePoints;
-use crate::fit::{fit_sdf, sdf_values, FitOptions, Progress};
+use crate::fit::{fit_sdf, FitOptions, Progress};
+use crate::siren_eval::MetricSdf;
 use crate::params::{flatten, load_flat};
 use crate::siren::{Siren, SirenConfig};
 use crate::weights_file;
@@ -15,7 +16,6 @@ use avatar_core::export::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
 use burn::module::Module;
-use burn::tensor::Device;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -38,10 +38,12 @@ pub struct AvatarHeader {
 
 pub struct StaticAvatar {
     pub header: AvatarHeader,
+    /// The fitted weights (saved as they are).
     pub model: Siren,
+    /// `model` prepared for evaluation once, with the normalisation: metres in and out.
+    sdf: MetricSdf,
     body: BodyModel,
     field: SkinningField,
-    device: Device,
     /// Marching-cubes resolution of the canonical mesh (cells along the longest side).
     pub resolution: usize,
 }
@@ -88,7 +90,9 @@ impl StaticAvatar {
             body_model: "open_body".into(),
             field_cells: capture.field_cells,
         };
-        StaticAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body: capture.body.clone(), field: capture.field.clone(), device: crate::cpu_device(), resolution: 128 }
+        let model = model.valid().to_device(&crate::cpu_device());
+        let sdf = MetricSdf::of(&model, header.normalisation);
+        StaticAvatar { header, model, sdf, body: capture.body.clone(), field: capture.field.clone(), resolution: 128 }
     }
 
     /// The skinning field of the avatar's body shape.
@@ -98,9 +102,7 @@ impl StaticAvatar {
 
     /// SDF in metres at canonical points (metres).
     pub fn sdf_metres(&self, points: &[Vec3]) -> Vec<f32> {
-        let n = self.header.normalisation;
-        let unit: Vec<Vec3> = points.iter().map(|p| n.to_unit(*p)).collect();
-        sdf_values(&self.model, &unit, &self.device).into_iter().map(|f| f * n.metres_per_unit()).collect()
+        self.sdf.sdf(points)
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
@@ -120,7 +122,8 @@ impl StaticAvatar {
         let model = load_flat(header.siren.init(0, &device), &weights).map_err(|e| Error::file(path, e))?;
         let body = open_body_ref().clone();
         let field = avatar_field(&body, &header.betas, header.field_cells)?;
-        Ok(StaticAvatar { header, model, body, field, device, resolution: 128 })
+        let sdf = MetricSdf::of(&model, header.normalisation);
+        Ok(StaticAvatar { header, model, sdf, body, field, resolution: 128 })
     }
 }
 

@@ -55,7 +55,7 @@ fn at_initialisation_every_pose_gets_the_meta_sdf() {
     let x = probe(64);
     for config in [tiny(Some(4), PoseEncoding::Hierarchical), tiny(None, PoseEncoding::Hierarchical), tiny(Some(4), PoseEncoding::Quaternion)] {
         let meta = config.siren.init(3, &device);
-        let expected = sdf_values(&meta, &x, &device);
+        let expected = sdf_values(&meta, &x);
         let net = config.init(meta, 5, &device);
         for p in poses() {
             let input = config.encoding.input(&p, &rest_joints, &norm);

@@ -68,9 +68,7 @@ fn projection_lands_on_the_zero_level_set_of_the_shipped_meta_sdf() {
     // 0.01-0.02) along their normals, in and out, must land back on it in three Newton steps.
     use avatar_core::mesh::extract::{extract, ExtractOptions};
     use glam::Vec3;
-    let siren = avatar_neural::MetaModel::shipped().static_siren();
-    let (w, b) = siren.params();
-    let fast = SirenEval::from_tensors(&w, &b);
+    let fast = SirenEval::of(&avatar_neural::MetaModel::shipped().static_siren());
     let options = ExtractOptions::new(Vec3::splat(-1.0), Vec3::splat(1.0), 48);
     let mesh = extract(|p: &[Vec3]| fast.sdf(&p.iter().map(|q| q.to_array()).collect::<Vec<_>>()), &options).unwrap().mesh;
     assert!(mesh.positions.len() > 500, "the meta-SDF has a surface ({} vertices)", mesh.positions.len());

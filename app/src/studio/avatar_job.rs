@@ -11,7 +11,8 @@ use avatar_core::export::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
 use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::{fit_sdf, sdf_values, AnyAvatar, FitOptions, HyperFitOptions, Init, MetaAvatar, MetaModel, SirenConfig, StaticAvatar};
+use avatar_neural::siren_eval::MetricSdf;
+use avatar_neural::{fit_sdf, AnyAvatar, FitOptions, HyperFitOptions, Init, MetaAvatar, MetaModel, SirenConfig, StaticAvatar};
 use crossbeam_channel::Receiver;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -362,11 +363,8 @@ fn fit_static(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Re
         model = fit_sdf(model, &points, &normals, &options, &device, Some(&prior), Some(cancel), &mut progress);
         done += n;
         if cfg.preview_every > 0 && done < cfg.steps && !cancel.load(Ordering::Relaxed) {
-            let f = |p: &[Vec3]| -> Vec<f32> {
-                let unit: Vec<Vec3> = p.iter().map(|q| norm.to_unit(*q)).collect();
-                sdf_values(&model, &unit, &device).into_iter().map(|v| v * norm.metres_per_unit()).collect()
-            };
-            if let Ok(mesh) = extract(f, &ExtractOptions::new(lo, hi, cfg.preview_resolution.clamp(8, 256))).map(|e| e.mesh) {
+            let sdf = MetricSdf::of(&model, norm);
+            if let Ok(mesh) = extract(|p: &[Vec3]| sdf.sdf(p), &ExtractOptions::new(lo, hi, cfg.preview_resolution.clamp(8, 256))).map(|e| e.mesh) {
                 let weights = mesh.positions.iter().map(|&p| capture.field.weights_at(p)).collect();
                 send(JobEvent::Preview { step: done, mesh: Arc::new(CanonicalMesh { mesh, weights }) });
             }

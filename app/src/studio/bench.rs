@@ -101,9 +101,7 @@ pub fn viewport_row() -> String {
         Err(e) => return format!("| viewport frame rate | | no device on {}: {e} |\n", info.name),
     };
     // The shipped meta-SDF meshed finely enough for about 50k triangles.
-    let siren = avatar_neural::MetaModel::shipped().static_siren();
-    let (w, b) = siren.params();
-    let sdf = avatar_neural::siren_eval::SirenEval::from_tensors(&w, &b);
+    let sdf = avatar_neural::siren_eval::SirenEval::of(&avatar_neural::MetaModel::shipped().static_siren());
     let options = avatar_core::mesh::extract::ExtractOptions::new(glam::Vec3::splat(-1.0), glam::Vec3::splat(1.0), 230);
     let mesh = match avatar_core::mesh::extract::extract(|p: &[glam::Vec3]| sdf.sdf(&p.iter().map(|q| q.to_array()).collect::<Vec<_>>()), &options) {
         Ok(e) => e.mesh,

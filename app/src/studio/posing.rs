@@ -19,9 +19,6 @@ pub enum Posable {
     PoseDependent { avatar: Arc<dyn StudioAvatar>, reference: Arc<CanonicalMesh> },
 }
 
-/// Newton steps (at most) of the projection onto a pose's surface: the exporter's, so the
-/// studio shows what the export holds. A point stops as soon as it is on the surface.
-pub const PROJECTION_STEPS: usize = 4;
 
 pub struct PoseRequest {
     pub id: u64,
@@ -120,7 +117,9 @@ pub fn pose(req: &PoseRequest) -> Result<PosedMesh, String> {
     let canonical: &CanonicalMesh = match &req.posable {
         Posable::Mesh(m) => m,
         Posable::PoseDependent { avatar, reference } => {
-            let projected = avatar.source().project(&req.params, &reference.mesh.positions, PROJECTION_STEPS).map_err(|e| e.to_string())?;
+            // The exporter's Newton steps, so the studio shows what the export holds.
+            let steps = avatar_core::export::ExportOptions::default().newton_steps;
+            let projected = avatar.source().project(&req.params, &reference.mesh.positions, steps).map_err(|e| e.to_string())?;
             let weights = avatar.source().skinning_weights(&projected);
             owned = CanonicalMesh { mesh: avatar_core::mesh::TriMesh::new(projected, reference.mesh.faces.clone()), weights };
             &owned
