@@ -67,7 +67,7 @@ impl Predictor for NeuralRow {
             RowKind::StaticMetaSdf => {
                 // The same points per step as the hypernetwork rows see (all poses pooled).
                 let per_step = self.options.surface_per_pose * self.options.poses_per_step;
-                let options = FitOptions { steps: self.options.steps, learning_rate: self.options.lr_sdf, batch: per_step, off_surface: per_step, seed: self.options.seed, ..FitOptions::default() };
+                let options = FitOptions { steps: self.options.steps, learning_rate: self.options.lr_sdf, batch: per_step, off_surface: per_step, weights: self.options.weights, seed: self.options.seed, ..FitOptions::default() };
                 let (mut avatar, _) = StaticAvatar::fit_points(&capture, self.model.header.config.siren, Some(self.model.static_siren()), &options, None, &mut progress);
                 avatar.resolution = self.resolution;
                 let canonical = avatar.canonical_mesh(&BodyParams::default())?;

@@ -233,6 +233,31 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
     Ok(path)
 }
 
+/// Start a run at Alg. 2 with the static meta-SDF of an existing model (Alg. 1 skipped): writes
+/// an Alg. 1-complete checkpoint into `out`, which `meta_train` then resumes from. Refused when
+/// `out` already holds a checkpoint (that run resumes as it is) or the model's SDF has another
+/// size. Lets Alg. 2 variants share one Alg. 1 result, as the reference's stage configs do.
+pub fn start_from_static(out: &Path, options: &MetaOptions, model: &MetaModel, model_path: &Path) -> Result<()> {
+    let ckpt_path = out.join(CHECKPOINT);
+    if ckpt_path.exists() {
+        return Err(Error::file(&ckpt_path, "the output folder already holds a checkpoint: resume it without --sdf-from, or use another --out"));
+    }
+    if model.header.config.siren != options.config.siren {
+        return Err(Error::file(model_path, "its static meta-SDF has another network size than this run's preset"));
+    }
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let ck = Checkpoint {
+        format: "avatar-studio-checkpoint".into(),
+        version: 1,
+        kind: "meta-checkpoint".into(),
+        options: options.clone(),
+        stage: "sdf".into(),
+        iteration: options.sdf_iterations,
+        seconds: 0.0,
+    };
+    weights_file::write(&ckpt_path, &ck, &model.static_sdf)
+}
+
 /// The meta-SDF as a trainable SIREN on the training device.
 pub fn trainable_siren(config: &crate::siren::SirenConfig, flat: &[f32], seed: u64) -> std::result::Result<Siren, String> {
     load_flat(config.init(seed, &crate::compute::training_device()), flat)

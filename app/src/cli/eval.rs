@@ -3,9 +3,10 @@
 
 use anyhow::{bail, Context};
 use avatar_core::eval::dataset::EVAL_SUBJECT_SEEDS;
-use avatar_core::eval::{run as run_eval, EvalConfig, NakedBody, Predictor, Protocol};
+use avatar_core::eval::{run as run_eval, EvalConfig, NakedBody, Predictor, Protocol, StaticOutfit};
 use avatar_core::synth::Outfit;
 use avatar_neural::eval_rows::{NeuralRow, RowKind};
+use avatar_neural::loss::IgrWeights;
 use avatar_neural::{HyperFitOptions, MetaModel};
 use std::path::PathBuf;
 
@@ -37,8 +38,10 @@ pub struct Args {
     iou_resolution: usize,
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Neural rows to add: meta (MetaAvatar), scratch (same networks from scratch), static
-    /// (the static meta-SDF), comma-separated. Default: none (the reference rows only).
+    /// Rows to add: meta (MetaAvatar), scratch (same networks from scratch), static (the static
+    /// meta-SDF), outfit-static (the ground-truth outfit without its pose-dependent
+    /// deformation: what a perfect pose-independent avatar would score), comma-separated.
+    /// Default: none (the naked body and ground-truth rows only).
     #[arg(long, value_delimiter = ',')]
     rows: Vec<String>,
     /// Meta-learned model file (default: the shipped compact model).
@@ -56,6 +59,15 @@ pub struct Args {
     /// Fine-tuning Adam rate of the hypernetwork's heads (default: `fit`'s).
     #[arg(long)]
     lr_heads: Option<f64>,
+    /// Fine-tuning Adam rate of the bone encoder (default: `fit`'s).
+    #[arg(long)]
+    lr_encoder: Option<f64>,
+    /// Fine-tuning Adam rate of the SDF's base weights and of the static row (default: `fit`'s).
+    #[arg(long)]
+    lr_sdf: Option<f64>,
+    /// Weight of the normal term in fine-tuning, every neural row (default: `fit`'s).
+    #[arg(long)]
+    normal_weight: Option<f32>,
     /// Weight of the residual regulariser in fine-tuning (default: `fit`'s).
     #[arg(long)]
     residual_weight: Option<f32>,
@@ -78,25 +90,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     config.seed = args.seed;
     let body = avatar_core::body::open_body_ref();
     let mut rows: Vec<Box<dyn Predictor>> = vec![Box::new(NakedBody::new(body.clone()))];
-    if !args.rows.is_empty() {
-        let model = std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?);
-        let defaults = HyperFitOptions::default();
-        let options = HyperFitOptions {
-            steps: args.steps.max(1),
-            seed: args.seed,
-            lr_heads: args.lr_heads.unwrap_or(defaults.lr_heads),
-            residual_weight: args.residual_weight.unwrap_or(defaults.residual_weight),
-            ..defaults
+    let neural = args.rows.iter().any(|r| r != "outfit-static");
+    let model = if neural { Some(std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?)) } else { None };
+    let defaults = HyperFitOptions::default();
+    let options = HyperFitOptions {
+        steps: args.steps.max(1),
+        seed: args.seed,
+        lr_heads: args.lr_heads.unwrap_or(defaults.lr_heads),
+        lr_encoder: args.lr_encoder.unwrap_or(defaults.lr_encoder),
+        lr_sdf: args.lr_sdf.unwrap_or(defaults.lr_sdf),
+        residual_weight: args.residual_weight.unwrap_or(defaults.residual_weight),
+        weights: IgrWeights { normal: args.normal_weight.unwrap_or(defaults.weights.normal), ..defaults.weights },
+        ..defaults
+    };
+    for name in &args.rows {
+        let kind = match name.as_str() {
+            "meta" => RowKind::MetaLearned,
+            "scratch" => RowKind::FromScratch,
+            "static" => RowKind::StaticMetaSdf,
+            "outfit-static" => {
+                rows.push(Box::new(StaticOutfit::new(body.clone())));
+                continue;
+            }
+            other => bail!("unknown --rows entry {other:?}: use meta, scratch, static or outfit-static"),
         };
-        for name in &args.rows {
-            let kind = match name.as_str() {
-                "meta" => RowKind::MetaLearned,
-                "scratch" => RowKind::FromScratch,
-                "static" => RowKind::StaticMetaSdf,
-                other => bail!("unknown --rows entry {other:?}: use meta, scratch or static"),
-            };
-            rows.push(Box::new(NeuralRow::new(kind, model.clone(), options.clone(), args.max_frames.max(1), args.resolution.clamp(16, 512))));
-        }
+        let Some(model) = model.clone() else { bail!("no meta-model loaded") };
+        rows.push(Box::new(NeuralRow::new(kind, model, options.clone(), args.max_frames.max(1), args.resolution.clamp(16, 512))));
     }
     let t = std::time::Instant::now();
     let report = run_eval(body, &config, &mut rows, &|msg| eprintln!("eval: {msg}"))?;

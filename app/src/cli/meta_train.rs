@@ -2,7 +2,8 @@
 //! training subjects. Resumable: run the same command again after a kill.
 
 use anyhow::{bail, Context};
-use avatar_neural::meta::{meta_train, MetaOptions};
+use avatar_neural::meta::{meta_train, start_from_static, MetaOptions};
+use avatar_neural::MetaModel;
 use avatar_neural::meta_data::{MetaData, MetaDataConfig};
 use avatar_neural::HyperConfig;
 use std::io::Write;
@@ -34,6 +35,23 @@ pub struct Args {
     /// Alg. 1's outer Adam learning rate.
     #[arg(long, default_value_t = 1e-4)]
     sdf_outer_lr: f64,
+    /// Skip Alg. 1: start Alg. 2 from this meta-model's static meta-SDF (a fresh --out only).
+    #[arg(long)]
+    sdf_from: Option<PathBuf>,
+    /// Alg. 2's inner Adam rates (heads and low-rank bases; bone encoder; base SDF) and outer
+    /// rates (default: those of the shipped model).
+    #[arg(long)]
+    hyper_inner_lr_heads: Option<f64>,
+    #[arg(long)]
+    hyper_inner_lr_encoder: Option<f64>,
+    #[arg(long)]
+    hyper_inner_lr_sdf: Option<f64>,
+    #[arg(long)]
+    hyper_outer_lr_heads: Option<f64>,
+    #[arg(long)]
+    hyper_outer_lr_encoder: Option<f64>,
+    #[arg(long)]
+    hyper_outer_lr_sdf: Option<f64>,
     /// cpu, or gpu in a build with the `gpu` feature (`cargo build --release --features gpu`).
     #[arg(long, default_value = "cpu")]
     device: String,
@@ -50,7 +68,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let body = avatar_core::body::open_body_ref();
     let data_config = MetaDataConfig { subjects: args.subjects, poses_per_group: args.poses, seed: args.seed, ..MetaDataConfig::default() };
     let data = MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?;
-    let options = MetaOptions { config, sdf_iterations: args.sdf_iterations, hyper_iterations: args.hyper_iterations, sdf_outer_lr: args.sdf_outer_lr, seed: args.seed, ..MetaOptions::default() };
+    let mut options = MetaOptions { config, sdf_iterations: args.sdf_iterations, hyper_iterations: args.hyper_iterations, sdf_outer_lr: args.sdf_outer_lr, seed: args.seed, ..MetaOptions::default() };
+    let inner = &mut options.hyper_inner;
+    inner.lr_heads = args.hyper_inner_lr_heads.unwrap_or(inner.lr_heads);
+    inner.lr_encoder = args.hyper_inner_lr_encoder.unwrap_or(inner.lr_encoder);
+    inner.lr_sdf = args.hyper_inner_lr_sdf.unwrap_or(inner.lr_sdf);
+    let outer = &mut options.hyper_outer;
+    outer.heads = args.hyper_outer_lr_heads.unwrap_or(outer.heads);
+    outer.encoder = args.hyper_outer_lr_encoder.unwrap_or(outer.encoder);
+    outer.sdf = args.hyper_outer_lr_sdf.unwrap_or(outer.sdf);
+    if let Some(from) = &args.sdf_from {
+        let model = MetaModel::load(from)?;
+        start_from_static(&args.out, &options, &model, from)?;
+        eprintln!("meta-train: Alg. 1 skipped, static meta-SDF from {}", from.display());
+    }
     eprintln!(
         "meta-train: {} preset ({} hypernetwork parameters), {} samples, {} + {} iterations, output {}",
         args.preset,

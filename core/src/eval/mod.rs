@@ -9,6 +9,6 @@ pub mod protocol;
 pub mod runner;
 pub mod sampling;
 
-pub use predictor::{FitData, NakedBody, Predictor};
+pub use predictor::{FitData, NakedBody, Predictor, StaticOutfit};
 pub use protocol::{Protocol, Shots};
 pub use runner::{run, EvalConfig, Report, RowResult};

@@ -5,6 +5,7 @@
 use crate::body::{BodyModel, BodyParams};
 use crate::error::Result;
 use crate::mesh::TriMesh;
+use crate::synth::{pose_surface, ClothedTemplate, Outfit};
 use std::path::Path;
 
 /// What a row is fine-tuned on: a capture folder of the protocol's fine-tuning frames.
@@ -12,6 +13,8 @@ pub struct FitData<'a> {
     pub capture_dir: &'a Path,
     pub body: &'a BodyModel,
     pub betas: &'a [f32],
+    /// The synthetic subject's outfit (reference rows that know the ground truth use it).
+    pub outfit: Outfit,
 }
 
 pub trait Predictor: Send + Sync {
@@ -52,5 +55,38 @@ impl Predictor for NakedBody {
         let mut p = params.clone();
         p.betas = self.betas.clone();
         Ok(self.body.mesh(self.body.pose(&p).vertices))
+    }
+}
+
+/// The ground-truth outfit without its pose-dependent deformation: the subject's clothed
+/// template at the rest pose (no folds, hem not lifted, panels hanging), posed by the
+/// generator's own skinning. The best any pose-independent avatar could do; the gap to the
+/// ground truth is what pose-dependent clothing is worth on the table's frames.
+pub struct StaticOutfit {
+    body: BodyModel,
+    template: Option<ClothedTemplate>,
+}
+
+impl StaticOutfit {
+    pub fn new(body: BodyModel) -> Self {
+        StaticOutfit { body, template: None }
+    }
+}
+
+impl Predictor for StaticOutfit {
+    fn name(&self) -> String {
+        "ground-truth outfit, pose-independent".into()
+    }
+    fn needs_capture(&self) -> bool {
+        false
+    }
+    fn fit(&mut self, data: &FitData) -> Result<()> {
+        self.template = Some(ClothedTemplate::build(data.body, data.betas, data.outfit));
+        Ok(())
+    }
+    fn predict(&self, params: &BodyParams) -> Result<TriMesh> {
+        let t = self.template.as_ref().ok_or_else(|| crate::error::Error::invalid("predict called before fit"))?;
+        let bones = self.body.pose(params).bones;
+        Ok(TriMesh::new(pose_surface(t, &t.vertices, &bones), t.faces.clone()))
     }
 }

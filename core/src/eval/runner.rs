@@ -134,7 +134,7 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
                 }
                 for (m, predictor) in predictors.iter_mut().enumerate() {
                     let t = Instant::now();
-                    predictor.fit(&FitData { capture_dir: &capture_dir, body, betas: &betas })?;
+                    predictor.fit(&FitData { capture_dir: &capture_dir, body, betas: &betas, outfit })?;
                     let predictor: &dyn Predictor = &**predictor;
                     let scores: Vec<FrameMetrics> = eval_poses
                         .par_iter()
