@@ -79,3 +79,27 @@ fn a_failing_row_is_an_error_and_fine_tuning_gets_a_capture() {
     let err = run(body, &config, &mut rows, &|_| {}).unwrap_err().to_string();
     assert!(err.contains("cannot predict"), "{err}");
 }
+
+#[test]
+fn the_pose_independent_outfit_is_exact_at_rest_and_misses_only_the_pose_dependent_clothing() {
+    let body = open_body_ref();
+    let betas = avatar_core::synth::subject_betas(body, 1001);
+    let mut row = StaticOutfit::new(body.clone());
+    let dir = tempfile::tempdir().unwrap();
+    row.fit(&FitData { capture_dir: dir.path(), body, betas: &betas, outfit: Outfit::PoloLoose }).unwrap();
+    let template = avatar_core::synth::ClothedTemplate::build(body, &betas, Outfit::PoloLoose);
+    let mask = metrics::clothed_mask(&template.vertex_joint, None).unwrap();
+    let score = |params: &BodyParams| {
+        let p = BodyParams { betas: betas.clone(), ..params.clone() };
+        let gt = runner::ground_truth_mesh(body, &template, &p, 1001);
+        metrics::evaluate_frame(&row.predict(&p).unwrap(), &gt, &mask, &metrics::MetricOptions { chamfer_samples: 500, iou_resolution: 32 }, 0).unwrap()
+    };
+    // At the rest pose there is no fold, lift or swing: the row is the ground truth.
+    let rest = score(&BodyParams::default());
+    assert!(rest.df_cm < 1e-3 && rest.nc > 0.999, "{rest:?}");
+    // A deep squat folds the trousers at the knees and lifts nothing else: close, not exact.
+    let squat = avatar_core::motion::clip_by_name("squat").unwrap();
+    let deep = squat.frames[squat.len() / 2].clone();
+    let s = score(&deep);
+    assert!(s.df_cm > 0.05 && s.df_cm < 1.5 && s.nc < 0.995 && s.nc > 0.8, "{s:?}");
+}

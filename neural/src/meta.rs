@@ -8,6 +8,7 @@
 use crate::fit::{fit_sdf, FitOptions};
 use crate::hyper::{HyperConfig, HyperNet};
 use crate::hyper_fit::{fit_hyper, GroupRates, HyperFitOptions, HyperOptimisers, PoseSample};
+use crate::loss::IgrWeights;
 use crate::meta_data::MetaData;
 use crate::model_file::MetaModel;
 use crate::params::{flatten, load_flat, reptile_gradients};
@@ -65,9 +66,18 @@ impl Default for MetaOptions {
             hyper_iterations: 400,
             hyper_max_task: 8,
             hyper_inner_epochs: 4,
-            // The inner rates the shipped model was meta-trained with (heads 1e-5), pinned here so
-            // fine-tuning's defaults can change without touching meta-training or its checkpoints.
-            hyper_inner: HyperFitOptions { poses_per_step: 4, surface_per_pose: 500, off_per_pose: 500, lr_heads: 1e-5, ..HyperFitOptions::default() },
+            // The inner fit the shipped model was meta-trained with (heads 1e-5, encoder 1e-4, with
+            // the normal term: exact surface normals), pinned here so fine-tuning's defaults can
+            // change without touching meta-training or its checkpoints.
+            hyper_inner: HyperFitOptions {
+                poses_per_step: 4,
+                surface_per_pose: 500,
+                off_per_pose: 500,
+                lr_heads: 1e-5,
+                lr_encoder: 1e-4,
+                weights: IgrWeights::default(),
+                ..HyperFitOptions::default()
+            },
             hyper_outer: RatesConfig { heads: 1e-5, encoder: 1e-4, sdf: 1e-5 },
             points_per_step: 1000,
             checkpoint_every: 10,

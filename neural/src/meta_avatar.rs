@@ -77,6 +77,9 @@ pub struct MetaAvatarHeader {
     pub steps: usize,
 }
 
+/// The bone encoder's Adam rate when fine-tuning from scratch (the reference's).
+pub const SCRATCH_ENCODER_RATE: f64 = 1e-4;
+
 pub struct MetaAvatar {
     pub header: MetaAvatarHeader,
     pub model: HyperNet,
@@ -111,6 +114,12 @@ impl MetaAvatar {
         let prior = capture.sign_prior();
         let mut optimisers = HyperOptimisers::default();
         let mut model = init.network().fork(&device);
+        // A frozen encoder keeps meta-learned pose features; a random one must learn (the
+        // from-scratch baseline trains it at the reference's 1e-4).
+        let options = &match init {
+            Init::Scratch { .. } if options.lr_encoder == 0.0 => HyperFitOptions { lr_encoder: SCRATCH_ENCODER_RATE, ..options.clone() },
+            _ => options.clone(),
+        };
         let every = chunks.as_ref().map_or(options.steps, |(every, _)| (*every).clamp(1, options.steps.max(1)));
         let mut done = 0;
         while done < options.steps && !cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {

@@ -131,7 +131,7 @@ fn a_short_fine_tune_lowers_the_loss_on_the_demo_capture() {
     let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
     let capture = CapturePoints::open(&demo, 3).unwrap();
     let config = HyperConfig { siren: SirenConfig { hidden: 32, layers: 3 }, head_hidden: 16, rank: Some(4), encoding: PoseEncoding::Hierarchical };
-    let options = HyperFitOptions { steps: 60, poses_per_step: 3, surface_per_pose: 400, off_per_pose: 400, seed: 1, ..HyperFitOptions::default() };
+    let options = HyperFitOptions { steps: 80, poses_per_step: 3, surface_per_pose: 400, off_per_pose: 400, seed: 1, ..HyperFitOptions::default() };
     let init = Init::Scratch { config, seed: 2 };
     // The loss of a fixed evaluation batch before and after.
     let samples = capture.pose_samples(config.encoding);

@@ -65,6 +65,12 @@ pub struct Args {
     /// Fine-tuning Adam rate of the SDF's base weights and of the static row (default: `fit`'s).
     #[arg(long)]
     lr_sdf: Option<f64>,
+    /// Poses per fine-tuning step of the hypernetwork rows, and surface (and as many
+    /// off-surface) points per pose (default: `fit`'s); the static row gets the product.
+    #[arg(long)]
+    poses_per_step: Option<usize>,
+    #[arg(long)]
+    points_per_pose: Option<usize>,
     /// Weight of the normal term in fine-tuning, every neural row (default: `fit`'s).
     #[arg(long)]
     normal_weight: Option<f32>,
@@ -100,6 +106,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         lr_encoder: args.lr_encoder.unwrap_or(defaults.lr_encoder),
         lr_sdf: args.lr_sdf.unwrap_or(defaults.lr_sdf),
         residual_weight: args.residual_weight.unwrap_or(defaults.residual_weight),
+        poses_per_step: args.poses_per_step.unwrap_or(defaults.poses_per_step).max(1),
+        surface_per_pose: args.points_per_pose.unwrap_or(defaults.surface_per_pose).max(1),
+        off_per_pose: args.points_per_pose.unwrap_or(defaults.off_per_pose).max(1),
         weights: IgrWeights { normal: args.normal_weight.unwrap_or(defaults.weights.normal), ..defaults.weights },
         ..defaults
     };

@@ -5,7 +5,7 @@
 use crate::body::{BodyModel, BodyParams};
 use crate::error::Result;
 use crate::mesh::TriMesh;
-use crate::synth::{pose_surface, ClothedTemplate, Outfit};
+use crate::synth::{canonical_surface, pose_surface, ClothedTemplate, Outfit, PoseFeatures};
 use std::path::Path;
 
 /// What a row is fine-tuned on: a capture folder of the protocol's fine-tuning frames.
@@ -59,17 +59,17 @@ impl Predictor for NakedBody {
 }
 
 /// The ground-truth outfit without its pose-dependent deformation: the subject's clothed
-/// template at the rest pose (no folds, hem not lifted, panels hanging), posed by the
-/// generator's own skinning. The best any pose-independent avatar could do; the gap to the
+/// surface at the zero pose (no folds, panels hanging), posed by the generator's own skinning. The best any pose-independent avatar could do; the gap to the
 /// ground truth is what pose-dependent clothing is worth on the table's frames.
 pub struct StaticOutfit {
     body: BodyModel,
-    template: Option<ClothedTemplate>,
+    /// The template and its canonical surface at the zero pose.
+    fitted: Option<(ClothedTemplate, Vec<glam::Vec3>)>,
 }
 
 impl StaticOutfit {
     pub fn new(body: BodyModel) -> Self {
-        StaticOutfit { body, template: None }
+        StaticOutfit { body, fitted: None }
     }
 }
 
@@ -81,12 +81,16 @@ impl Predictor for StaticOutfit {
         false
     }
     fn fit(&mut self, data: &FitData) -> Result<()> {
-        self.template = Some(ClothedTemplate::build(data.body, data.betas, data.outfit));
+        let template = ClothedTemplate::build(data.body, data.betas, data.outfit);
+        let zero = BodyParams { betas: data.betas.to_vec(), ..BodyParams::default() };
+        // No joint is bent at the zero pose, so the folds' per-subject phase does not matter.
+        let canonical = canonical_surface(&template, &PoseFeatures::of(&data.body.pose(&zero).bones), 0);
+        self.fitted = Some((template, canonical));
         Ok(())
     }
     fn predict(&self, params: &BodyParams) -> Result<TriMesh> {
-        let t = self.template.as_ref().ok_or_else(|| crate::error::Error::invalid("predict called before fit"))?;
+        let (t, canonical) = self.fitted.as_ref().ok_or_else(|| crate::error::Error::invalid("predict called before fit"))?;
         let bones = self.body.pose(params).bones;
-        Ok(TriMesh::new(pose_surface(t, &t.vertices, &bones), t.faces.clone()))
+        Ok(TriMesh::new(pose_surface(t, canonical, &bones), t.faces.clone()))
     }
 }
