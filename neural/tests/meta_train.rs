@@ -1,6 +1,6 @@
 //! Meta-training on a tiny configuration: deterministic for a seed, killed runs resume from
 //! their checkpoint without repeating iterations, a checkpoint of other options is refused, and
-//! the data folder round-trips.
+//! the data folder round-trips; Alg. 2 can start from another model's static meta-SDF.
 
 use avatar_neural::meta::{meta_train, MetaOptions, MODEL_FILE};
 use avatar_neural::meta_data::{MetaData, MetaDataConfig};
@@ -81,4 +81,30 @@ fn meta_training_is_deterministic_and_resumes_after_a_kill() {
     let other = MetaOptions { seed: 99, ..options() };
     let err = meta_train(&d, &other, &b, None, &mut |_| {}).unwrap_err().to_string();
     assert!(err.contains("checkpoint.bin") && err.contains("other options"), "{err}");
+}
+
+#[test]
+fn alg2_can_start_from_another_models_static_sdf() {
+    let root = tempfile::tempdir().unwrap();
+    let d = data(&root.path().join("data"));
+    let o = options();
+    let first = MetaModel::load(&meta_train(&d, &o, &root.path().join("a"), None, &mut |_| {}).unwrap()).unwrap();
+    // Another Alg. 2 (other inner rates) from the first run's static meta-SDF: no Alg. 1
+    // iteration runs and the static meta-SDF is carried over unchanged.
+    let variant = MetaOptions { hyper_inner: HyperFitOptions { lr_heads: 1e-4, ..o.hyper_inner.clone() }, ..options() };
+    let out = root.path().join("b");
+    let model_path = root.path().join("a").join(MODEL_FILE);
+    avatar_neural::meta::start_from_static(&out, &variant, &first, &model_path).unwrap();
+    let mut stages = Vec::new();
+    let second = MetaModel::load(&meta_train(&d, &variant, &out, None, &mut |p| stages.push(p.stage.to_string())).unwrap()).unwrap();
+    assert_eq!(stages, vec!["hyper"; 4]);
+    assert_eq!(second.static_sdf, first.static_sdf);
+    assert_ne!(second.hyper, first.hyper, "other rates, other hypernetwork");
+    // A folder that already holds a run is refused, naming its checkpoint.
+    let err = avatar_neural::meta::start_from_static(&out, &variant, &first, &model_path).unwrap_err().to_string();
+    assert!(err.contains("checkpoint.bin") && err.contains("already"), "{err}");
+    // So is a model whose SDF has another size.
+    let bigger = MetaOptions { config: HyperConfig { siren: SirenConfig { hidden: 24, layers: 2 }, ..o.config }, ..options() };
+    let err = avatar_neural::meta::start_from_static(&root.path().join("c"), &bigger, &first, &model_path).unwrap_err().to_string();
+    assert!(err.contains("network size"), "{err}");
 }
