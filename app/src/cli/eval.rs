@@ -40,7 +40,7 @@ pub struct Args {
     seed: u64,
     /// Rows to add: meta (MetaAvatar), scratch (same networks from scratch), static (the static
     /// meta-SDF), outfit-static (the ground-truth outfit without its pose-dependent
-    /// deformation: what a perfect pose-independent avatar would score), comma-separated.
+    /// deformation: an exact pose-independent avatar), comma-separated.
     /// Default: none (the naked body and ground-truth rows only).
     #[arg(long, value_delimiter = ',')]
     rows: Vec<String>,

@@ -59,8 +59,9 @@ impl Predictor for NakedBody {
 }
 
 /// The ground-truth outfit without its pose-dependent deformation: the subject's clothed
-/// surface at the zero pose (no folds, panels hanging), posed by the generator's own skinning. The best any pose-independent avatar could do; the gap to the
-/// ground truth is what pose-dependent clothing is worth on the table's frames.
+/// surface at the zero pose (no folds, panels hanging), posed by the generator's own skinning.
+/// An exact pose-independent avatar; its gap to the ground truth is about what the
+/// pose-dependent clothing is worth on the table's frames.
 pub struct StaticOutfit {
     body: BodyModel,
     /// The template and its canonical surface at the zero pose.
