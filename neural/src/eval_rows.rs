@@ -3,7 +3,6 @@
 //! initialisation) and the static meta-SDF (Alg. 1's pose-independent SDF fine-tuned).
 
 use crate::capture_points::CapturePoints;
-use crate::fit::FitOptions;
 use crate::hyper_fit::HyperFitOptions;
 use crate::meta_avatar::{Init, MetaAvatar};
 use crate::model_file::MetaModel;
@@ -65,9 +64,7 @@ impl Predictor for NeuralRow {
                 Fitted::Hyper(MetaAvatar::fit_points(&capture, &init, &self.options, None, &mut progress).0)
             }
             RowKind::StaticMetaSdf => {
-                // The same points per step as the hypernetwork rows see (all poses pooled).
-                let per_step = self.options.surface_per_pose * self.options.poses_per_step;
-                let options = FitOptions { steps: self.options.steps, learning_rate: self.options.lr_sdf, batch: per_step, off_surface: per_step, weights: self.options.weights, seed: self.options.seed, ..FitOptions::default() };
+                let options = self.options.static_equivalent();
                 let (mut avatar, _) = StaticAvatar::fit_points(&capture, self.model.header.config.siren, Some(self.model.static_siren()), &options, None, &mut progress);
                 avatar.resolution = self.resolution;
                 let canonical = avatar.canonical_mesh(&BodyParams::default())?;

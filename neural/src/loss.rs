@@ -47,11 +47,16 @@ pub fn igr_loss(f: Tensor<2>, grad: Tensor<2>, normals: Tensor<2>, surface: usiz
     let f_o = f.slice([surface..n, 0..1]);
     let g_s = grad.clone().slice([0..surface, 0..3]);
     let on = f_s.abs().mean() * w.surface;
-    let dot = (g_s.clone() * normals.clone()).sum_dim(1);
-    let g_norm = (g_s.clone() * g_s).sum_dim(1).sqrt();
-    let n_norm = (normals.clone() * normals).sum_dim(1).sqrt();
-    let cos = dot / (g_norm * n_norm + 1e-8);
-    let normal = (cos.neg() + 1.0).mean() * w.normal;
+    // Without a weight the term is not built at all (fine-tuning on depth: a cheaper step).
+    let normal = if w.normal == 0.0 {
+        Tensor::zeros([1], &normals.device())
+    } else {
+        let dot = (g_s.clone() * normals.clone()).sum_dim(1);
+        let g_norm = (g_s.clone() * g_s).sum_dim(1).sqrt();
+        let n_norm = (normals.clone() * normals).sum_dim(1).sqrt();
+        let cos = dot / (g_norm * n_norm + 1e-8);
+        (cos.neg() + 1.0).mean() * w.normal
+    };
     let off = (f_o.clone().abs() * (-w.alpha)).exp().mean() * w.off_surface;
     let prior_term = prior.map(|(signs, weight)| (f_o * signs.neg()).clamp_min(0.0).mean() * weight);
     let all_norm = (grad.clone() * grad).sum_dim(1).sqrt();

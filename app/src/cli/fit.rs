@@ -3,7 +3,7 @@
 //! with the same networks, `--static` the pose-independent SDF.
 
 use anyhow::bail;
-use avatar_neural::{FitOptions, HyperConfig, HyperFitOptions, Init, MetaAvatar, MetaModel, StaticAvatar};
+use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaAvatar, MetaModel, StaticAvatar};
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -82,7 +82,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (report, what) = if args.static_sdf {
         let model = MetaModel::load_or_shipped(args.model.as_deref())?;
         let init = if args.from_scratch { None } else { Some(model.static_siren()) };
-        let options = FitOptions { steps: args.steps, seed: args.seed, weights: avatar_neural::loss::IgrWeights::depth(), ..FitOptions::default() };
+        let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() }.static_equivalent();
         let (avatar, report) = StaticAvatar::fit_capture(&args.capture, args.frames, model.header.config.siren, init, &options, Some(&cancel), &mut progress)?;
         avatar.save(&args.out)?;
         (report, format!("static SDF ({})", if args.from_scratch { "from scratch" } else { "static meta-SDF" }))
