@@ -85,7 +85,7 @@ fn capture_section() -> String {
 }
 
 fn neural_section() -> String {
-    avatar_neural::bench::bench_report(300)
+    avatar_neural::bench::bench_report(avatar_neural::HyperFitOptions::default().steps)
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {

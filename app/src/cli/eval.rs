@@ -48,7 +48,7 @@ pub struct Args {
     #[arg(long)]
     model: Option<PathBuf>,
     /// Fine-tuning steps of every neural row (the same budget for each).
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = 256)]
     steps: usize,
     /// Fine-tune on at most this many of the protocol's frames.
     #[arg(long, default_value_t = 1000)]

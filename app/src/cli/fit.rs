@@ -20,8 +20,8 @@ pub struct Args {
     /// Use the first N usable frames.
     #[arg(long, default_value_t = 8)]
     frames: usize,
-    /// Optimisation steps (each a minibatch of 4 frames).
-    #[arg(long, default_value_t = 300)]
+    /// Optimisation steps (each over up to 8 frames: one epoch of the reference).
+    #[arg(long, default_value_t = 256)]
     steps: usize,
     /// Meta-learned model file (default: the shipped compact model).
     #[arg(long)]

@@ -126,7 +126,7 @@ pub struct FitConfig {
 }
 
 impl Default for FitConfig {
-    /// `avatar-studio fit`'s defaults: the MetaAvatar, 8 frames, 300 steps.
+    /// `avatar-studio fit`'s defaults: the MetaAvatar, 8 frames, 256 steps.
     fn default() -> Self {
         let fit = HyperFitOptions::default();
         FitConfig {
