@@ -79,11 +79,10 @@ impl HyperFitOptions {
     /// and points a step (all poses pooled). The static meta-SDF row of the evaluation and
     /// `fit --static` use it, so the two kinds of avatar compare like for like.
     pub fn static_equivalent(&self) -> crate::fit::FitOptions {
-        let per_step = self.surface_per_pose * self.poses_per_step;
         crate::fit::FitOptions {
             steps: self.steps,
             learning_rate: self.lr_sdf,
-            batch: per_step,
+            batch: self.surface_per_pose * self.poses_per_step,
             off_surface: self.off_per_pose * self.poses_per_step,
             near_sigma: self.near_sigma,
             weights: self.weights,

@@ -101,6 +101,12 @@ struct Checkpoint {
     seconds: f64,
 }
 
+impl Checkpoint {
+    fn new(options: &MetaOptions, stage: &str, iteration: usize, seconds: f64) -> Checkpoint {
+        Checkpoint { format: "avatar-studio-checkpoint".into(), version: 1, kind: "meta-checkpoint".into(), options: options.clone(), stage: stage.into(), iteration, seconds }
+    }
+}
+
 const CHECKPOINT: &str = "checkpoint.bin";
 pub const MODEL_FILE: &str = "meta-model.bin";
 
@@ -192,7 +198,7 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
         let _ = writeln!(csv, "sdf,{},{loss},{:.1}", it + 1, elapsed(&started));
         log(&MetaProgress { stage: "sdf", iteration: it + 1, iterations: options.sdf_iterations, loss, seconds: elapsed(&started) });
         if (it + 1) % options.checkpoint_every == 0 || it + 1 == options.sdf_iterations {
-            let ck = Checkpoint { format: "avatar-studio-checkpoint".into(), version: 1, kind: "meta-checkpoint".into(), options: options.clone(), stage: "sdf".into(), iteration: it + 1, seconds: elapsed(&started) };
+            let ck = Checkpoint::new(options, "sdf", it + 1, elapsed(&started));
             weights_file::write(&ckpt_path, &ck, &flatten(&meta_sdf))?;
         }
     }
@@ -231,7 +237,7 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
         let _ = writeln!(csv, "hyper,{},{last},{:.1}", it + 1, elapsed(&started));
         log(&MetaProgress { stage: "hyper", iteration: it + 1, iterations: options.hyper_iterations, loss: last, seconds: elapsed(&started) });
         if (it + 1) % options.checkpoint_every == 0 || it + 1 == options.hyper_iterations {
-            let ck = Checkpoint { format: "avatar-studio-checkpoint".into(), version: 1, kind: "meta-checkpoint".into(), options: options.clone(), stage: "hyper".into(), iteration: it + 1, seconds: elapsed(&started) };
+            let ck = Checkpoint::new(options, "hyper", it + 1, elapsed(&started));
             let mut w = flatten(&model);
             w.extend_from_slice(&static_flat);
             weights_file::write(&ckpt_path, &ck, &w)?;
@@ -256,15 +262,8 @@ pub fn start_from_static(out: &Path, options: &MetaOptions, model: &MetaModel, m
         return Err(Error::file(model_path, "its static meta-SDF has another network size than this run's preset"));
     }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let ck = Checkpoint {
-        format: "avatar-studio-checkpoint".into(),
-        version: 1,
-        kind: "meta-checkpoint".into(),
-        options: options.clone(),
-        stage: "sdf".into(),
-        iteration: options.sdf_iterations,
-        seconds: 0.0,
-    };
+    // Alg. 1 complete, as a finished Alg. 1 of this run would have left it.
+    let ck = Checkpoint::new(options, "sdf", options.sdf_iterations, 0.0);
     weights_file::write(&ckpt_path, &ck, &model.static_sdf)
 }
 

@@ -96,8 +96,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     config.seed = args.seed;
     let body = avatar_core::body::open_body_ref();
     let mut rows: Vec<Box<dyn Predictor>> = vec![Box::new(NakedBody::new(body.clone()))];
-    let neural = args.rows.iter().any(|r| r != "outfit-static");
-    let model = if neural { Some(std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?)) } else { None };
+    // Loaded by the first neural row (the reference rows need none).
+    let mut model: Option<std::sync::Arc<MetaModel>> = None;
     let defaults = HyperFitOptions::default();
     let options = HyperFitOptions {
         steps: args.steps.max(1),
@@ -123,7 +123,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             other => bail!("unknown --rows entry {other:?}: use meta, scratch, static or outfit-static"),
         };
-        let Some(model) = model.clone() else { bail!("no meta-model loaded") };
+        let model = match &model {
+            Some(m) => m.clone(),
+            None => model.insert(std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?)).clone(),
+        };
         rows.push(Box::new(NeuralRow::new(kind, model, options.clone(), args.max_frames.max(1), args.resolution.clamp(16, 512))));
     }
     let t = std::time::Instant::now();
