@@ -10,9 +10,13 @@ use std::sync::atomic::{AtomicU8, Ordering};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Compute {
+    /// The training path (`crate::train`): hand-derived gradients on all cores.
     #[default]
     Cpu,
     Gpu,
+    /// burn's autodiff on the CPU: the reference the training path is tested against, kept
+    /// for comparisons (`--device cpu-burn`, the training benchmark).
+    CpuBurn,
 }
 
 static SELECTED: AtomicU8 = AtomicU8::new(0);
@@ -22,9 +26,10 @@ impl Compute {
     pub fn parse(name: &str) -> Result<Compute, String> {
         match name {
             "cpu" => Ok(Compute::Cpu),
+            "cpu-burn" => Ok(Compute::CpuBurn),
             "gpu" if cfg!(feature = "gpu") => Ok(Compute::Gpu),
             "gpu" => Err("--device gpu: this build has no GPU support (rebuild with `cargo build --release --features gpu`)".into()),
-            other => Err(format!("--device {other:?}: expected cpu or gpu")),
+            other => Err(format!("--device {other:?}: expected cpu, gpu or cpu-burn")),
         }
     }
 
@@ -32,6 +37,7 @@ impl Compute {
         match self {
             Compute::Cpu => "cpu",
             Compute::Gpu => "gpu",
+            Compute::CpuBurn => "cpu-burn",
         }
     }
 }
@@ -42,13 +48,22 @@ pub fn select(compute: Compute) {
 }
 
 pub fn selected() -> Compute {
-    if SELECTED.load(Ordering::Relaxed) == Compute::Gpu as u8 { Compute::Gpu } else { Compute::Cpu }
+    match SELECTED.load(Ordering::Relaxed) {
+        v if v == Compute::Gpu as u8 => Compute::Gpu,
+        v if v == Compute::CpuBurn as u8 => Compute::CpuBurn,
+        _ => Compute::Cpu,
+    }
+}
+
+/// Whether fits take the training path (`crate::train`) rather than burn's autodiff.
+pub fn flat_training() -> bool {
+    selected() == Compute::Cpu
 }
 
 /// The device fits train on (with autodiff).
 pub fn training_device() -> Device {
     match selected() {
-        Compute::Cpu => crate::cpu_training_device(),
+        Compute::Cpu | Compute::CpuBurn => crate::cpu_training_device(),
         Compute::Gpu => gpu_device().autodiff(),
     }
 }
@@ -73,7 +88,8 @@ mod tests {
     #[test]
     fn device_names_parse_and_a_cpu_build_refuses_gpu_with_the_reason() {
         assert_eq!(Compute::parse("cpu"), Ok(Compute::Cpu));
-        assert!(Compute::parse("tpu").unwrap_err().contains("expected cpu or gpu"));
+        assert!(Compute::parse("tpu").unwrap_err().contains("expected cpu, gpu or cpu-burn"));
+        assert_eq!(Compute::parse("cpu-burn"), Ok(Compute::CpuBurn));
         if cfg!(feature = "gpu") {
             assert_eq!(Compute::parse("gpu"), Ok(Compute::Gpu));
         } else {

@@ -3,6 +3,7 @@
 
 use crate::loss::{igr_loss, IgrWeights};
 use crate::siren::Siren;
+use crate::train::{Adam, IgrPoints, SirenGradient, SirenShape};
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::Vec3;
@@ -59,32 +60,37 @@ pub fn fit_sdf(
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
     let mut optim = AdamConfig::new().init();
     let log_every = (options.steps / 50).max(1);
+    // On the CPU the steps run on the training path (`crate::train`), on a GPU through burn.
+    let mut flat = crate::compute::flat_training().then(|| {
+        let shape = SirenShape::of(&model.config());
+        let params = crate::params::flatten(&model);
+        (SirenGradient::new(shape), Adam::default(), vec![0f32; params.len()], params)
+    });
     for step in 0..options.steps {
         if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             break;
         }
-        let idx: Vec<usize> = (0..options.batch.min(points.len())).map(|_| rng.random_range(0..points.len())).collect();
-        let surface: Vec<Vec3> = idx.iter().map(|&i| points[i]).collect();
-        let surface_n: Vec<Vec3> = idx.iter().map(|&i| normals[i]).collect();
-        let mut off = Vec::with_capacity(options.off_surface);
-        for k in 0..options.off_surface {
-            if k % 2 == 0 {
-                off.push(Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)));
-            } else {
-                let p = points[rng.random_range(0..points.len())];
-                let g = Vec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng));
-                off.push(p + g * options.near_sigma);
+        let (surface, surface_n, off) = sample_step(points, normals, options, &mut rng);
+        let signs = prior.map(|p| p(&off));
+        let log = step % log_every == 0 || step + 1 == options.steps;
+        if let Some((gradient, adam, grad, params)) = flat.as_mut() {
+            let mut all: Vec<[f32; 3]> = surface.iter().map(|p| p.to_array()).collect();
+            all.extend(off.iter().map(|p| p.to_array()));
+            let normals: Vec<[f32; 3]> = surface_n.iter().map(|n| n.to_array()).collect();
+            let loss = IgrPoints { weights: options.weights, prior_weight: options.prior_weight, groups: 1, surface: surface.len(), off: off.len(), normals: &normals, signs: signs.as_deref() };
+            let l = gradient.compute(params, &all, &loss, grad);
+            if log {
+                progress(step, l.total, l.terms);
             }
+            let all = 0..params.len();
+            adam.step(params, grad, &[(all, options.learning_rate)]);
+            continue;
         }
-        let signs = prior.map(|p| {
-            let s = p(&off);
-            (Tensor::from_data(TensorData::new(s, [off.len(), 1]), device), options.prior_weight)
-        });
+        let signs = signs.map(|s| (Tensor::from_data(TensorData::new(s, [off.len(), 1]), device), options.prior_weight));
         let mut all = surface.clone();
         all.extend(off);
         let x = to_tensor(&all, device);
         let (f, g) = model.sdf_and_gradient(x);
-        let log = step % log_every == 0 || step + 1 == options.steps;
         let loss = igr_loss(f, g, to_tensor(&surface_n, device), surface.len(), &options.weights, signs, log);
         if log {
             progress(step, crate::loss::scalar(&loss.total), loss.terms);
@@ -93,7 +99,29 @@ pub fn fit_sdf(
         let grads = GradientsParams::from_grads(grads, &model);
         model = optim.step(options.learning_rate, model, grads);
     }
-    model
+    match flat {
+        Some((_, _, _, params)) => crate::params::load_flat(model, &params).expect("the flat parameters come from this model"),
+        None => model,
+    }
+}
+
+/// A step's points: surface points with their normals, and off-surface points (half uniform
+/// in [-1, 1]^3, half near the surface).
+pub fn sample_step(points: &[Vec3], normals: &[Vec3], options: &FitOptions, rng: &mut ChaCha8Rng) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>) {
+    let idx: Vec<usize> = (0..options.batch.min(points.len())).map(|_| rng.random_range(0..points.len())).collect();
+    let surface: Vec<Vec3> = idx.iter().map(|&i| points[i]).collect();
+    let surface_n: Vec<Vec3> = idx.iter().map(|&i| normals[i]).collect();
+    let mut off = Vec::with_capacity(options.off_surface);
+    for k in 0..options.off_surface {
+        if k % 2 == 0 {
+            off.push(Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)));
+        } else {
+            let p = points[rng.random_range(0..points.len())];
+            let g = Vec3::new(gauss(rng), gauss(rng), gauss(rng));
+            off.push(p + g * options.near_sigma);
+        }
+    }
+    (surface, surface_n, off)
 }
 
 pub(crate) fn gauss(rng: &mut ChaCha8Rng) -> f32 {

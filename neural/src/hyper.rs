@@ -185,6 +185,16 @@ pub struct PredictedLayers {
 }
 
 impl HyperNet {
+    /// The sizes this network was built with.
+    pub fn config(&self) -> HyperConfig {
+        let widths: Vec<usize> = self.sdf.weights.iter().map(|w| w.val().dims()[1]).collect();
+        let siren = SirenConfig { hidden: widths[0], layers: widths.len() - 1 };
+        let head_hidden = self.heads[0].w[0].val().dims()[1];
+        let rank = self.bases.iter().map(|u| u.val().dims()[1]).max();
+        let encoding = if self.encoder.prior_w.is_empty() { crate::encoder::PoseEncoding::Quaternion } else { crate::encoder::PoseEncoding::Hierarchical };
+        HyperConfig { siren, head_hidden, rank, encoding }
+    }
+
     /// Pose inputs [B, input_len] -> one SIREN weight set per pose.
     pub fn predict(&self, pose_inputs: Tensor<2>) -> PredictedLayers {
         let batch = pose_inputs.dims()[0];

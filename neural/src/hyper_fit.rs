@@ -5,6 +5,7 @@
 use crate::fit::{gauss, Progress, SignPrior};
 use crate::hyper::HyperNet;
 use crate::loss::{igr_loss, scalar, IgrWeights};
+use crate::train::{Adam, HyperBatch, HyperGradient, IgrPoints, StepLoss};
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
@@ -99,11 +100,13 @@ pub struct HyperOptimisers {
     heads: ModuleOptimizer,
     bases: ModuleOptimizer,
     sdf: ModuleOptimizer,
+    /// The CPU training path's step buffers and Adam state.
+    flat: Option<(HyperGradient, Adam)>,
 }
 
 impl Default for HyperOptimisers {
     fn default() -> Self {
-        HyperOptimisers { encoder: AdamConfig::new().init(), heads: AdamConfig::new().init(), bases: AdamConfig::new().init(), sdf: AdamConfig::new().init() }
+        HyperOptimisers { encoder: AdamConfig::new().init(), heads: AdamConfig::new().init(), bases: AdamConfig::new().init(), sdf: AdamConfig::new().init(), flat: None }
     }
 }
 
@@ -147,20 +150,22 @@ fn tensor3(v: &[Vec3], batch: usize, device: &Device) -> Tensor<3> {
     Tensor::from_data(TensorData::new(flat, [batch, v.len() / batch, 3]), device)
 }
 
-/// The loss of one minibatch of poses; returns the loss tensor and (total, 4 IGR terms) when
-/// `log` is set.
-pub fn batch_loss(
-    model: &HyperNet,
-    samples: &[&PoseSample],
-    options: &HyperFitOptions,
-    rng: &mut ChaCha8Rng,
-    device: &Device,
-    prior: Option<SignPrior>,
-    log: bool,
-) -> (Tensor<1>, [f32; 4]) {
+/// One step's sampled data: per pose `surface` rows then `off` rows of points (pose-major),
+/// the surface rows' normals, the off-surface points and the encoder inputs.
+pub struct SampledBatch {
+    pub poses: usize,
+    pub inputs: Vec<f32>,
+    pub points: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub offs: Vec<Vec3>,
+}
+
+/// Draw a step's points: per pose, surface points with their normals, then off-surface points
+/// (half uniform in the cube, half near the surface).
+pub fn sample_batch(samples: &[&PoseSample], options: &HyperFitOptions, rng: &mut ChaCha8Rng) -> SampledBatch {
     let b = samples.len();
     let (s, o) = (options.surface_per_pose, options.off_per_pose);
-    let mut xs = Vec::with_capacity(b * (s + o));
+    let mut points = Vec::with_capacity(b * (s + o));
     let mut normals = Vec::with_capacity(b * s);
     let mut offs = Vec::with_capacity(b * o);
     let mut inputs = Vec::new();
@@ -169,7 +174,7 @@ pub fn batch_loss(
         let n = sample.points.len();
         for _ in 0..s {
             let i = rng.random_range(0..n);
-            xs.push(sample.points[i]);
+            points.push(sample.points[i]);
             normals.push(sample.normals[i]);
         }
         for k in 0..o {
@@ -179,18 +184,42 @@ pub fn batch_loss(
                 let p = sample.points[rng.random_range(0..n)];
                 p + Vec3::new(gauss(rng), gauss(rng), gauss(rng)) * options.near_sigma
             };
-            xs.push(p);
+            points.push(p);
             offs.push(p);
         }
     }
-    let input_len = samples[0].pose_input.len();
-    let predicted = model.predict(Tensor::from_data(TensorData::new(inputs, [b, input_len]), device));
-    let (f, g) = crate::siren::batched_sdf_and_gradient(&predicted.weights, &predicted.biases, tensor3(&xs, b, device));
+    SampledBatch { poses: b, inputs, points, normals, offs }
+}
+
+/// The loss of one minibatch of poses through burn's autodiff (the reference of the training
+/// path, and the GPU path); returns the loss tensor and the 4 IGR terms when `log` is set.
+pub fn batch_loss(
+    model: &HyperNet,
+    samples: &[&PoseSample],
+    options: &HyperFitOptions,
+    rng: &mut ChaCha8Rng,
+    device: &Device,
+    prior: Option<SignPrior>,
+    log: bool,
+) -> (Tensor<1>, [f32; 4]) {
+    let batch = sample_batch(samples, options, rng);
+    let signs = prior.map(|p| p(&batch.offs));
+    batch_loss_of(model, &batch, options, signs, device, log)
+}
+
+/// [`batch_loss`] of drawn data (`signs`: the prior's sign of each off-surface point).
+pub fn batch_loss_of(model: &HyperNet, batch: &SampledBatch, options: &HyperFitOptions, signs: Option<Vec<f32>>, device: &Device, log: bool) -> (Tensor<1>, [f32; 4]) {
+    let b = batch.poses;
+    let (s, o) = (options.surface_per_pose, options.off_per_pose);
+    let input_len = batch.inputs.len() / b;
+    let predicted = model.predict(Tensor::from_data(TensorData::new(batch.inputs.clone(), [b, input_len]), device));
+    let (f, g) = crate::siren::batched_sdf_and_gradient(&predicted.weights, &predicted.biases, tensor3(&batch.points, b, device));
     // Surface rows of every pose first, then the off-surface rows, as igr_loss expects.
     let f = Tensor::cat(vec![f.clone().slice([0..b, 0..s]).reshape([b * s, 1]), f.slice([0..b, s..s + o]).reshape([b * o, 1])], 0);
     let g = Tensor::cat(vec![g.clone().slice([0..b, 0..s]).reshape([b * s, 3]), g.slice([0..b, s..s + o]).reshape([b * o, 3])], 0);
-    let signs = prior.map(|p| (Tensor::from_data(TensorData::new(p(&offs), [offs.len(), 1]), device), options.prior_weight));
-    let normals: Vec<f32> = normals.iter().flat_map(|n| n.to_array()).collect();
+    let n_off = batch.offs.len();
+    let signs = signs.map(|v| (Tensor::from_data(TensorData::new(v, [n_off, 1]), device), options.prior_weight));
+    let normals: Vec<f32> = batch.normals.iter().flat_map(|n| n.to_array()).collect();
     let loss = igr_loss(f, g, Tensor::from_data(TensorData::new(normals, [b * s, 3]), device), b * s, &options.weights, signs, log);
     let params = model.sdf.num_params() as f32;
     // The small epsilon keeps the square root differentiable at zero (the residuals start there).
@@ -200,7 +229,8 @@ pub fn batch_loss(
 
 /// Fit `model` to the samples for `options.steps` steps (each a random minibatch of poses,
 /// epoch-shuffled). `optimisers` carry Adam's state (fresh for a new fit). Stops early when
-/// `cancel` is set and returns the model as it is then.
+/// `cancel` is set and returns the model as it is then. On the CPU the steps run on the
+/// training path (`crate::train`); on a GPU through burn's autodiff.
 #[allow(clippy::too_many_arguments)]
 pub fn fit_hyper(
     mut model: HyperNet,
@@ -217,6 +247,7 @@ pub fn fit_hyper(
     let per_step = options.poses_per_step.clamp(1, samples.len().max(1));
     let mut order: Vec<usize> = Vec::new();
     let log_every = (options.steps / 50).max(1);
+    let mut flat = crate::compute::flat_training().then(|| FlatFit::new(&model, optimisers));
     for step in 0..options.steps {
         if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             break;
@@ -228,11 +259,61 @@ pub fn fit_hyper(
         }
         let batch: Vec<&PoseSample> = order.drain(..per_step).map(|i| &samples[i]).collect();
         let log = step % log_every == 0 || step + 1 == options.steps;
-        let (loss, terms) = batch_loss(&model, &batch, options, &mut rng, device, prior, log);
-        if log {
-            progress(step, scalar(&loss), terms);
+        match flat.as_mut() {
+            Some(fit) => {
+                let drawn = sample_batch(&batch, options, &mut rng);
+                let signs = prior.map(|p| p(&drawn.offs));
+                let loss = fit.step(&drawn, signs.as_deref(), options, rates, optimisers);
+                if log {
+                    progress(step, loss.total, loss.terms);
+                }
+            }
+            None => {
+                let (loss, terms) = batch_loss(&model, &batch, options, &mut rng, device, prior, log);
+                if log {
+                    progress(step, scalar(&loss), terms);
+                }
+                model = optimisers.step(model, loss.backward(), rates);
+            }
         }
-        model = optimisers.step(model, loss.backward(), rates);
     }
-    model
+    match flat {
+        Some(fit) => crate::params::load_flat(model, &fit.params).expect("the flat parameters come from this model"),
+        None => model,
+    }
+}
+
+/// The CPU training path's state during a fit: the model's flat parameters and gradient.
+struct FlatFit {
+    params: Vec<f32>,
+    grad: Vec<f32>,
+}
+
+impl FlatFit {
+    fn new(model: &HyperNet, optimisers: &mut HyperOptimisers) -> FlatFit {
+        let config = model.config();
+        if optimisers.flat.as_ref().is_none_or(|(g, _)| g.layout().config != config) {
+            optimisers.flat = Some((HyperGradient::new(&config), Adam::default()));
+        }
+        let params = crate::params::flatten(model);
+        FlatFit { grad: vec![0f32; params.len()], params }
+    }
+
+    fn step(&mut self, drawn: &SampledBatch, signs: Option<&[f32]>, options: &HyperFitOptions, rates: GroupRates, optimisers: &mut HyperOptimisers) -> StepLoss {
+        let (gradient, adam) = optimisers.flat.as_mut().expect("set up by FlatFit::new");
+        let points: Vec<[f32; 3]> = drawn.points.iter().map(|p| p.to_array()).collect();
+        let normals: Vec<[f32; 3]> = drawn.normals.iter().map(|p| p.to_array()).collect();
+        let rows = options.surface_per_pose + options.off_per_pose;
+        let batch = HyperBatch {
+            inputs: &drawn.inputs,
+            points: points.chunks(rows).collect(),
+            loss: IgrPoints { weights: options.weights, prior_weight: options.prior_weight, groups: drawn.poses, surface: options.surface_per_pose, off: options.off_per_pose, normals: &normals, signs },
+            residual_weight: options.residual_weight,
+        };
+        let loss = gradient.compute(&self.params, &batch, rates.encoder > 0.0, &mut self.grad);
+        let lay = gradient.layout();
+        let groups = [(lay.encoder_range.clone(), rates.encoder), (lay.heads_range.clone(), rates.heads), (lay.bases_range.clone(), rates.heads), (lay.sdf_range.clone(), rates.sdf)];
+        adam.step(&mut self.params, &self.grad, &groups);
+        loss
+    }
 }

@@ -19,6 +19,7 @@ pub mod params;
 pub mod siren;
 pub mod siren_eval;
 pub mod static_avatar;
+pub mod train;
 pub mod weights_file;
 
 pub use fit::{fit_sdf, sdf_values, FitOptions};

@@ -84,3 +84,26 @@ pub fn reptile_gradients<M: Module>(module: &M, adapted: &[f32]) -> GradientsPar
     module.visit(&mut v);
     v.grads
 }
+
+struct GradientVisitor<'a> {
+    grads: &'a GradientsParams,
+    out: Vec<f32>,
+}
+
+impl ModuleVisitor for GradientVisitor<'_> {
+    fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+        let n = param.val().shape().num_elements();
+        match self.grads.get::<D>(param.id) {
+            Some(g) => self.out.extend_from_slice(g.into_data().convert::<f32>().as_slice::<f32>().expect("f32 tensor")),
+            None => self.out.extend(std::iter::repeat_n(0.0, n)),
+        }
+    }
+}
+
+/// Every parameter's gradient in a container, flat in visit order (zeros where a parameter has
+/// none): the training path's layout, for comparing it with burn's autodiff.
+pub fn flat_gradients<M: Module>(module: &M, grads: &GradientsParams) -> Vec<f32> {
+    let mut v = GradientVisitor { grads, out: Vec::with_capacity(module.num_params()) };
+    module.visit(&mut v);
+    v.out
+}

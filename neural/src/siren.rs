@@ -133,6 +133,12 @@ pub fn sdf_only(weights: &[Tensor<2>], biases: &[Tensor<1>], x: Tensor<2>) -> Te
 }
 
 impl Siren {
+    /// The sizes this network was built with.
+    pub fn config(&self) -> SirenConfig {
+        let widths: Vec<usize> = self.weights.iter().map(|w| w.val().dims()[1]).collect();
+        SirenConfig { hidden: widths[0], layers: widths.len() - 1 }
+    }
+
     pub fn params(&self) -> (Vec<Tensor<2>>, Vec<Tensor<1>>) {
         (self.weights.iter().map(|w| w.val()).collect(), self.biases.iter().map(|b| b.val()).collect())
     }

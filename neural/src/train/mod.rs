@@ -1,0 +1,47 @@
+//! The training path: loss and gradient of a step computed by hand on flat f32 parameters
+//! (SGEMM blocks on all cores, reverse over reverse for the spatial gradient), and Adam on
+//! the same vectors. Fine-tuning (`fit_hyper`, `fit_sdf`) and meta-learning (Alg. 1 and 2)
+//! train through it on the CPU; burn's autodiff stays the reference (and the GPU path): the
+//! tests in `tests/train_gradients.rs` hold every parameter's gradient here to burn's.
+//!
+//! - `siren_grad`: one SIREN over a block of points, values + spatial gradient + reverse.
+//! - `blocks`: blocks of points spread over rayon's threads, buffers kept across steps.
+//! - `igr`: the IGR loss per point and its adjoints.
+//! - `heads`, `hyper_step`: the encoder and heads, and the whole hypernetwork step.
+//! - `adam`: Adam matching burn's.
+
+pub mod adam;
+pub mod blocks;
+pub mod gemm;
+pub mod heads;
+pub mod hyper_step;
+pub mod igr;
+pub mod layout;
+pub mod siren_grad;
+
+pub use adam::Adam;
+pub use hyper_step::{HyperBatch, HyperGradient, StepLoss};
+pub use igr::IgrPoints;
+pub use layout::HyperLayout;
+pub use siren_grad::{LossTerms, SirenShape};
+
+/// Loss and gradient of one static SIREN on a step's points (one group), with its own block
+/// buffers: the static fit's step.
+pub struct SirenGradient {
+    runner: blocks::BlockRunner,
+    grads: Vec<Vec<f32>>,
+}
+
+impl SirenGradient {
+    pub fn new(shape: SirenShape) -> SirenGradient {
+        SirenGradient { runner: blocks::BlockRunner::new(shape), grads: vec![Vec::new()] }
+    }
+
+    /// The loss of `points` under `params` and its gradient into `grad` (overwritten).
+    pub fn compute(&mut self, params: &[f32], points: &[[f32; 3]], loss: &IgrPoints, grad: &mut [f32]) -> StepLoss {
+        let terms = self.runner.run(&[params], &[points], loss, &mut self.grads);
+        grad.copy_from_slice(&self.grads[0]);
+        let t = terms.terms;
+        StepLoss { total: terms.total() as f32, terms: [t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32] }
+    }
+}
