@@ -106,8 +106,11 @@ impl CapturePoints {
         let face_normals = mesh.face_normals();
         let bvh = Bvh::build(&mesh);
         let norm = self.normalisation;
+        // On all cores: a training step asks for thousands of points.
         move |unit: &[Vec3]| {
-            unit.iter()
+            use rayon::prelude::*;
+            unit.par_iter()
+                .with_min_len(256)
                 .map(|q| {
                     let p = norm.from_unit(*q);
                     match bvh.closest_point(p) {

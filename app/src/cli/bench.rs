@@ -9,7 +9,7 @@ use std::time::Instant;
 #[derive(clap::Args)]
 pub struct Args {
     /// Only run sections whose name contains this text, or one of several separated by commas (body, capture, canonical, eval, export,
-    /// neural, studio).
+    /// neural, train, studio).
     #[arg(long)]
     only: Option<String>,
     /// Also write the report to this Markdown file.
@@ -89,7 +89,7 @@ fn neural_section() -> String {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section), ("capture", capture_section), ("canonical", avatar_core::canonical::report::bench_report), ("eval", avatar_core::eval::runner::bench_report), ("export", avatar_core::export::bench::bench_report), ("neural", neural_section), ("studio", avatar_studio::studio::bench::bench_report)];
+    let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section), ("capture", capture_section), ("canonical", avatar_core::canonical::report::bench_report), ("eval", avatar_core::eval::runner::bench_report), ("export", avatar_core::export::bench::bench_report), ("neural", neural_section), ("train", super::bench_train::bench_report), ("studio", avatar_studio::studio::bench::bench_report)];
     let mut report = format!(
         "# Avatar Studio benchmarks\n\n{} threads, profile {}, `avatar-studio bench`\n\n",
         std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),

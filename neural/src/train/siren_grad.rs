@@ -120,6 +120,9 @@ pub struct SirenScratch {
     d_g: Vec<f32>,
     t1: Vec<f32>,
     t2: Vec<f32>,
+    /// Each layer's weights transposed ([out, in]): products with W^T then read both operands
+    /// row-major (the fast kernel of `gemm`).
+    wt: Vec<Vec<f32>>,
 }
 
 impl SirenScratch {
@@ -140,6 +143,7 @@ impl SirenScratch {
             d_g: vec![0f32; rows * 3],
             t1: vec![0f32; wide],
             t2: vec![0f32; wide],
+            wt: (0..shape.layers()).map(|k| vec![0f32; shape.widths[k] * shape.widths[k + 1]]).collect(),
         }
     }
 }
@@ -155,6 +159,15 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], points: &[[f32; 3]], l
     let b = |k: usize| &params[shape.b_range(k)];
     for (row, p) in s.x.chunks_exact_mut(3).zip(points) {
         row.copy_from_slice(p);
+    }
+    for k in 0..=last {
+        let (fan_in, fan_out) = shape.dims(k);
+        let (src, dst) = (w(k), &mut s.wt[k]);
+        for i in 0..fan_in {
+            for j in 0..fan_out {
+                dst[j * fan_in + i] = src[i * fan_out + j];
+            }
+        }
     }
 
     // Forward: z_k = h_{k-1} W_k + b_k; h_k = sin(W0 z_k), c_k = W0 cos(W0 z_k).
@@ -188,7 +201,7 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], points: &[[f32; 3]], l
             *q = v * c;
         }
         let out: &mut [f32] = if k == 0 { &mut s.g[..n * 3] } else { &mut s.v[k - 1][..n * fan_in] };
-        gemm(Mat::new(&s.q[k][..n * fan_out], n, fan_out), Mat::new(w(k), fan_in, fan_out).t(), 0.0, out);
+        gemm(Mat::new(&s.q[k][..n * fan_out], n, fan_out), Mat::new(&s.wt[k], fan_out, fan_in), 0.0, out);
     }
 
     let terms = loss.adjoint(group, first, &s.f[..n], &s.g[..n * 3], &mut s.d_f[..n], &mut s.d_g[..n * 3]);
@@ -241,7 +254,7 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], points: &[[f32; 3]], l
             }
         }
         if k > 0 {
-            gemm(Mat::new(&s.v[k][..n * fan_out], n, fan_out), Mat::new(w(k), fan_in, fan_out).t(), 0.0, &mut s.t1[..n * fan_in]);
+            gemm(Mat::new(&s.v[k][..n * fan_out], n, fan_out), Mat::new(&s.wt[k], fan_out, fan_in), 0.0, &mut s.t1[..n * fan_in]);
         }
     }
     terms
