@@ -4,7 +4,7 @@
 
 use crate::studio::avatar_job::{body_canonical, canonical_of, run_fit, FitConfig};
 use crate::studio::posing::{Posable, PoseWorker};
-use crate::studio::session::load_capture;
+use crate::studio::capture_view::load_capture;
 use crate::studio::timeline::Timeline;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -119,7 +119,7 @@ pub fn viewport_row() -> String {
     let mut frame = |yaw: f32| {
         camera.yaw = yaw; // a turning camera: nothing is cached between frames but the buffers
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench frame") });
-        resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), Shading::Lit, 3.0, size);
+        resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), Shading::Lit, 3.0, size, crate::studio::project::default_light());
         queue.submit([encoder.finish()]);
         device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ())
     };
