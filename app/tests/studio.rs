@@ -206,6 +206,8 @@ fn a_whole_session_through_the_ui() {
     h.state_mut().view.material = [0.2, 0.5, 0.3];
     h.state_mut().apply(Command::SceneChanged);
     h.state_mut().apply(Command::CameraPreset(Preset::Side));
+    h.state_mut().status = None; // a temporary folder's name
+    h.state_mut().job_view.finished = None; // the fit's time
     h.step();
     snap(&mut h, "avatar_side_material", &tolerant(1500));
 
@@ -454,6 +456,8 @@ fn playback_after_baking() {
     assert!(moved > 0.05, "the baked frames differ by {moved} m");
     let differing = image_a.pixels().zip(image_b.pixels()).filter(|(x, y)| x != y).count();
     assert!(differing > 1000, "the viewport changed ({differing} pixels)");
+    assert!(matches!(&h.state().status, Some(avatar_studio::studio::state::Status::Info(m)) if m.starts_with("Baked 96 frames")), "{:?}", h.state().status);
+    h.state_mut().status = None; // it names the bake's time
     snap(&mut h, "playback_baked", &tolerant(200));
 }
 
@@ -473,7 +477,9 @@ fn the_in_app_path_dialog_saves_without_a_portal() {
     settle(&mut h, "loading the demo");
     h.state_mut().apply(Command::AskPath(PathPurpose::SaveProject));
     h.state_mut().path_dialog.as_mut().expect("the in-app dialog is open").go_to(dir.clone());
-    h.step();
+    for _ in 0..3 {
+        h.step(); // a new window is sized in its first frame
+    }
     h.get_by_label("[folder] captures");
     h.get_by_label("old.studio.json");
     assert!(h.query_by_label("notes.txt").is_none(), "the filter hides other files");
@@ -496,4 +502,11 @@ fn the_in_app_path_dialog_saves_without_a_portal() {
     settle(&mut h, "opening a missing avatar");
     assert!(h.state().error.as_deref().is_some_and(|e| e.contains("missing.avatar")), "{:?}", h.state().error);
     let _ = std::fs::remove_dir_all(&dir);
+    // ? lists the shortcuts.
+    h.key_press(egui::Key::Questionmark);
+    for _ in 0..3 {
+        h.step();
+    }
+    assert!(h.state().show_shortcuts);
+    h.get_by_label("Ctrl+S");
 }
