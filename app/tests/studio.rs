@@ -322,7 +322,7 @@ fn pose_dependent_avatars_are_projected_per_pose() {
             std::thread::sleep(Duration::from_millis(2));
         }
     };
-    let projected = pose_at(f, Posable::PoseDependent { avatar: avatar.clone(), reference: reference.clone() });
+    let projected = pose_at(f, Posable::PoseDependent { avatar: avatar.clone(), reference: reference.clone(), rest_normals: None });
     let rigid = pose_at(f, Posable::Mesh(reference.clone()));
     assert_eq!(projected.len(), rigid.len());
     let differs = projected.iter().zip(&rigid).map(|(a, b)| (*a - *b).length()).fold(0.0f32, f32::max);

@@ -166,7 +166,7 @@ impl StudioApp {
         let betas = self.betas();
         let params = (0..self.timeline.frames()).map(|f| self.timeline.params_at(f, &betas)).collect();
         let (body, wake) = (self.body(), self.wake());
-        self.bakes.start(key, posable, body, params, wake);
+        self.bakes.start(key, posable.exact(), body, params, wake);
     }
 
     /// Show the baked mesh of the current frame, if the clip is baked. Returns true if shown.

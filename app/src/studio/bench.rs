@@ -68,7 +68,14 @@ pub fn bench_report() -> String {
                 let m = canonical_of(a.as_ref(), &betas).expect("meshing works");
                 let mesh_s = t.elapsed().as_secs_f64();
                 let n = m.mesh.positions.len();
-                let posable = if a.pose_dependent() { Posable::PoseDependent { avatar: a.clone(), reference: Arc::new(m) } } else { Posable::Mesh(Arc::new(m)) };
+                // As the studio poses it: smooth normals from the SDF's gradient at the rest pose.
+                let rest = avatar_core::body::BodyParams { betas: betas.clone(), ..Default::default() };
+                let normals = Arc::new(crate::studio::posing::sdf_normals(a.source(), &rest, &m.mesh.positions, &m.mesh.vertex_normals()).expect("the SDF evaluates"));
+                let posable = if a.pose_dependent() {
+                    Posable::PoseDependent { avatar: a.clone(), reference: Arc::new(m), rest_normals: Some(normals) }
+                } else {
+                    Posable::Smooth { mesh: Arc::new(m), normals }
+                };
                 let s = round_trip(&mut worker, &mut timeline, &posable, &body, &betas);
                 out += &format!("| mesh the avatar at {res} cells (once per avatar) | {:.2} s | {n} vertices |\n", mesh_s);
                 out += &format!("| pose slider to posed mesh: the avatar at {res} cells | {:.1} ms | target: 100 ms on 2 cores |\n", s * 1e3);
@@ -94,7 +101,7 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
     let key = BakeKey::new(posable, &timeline.clip_source, timeline.frames(), &timeline.offsets);
     let mut bakes = Bakes::default();
     let t = Instant::now();
-    bakes.start(key, posable.clone(), body.clone(), params, Arc::new(|| {}));
+    bakes.start(key, posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
     let baked = loop {
         match bakes.poll() {
             Some(Ok(b)) => break b,

@@ -200,13 +200,10 @@ impl StudioApp {
             let (avatar, path) = get()?;
             let betas = avatar.source().betas().to_vec();
             let mesh = canonical_of(avatar.as_ref(), &betas).map_err(|e| e.context("Could not mesh the avatar"))?;
-            // A pose-independent surface: its SDF's gradient once, turned by the skinning per pose.
-            let normals = if avatar.pose_dependent() {
-                None
-            } else {
-                let rest = avatar_core::body::BodyParams { betas, ..Default::default() };
-                Some(Arc::new(sdf_normals(avatar.source(), &rest, &mesh.mesh.positions, &mesh.mesh.vertex_normals())?))
-            };
+            // The SDF's gradient at the rest pose, once, turned by the skinning at each pose (exact
+            // for a pose-independent surface; the slider's quick normals for the meta avatar).
+            let rest = avatar_core::body::BodyParams { betas, ..Default::default() };
+            let normals = Some(Arc::new(sdf_normals(avatar.source(), &rest, &mesh.mesh.positions, &mesh.mesh.vertex_normals())?));
             Ok(AvatarReady { avatar, path, mesh: Arc::new(mesh), normals })
         });
         self.tasks.avatar = Some(task);

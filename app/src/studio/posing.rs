@@ -16,12 +16,14 @@ use std::sync::Arc;
 /// whose surface depends on the pose. For the latter the reference mesh's vertices are
 /// projected onto the pose's canonical surface (Newton steps on its SDF) and skinned: the
 /// exporter's recipe, so the viewport shows what the glTF will hold, without marching cubes
-/// at every pose; its normals are the pose's SDF gradient.
+/// at every pose. Its normals are the pose's SDF gradient (six more SDF values a vertex: what
+/// playback bakes), or with `rest_normals` the rest pose's gradient turned by the skinning (no
+/// cost: what the slider shows until the clip is baked).
 #[derive(Clone)]
 pub enum Posable {
     Mesh(Arc<CanonicalMesh>),
     Smooth { mesh: Arc<CanonicalMesh>, normals: Arc<Vec<Vec3>> },
-    PoseDependent { avatar: Arc<dyn StudioAvatar>, reference: Arc<CanonicalMesh> },
+    PoseDependent { avatar: Arc<dyn StudioAvatar>, reference: Arc<CanonicalMesh>, rest_normals: Option<Arc<Vec<Vec3>>> },
 }
 
 impl Posable {
@@ -30,6 +32,14 @@ impl Posable {
         match self {
             Posable::Mesh(m) | Posable::Smooth { mesh: m, .. } => m,
             Posable::PoseDependent { reference, .. } => reference,
+        }
+    }
+
+    /// The same posable with the best normals (the pose's SDF gradient): for baking.
+    pub fn exact(self) -> Posable {
+        match self {
+            Posable::PoseDependent { avatar, reference, .. } => Posable::PoseDependent { avatar, reference, rest_normals: None },
+            p => p,
         }
     }
 }
@@ -136,15 +146,20 @@ pub fn pose(req: &PoseRequest) -> anyhow::Result<PosedMesh> {
     let (canonical, normals): (&CanonicalMesh, Option<std::borrow::Cow<[Vec3]>>) = match &req.posable {
         Posable::Mesh(m) => (m, None),
         Posable::Smooth { mesh, normals } => (mesh, Some(std::borrow::Cow::Borrowed(&normals[..]))),
-        Posable::PoseDependent { avatar, reference } => {
+        Posable::PoseDependent { avatar, reference, rest_normals } => {
             // The exporter's Newton steps, so the studio shows what the export holds.
             let steps = avatar_core::export::ExportOptions::default().newton_steps;
             let projected = avatar.source().project(&req.params, &reference.mesh.positions, steps)?;
-            let fallback = avatar_core::mesh::vertex_normals(&projected, &reference.mesh.faces);
-            let n = sdf_normals(avatar.source(), &req.params, &projected, &fallback)?;
+            let n = match rest_normals {
+                Some(n) => std::borrow::Cow::Borrowed(&n[..]),
+                None => {
+                    let fallback = avatar_core::mesh::vertex_normals(&projected, &reference.mesh.faces);
+                    std::borrow::Cow::Owned(sdf_normals(avatar.source(), &req.params, &projected, &fallback)?)
+                }
+            };
             let weights = avatar.source().skinning_weights(&projected);
             owned = CanonicalMesh { mesh: avatar_core::mesh::TriMesh::new(projected, reference.mesh.faces.clone()), weights };
-            (&owned, Some(std::borrow::Cow::Owned(n)))
+            (&owned, Some(n))
         }
     };
     let skin = |(p, w): (&Vec3, &avatar_core::body::Weights)| -> (Vec3, Mat4) {

@@ -48,7 +48,7 @@ impl StudioApp {
     pub(crate) fn posable(&self) -> Option<Posable> {
         let (shown, mesh) = self.shown()?;
         Some(match (shown, &self.avatar, &self.avatar_normals) {
-            (Shown::Avatar, Some(a), _) if a.pose_dependent() => Posable::PoseDependent { avatar: a.clone(), reference: mesh },
+            (Shown::Avatar, Some(a), n) if a.pose_dependent() => Posable::PoseDependent { avatar: a.clone(), reference: mesh, rest_normals: n.clone() },
             (Shown::Avatar, _, Some(n)) => Posable::Smooth { mesh, normals: n.clone() },
             _ => Posable::Mesh(mesh),
         })

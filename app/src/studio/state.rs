@@ -44,7 +44,7 @@ pub struct AvatarReady {
     pub avatar: Arc<dyn StudioAvatar>,
     pub path: Option<PathBuf>,
     pub mesh: Arc<CanonicalMesh>,
-    /// Smooth normals of the mesh from the SDF's gradient (pose-independent avatars).
+    /// Smooth normals of the mesh from the SDF's gradient at the rest pose.
     pub normals: Option<Arc<Vec<Vec3>>>,
 }
 
