@@ -104,6 +104,10 @@ fn blender_imports_and_plays_the_exported_glb() {
     // Every PCA target moves; the constant compensation target does not.
     assert_eq!(s["animated_shape_keys"], targets - 1);
     assert_eq!(s["import_warnings"], serde_json::json!([]), "Blender's glTF importer complained");
+    assert_eq!(s["material"], "avatar", "the exported material reaches Blender");
+    let base: Vec<f64> = s["base_color"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    let expected = avatar_core::export::DEFAULT_COLOR;
+    assert!(base.iter().zip(expected).all(|(b, e)| (b - e as f64).abs() < 1e-3), "base colour {base:?}, expected {expected:?}");
     // Blender's evaluated mesh is the studio's posed mesh (12 frames, 16 targets: exact PCA).
     assert_eq!(s["obj_frames_compared"], frames);
     assert!(s["obj_max_error_mm"].as_f64().unwrap() < 0.5, "{s}");

@@ -3,9 +3,10 @@
 //! (re)written with UPDATE_SNAPSHOTS=1.
 
 use avatar_studio::studio::avatar_job::FitConfig;
+use avatar_studio::studio::camera::Preset;
 use avatar_studio::studio::project::ViewMode;
 use avatar_studio::studio::settings::ScriptedDialogs;
-use avatar_studio::studio::{StudioApp, StudioOptions};
+use avatar_studio::studio::{Command, StudioApp, StudioOptions};
 use eframe::egui;
 use eframe::egui::accesskit::Role;
 use egui_kittest::kittest::Queryable;
@@ -81,7 +82,10 @@ fn demo_fit_and_pose_snapshots() {
 
     // A fine-tuning job held after its first chunk: progress, plot and the partial result.
     let (gate_tx, gate_rx) = crossbeam_channel::bounded::<()>(0);
-    h.state_mut().start_fit_gated(test_fit(), gate_rx);
+    let dir = h.state().capture.as_ref().unwrap().dir.clone();
+    let ctx = h.ctx.clone();
+    let job = avatar_studio::studio::avatar_job::FitJob::start_gated(dir, test_fit(), move || ctx.request_repaint(), Some(gate_rx));
+    h.state_mut().apply(Command::WatchFit(job));
     h.state_mut().set_mode(ViewMode::Canonical);
     let t = Instant::now();
     while h.state().job_view.preview_step.is_none() {
@@ -183,7 +187,7 @@ fn a_whole_session_through_the_ui() {
     h.step();
     assert!(!h.state().timeline.playing);
     h.state_mut().timeline.set_frame(12);
-    h.state_mut().pose_needed_for_tests();
+    h.state_mut().apply(Command::PoseChanged);
     settle(&mut h, "posing");
     // P saves the viewport as a PNG.
     let shots = out.path().join("shots");
@@ -198,6 +202,15 @@ fn a_whole_session_through_the_ui() {
     let vp = h.state().viewport_rect().unwrap();
     assert_eq!((img.width(), img.height()), (vp.width().round() as u32, vp.height().round() as u32), "the viewport is cropped");
 
+    // The side view with a material colour of the artist's choice (exported too).
+    h.state_mut().view.material = [0.2, 0.5, 0.3];
+    h.state_mut().apply(Command::SceneChanged);
+    h.state_mut().apply(Command::CameraPreset(Preset::Side));
+    h.state_mut().status = None; // a temporary folder's name
+    h.state_mut().job_view.finished = None; // the fit's time
+    h.step();
+    snap(&mut h, "avatar_side_material", &tolerant(1500));
+
     // Export the animated glTF and the posed OBJ through the buttons (dialogs scripted).
     click(&mut h, "Export glTF…");
     settle(&mut h, "exporting");
@@ -211,6 +224,8 @@ fn a_whole_session_through_the_ui() {
     let times: Vec<f32> = channel.reader(|b| Some(&buffers[b.index()][..])).read_inputs().unwrap().collect();
     assert_eq!(times.len(), frames, "one key per clip frame");
     assert_eq!(doc.skins().next().unwrap().joints().count(), 24);
+    let material = doc.meshes().next().unwrap().primitives().next().unwrap().material();
+    assert_eq!(material.pbr_metallic_roughness().base_color_factor(), [0.2, 0.5, 0.3, 1.0], "the studio's colour is exported");
     // The Khronos validator accepts it (scripts/test.sh installs it, as for the CLI's test).
     let validator = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/gltf-validator");
     assert!(validator.join("node_modules/gltf-validator").exists(), "run `npm ci --prefix tests/gltf-validator` (scripts/test.sh does)");
@@ -307,7 +322,7 @@ fn pose_dependent_avatars_are_projected_per_pose() {
             std::thread::sleep(Duration::from_millis(2));
         }
     };
-    let projected = pose_at(f, Posable::PoseDependent { avatar: avatar.clone(), reference: reference.clone() });
+    let projected = pose_at(f, Posable::PoseDependent { avatar: avatar.clone(), reference: reference.clone(), rest_normals: None });
     let rigid = pose_at(f, Posable::Mesh(reference.clone()));
     assert_eq!(projected.len(), rigid.len());
     let differs = projected.iter().zip(&rigid).map(|(a, b)| (*a - *b).length()).fold(0.0f32, f32::max);
@@ -394,4 +409,104 @@ fn private_demo() -> tempfile::TempDir {
         std::fs::copy(e.path(), dir.path().join("depth").join(e.file_name())).unwrap();
     }
     dir
+}
+
+/// Playback after baking: Play bakes the clip's poses once (the capture's body here), then the
+/// viewport plays the baked meshes: frames come from the bake, two frames show different
+/// meshes, and a second Play does not bake again.
+#[test]
+fn playback_after_baking() {
+    let mut h = harness(StudioOptions { load_demo: true, ..Default::default() });
+    settle(&mut h, "loading the demo");
+    h.state_mut().apply(Command::TogglePlay);
+    h.step();
+    assert!(h.state().bakes.baking() || h.state().bakes.progress.is_none(), "a bake started");
+    let t = Instant::now();
+    while h.state().bakes.baking() {
+        h.step();
+        assert!(t.elapsed() < Duration::from_secs(120), "baking");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Playing: every step shows the baked mesh of the current frame, and the frames move on.
+    let frames = h.state().timeline.frames();
+    let mut seen = std::collections::BTreeSet::new();
+    for _ in 0..6 {
+        h.step();
+        let s = h.state();
+        assert!(s.timeline.playing);
+        let posed = s.posed.as_ref().expect("a posed mesh");
+        assert_eq!(posed.id, 0, "frame {} is the baked mesh, not a live pose", s.timeline.current_frame());
+        seen.insert(s.timeline.current_frame());
+    }
+    assert!(seen.len() >= 4, "the clip plays at its rate ({seen:?} of {frames} frames)");
+    h.state_mut().apply(Command::TogglePlay);
+    assert!(!h.state().bakes.baking(), "the bake is cached");
+    // Two paused frames: different meshes on screen.
+    let shot = |h: &mut Harness<'static, StudioApp>, f: usize| {
+        h.state_mut().timeline.set_frame(f);
+        h.state_mut().apply(Command::PoseChanged);
+        h.step();
+        h.step();
+        assert_eq!(h.state().posed.as_ref().unwrap().id, 0, "from the bake");
+        (h.state().posed.as_ref().unwrap().positions.clone(), h.render().expect("render"))
+    };
+    let (a, image_a) = shot(&mut h, 0);
+    let (b, image_b) = shot(&mut h, frames / 2);
+    let moved = a.iter().zip(&b).map(|(p, q)| (*p - *q).length()).fold(0.0f32, f32::max);
+    assert!(moved > 0.05, "the baked frames differ by {moved} m");
+    let differing = image_a.pixels().zip(image_b.pixels()).filter(|(x, y)| x != y).count();
+    assert!(differing > 1000, "the viewport changed ({differing} pixels)");
+    assert!(matches!(&h.state().status, Some(avatar_studio::studio::state::Status::Info(m)) if m.starts_with("Baked 96 frames")), "{:?}", h.state().status);
+    h.state_mut().status = None; // it names the bake's time
+    snap(&mut h, "playback_baked", &tolerant(200));
+}
+
+/// With no native dialog (no XDG portal), saving asks with the studio's own dialog: it lists
+/// the folder, proposes the default name and saves there; Ctrl+S then saves without asking.
+#[test]
+fn the_in_app_path_dialog_saves_without_a_portal() {
+    use avatar_studio::studio::settings::{NoDialogs, PathPurpose};
+    // A fixed folder, so that the snapshot shows the same path on every run.
+    let dir = std::env::temp_dir().join("avatar-studio-dialog-test");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("captures")).unwrap();
+    std::fs::write(dir.join("old.studio.json"), "{}").unwrap();
+    std::fs::write(dir.join("notes.txt"), "not listed").unwrap();
+    let mut h = harness(StudioOptions { load_demo: true, ..Default::default() });
+    h.state_mut().set_dialogs(Box::new(NoDialogs));
+    settle(&mut h, "loading the demo");
+    h.state_mut().apply(Command::AskPath(PathPurpose::SaveProject));
+    h.state_mut().path_dialog.as_mut().expect("the in-app dialog is open").go_to(dir.clone());
+    for _ in 0..3 {
+        h.step(); // a new window is sized in its first frame
+    }
+    h.get_by_label("[folder] captures");
+    h.get_by_label("old.studio.json");
+    assert!(h.query_by_label("notes.txt").is_none(), "the filter hides other files");
+    assert_eq!(h.state().path_dialog.as_ref().unwrap().name, "session.studio.json");
+    snap(&mut h, "path_dialog", &tolerant(200));
+    h.get_by_label("Save").click();
+    h.step();
+    h.step();
+    let project = dir.join("session.studio.json");
+    assert!(h.state().path_dialog.is_none(), "the dialog closed");
+    assert!(project.exists(), "{:?}", h.state().status);
+    assert_eq!(h.state().project_path.as_deref(), Some(project.as_path()));
+    // Ctrl+S saves again, no dialog.
+    std::fs::remove_file(&project).unwrap();
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::S);
+    h.step();
+    assert!(project.exists() && h.state().path_dialog.is_none());
+    // A failure is a visible message: opening a file that is not there.
+    h.state_mut().apply(Command::OpenPath(dir.join("missing.avatar")));
+    settle(&mut h, "opening a missing avatar");
+    assert!(h.state().error.as_deref().is_some_and(|e| e.contains("missing.avatar")), "{:?}", h.state().error);
+    let _ = std::fs::remove_dir_all(&dir);
+    // ? lists the shortcuts.
+    h.key_press(egui::Key::Questionmark);
+    for _ in 0..3 {
+        h.step();
+    }
+    assert!(h.state().show_shortcuts);
+    h.get_by_label("Ctrl+S");
 }

@@ -115,6 +115,13 @@ fn round_trip_reproduces_the_posed_mesh_within_2mm() {
         .map(|v| v.as_str().unwrap().to_string())
         .collect();
     assert_eq!(names[0], "compensation");
+    // Named nodes and the avatar's PBR material in the default skin-like colour.
+    assert!(doc.nodes().all(|n| n.name().is_some_and(|s| !s.is_empty())));
+    let material = doc.meshes().next().unwrap().primitives().next().unwrap().material();
+    assert_eq!(material.name(), Some("avatar"));
+    let pbr = material.pbr_metallic_roughness();
+    assert_eq!(pbr.base_color_factor(), [DEFAULT_COLOR[0], DEFAULT_COLOR[1], DEFAULT_COLOR[2], 1.0]);
+    assert_eq!(pbr.metallic_factor(), 0.0);
     let mut worst: f32 = 0.0;
     for f in 0..e.frames {
         let v = viewer_pose(&doc, &buffers, f);

@@ -262,8 +262,20 @@ def main():
         if len(shape_keys) > 1:
             check(len(varying) > 0, "no shape-key value changes while the animation plays")
 
+    # The exported PBR material: Blender's importer makes it a Principled BSDF whose Base Color
+    # is the file's baseColorFactor (linear RGB).
+    material = mesh_obj.active_material
+    base_color = None
+    if material is not None and material.use_nodes:
+        bsdf = next((nd for nd in material.node_tree.nodes if nd.type == "BSDF_PRINCIPLED"), None)
+        if bsdf is not None:
+            base_color = [round(float(v), 4) for v in bsdf.inputs["Base Color"].default_value[:3]]
+    check(base_color is not None, "the mesh has no material with a Principled BSDF")
+
     summary = {
         "file": args.file,
+        "material": material.name if material is not None else None,
+        "base_color": base_color,
         "blender": bpy.app.version_string,
         "armature": arm.name,
         "mesh": mesh_obj.name,

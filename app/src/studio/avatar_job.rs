@@ -16,6 +16,7 @@ use avatar_neural::{fit_sdf, AnyAvatar, FitOptions, HyperFitOptions, Init, MetaA
 use crossbeam_channel::Receiver;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
+use crate::studio::tasks::Task;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
@@ -215,61 +216,45 @@ pub enum JobEvent {
     Failed(String),
 }
 
-/// A running fine-tuning job. Dropping it cancels the fit (the thread finishes its step and
-/// exits; nothing is written to disk by the job).
+/// A running fine-tuning job (a background task). Dropping it cancels the fit (the thread
+/// finishes its step and exits; nothing is written to disk by the job).
 pub struct FitJob {
     pub events: Receiver<JobEvent>,
-    cancel: Arc<AtomicBool>,
+    task: Task<(), JobEvent>,
     pub config: FitConfig,
     pub capture: PathBuf,
-    thread: Option<std::thread::JoinHandle<()>>,
 }
 
 impl FitJob {
     /// Start a fit on its own thread. `wake` is called after each event (the UI repaints).
-    pub fn start(capture: PathBuf, config: FitConfig, wake: impl Fn() + Send + 'static) -> FitJob {
+    pub fn start(capture: PathBuf, config: FitConfig, wake: impl Fn() + Send + Sync + 'static) -> FitJob {
         FitJob::start_gated(capture, config, wake, None)
     }
 
     /// Like [`FitJob::start`], but after each chunk of steps the job waits for a message (or
     /// the sender's drop) on `gate`: tests hold a job in a known state.
-    pub fn start_gated(capture: PathBuf, config: FitConfig, wake: impl Fn() + Send + 'static, gate: Option<Receiver<()>>) -> FitJob {
-        let (tx, rx) = crossbeam_channel::unbounded();
-        let cancel = Arc::new(AtomicBool::new(false));
-        let (c, dir, cfg) = (cancel.clone(), capture.clone(), config.clone());
-        let thread = std::thread::Builder::new()
-            .name("fit job".into())
-            .spawn(move || {
-                let send = |e: JobEvent| {
-                    let _ = tx.send(e);
-                    wake();
-                };
-                let t = Instant::now();
-                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_fit(&dir, &cfg, &c, gate.as_ref(), &send)));
-                match result {
-                    Ok(Ok((avatar, warnings))) => send(JobEvent::Finished { avatar, cancelled: c.load(Ordering::Relaxed), warnings, seconds: t.elapsed().as_secs_f64() }),
-                    Ok(Err(e)) => send(JobEvent::Failed(format!("{e:#}"))),
-                    Err(_) => send(JobEvent::Failed("the fit stopped on an internal error".into())),
-                }
-            })
-            .expect("spawning the fit thread");
-        FitJob { events: rx, cancel, config, capture, thread: Some(thread) }
+    pub fn start_gated(capture: PathBuf, config: FitConfig, wake: impl Fn() + Send + Sync + 'static, gate: Option<Receiver<()>>) -> FitJob {
+        let (dir, cfg) = (capture.clone(), config.clone());
+        let task = Task::spawn("fit job", Arc::new(wake), move |cx| {
+            let send = |e: JobEvent| cx.send(e);
+            let t = Instant::now();
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_fit(&dir, &cfg, cx.cancel_flag(), gate.as_ref(), &send)));
+            match result {
+                Ok(Ok((avatar, warnings))) => send(JobEvent::Finished { avatar, cancelled: cx.cancelled(), warnings, seconds: t.elapsed().as_secs_f64() }),
+                Ok(Err(e)) => send(JobEvent::Failed(format!("{e:#}"))),
+                Err(_) => send(JobEvent::Failed("the fit stopped on an internal error".into())),
+            }
+            Ok(())
+        });
+        FitJob { events: task.events.clone(), task, config, capture }
     }
 
     pub fn cancel(&self) {
-        self.cancel.store(true, Ordering::Relaxed);
+        self.task.cancel();
     }
 
     pub fn is_cancelling(&self) -> bool {
-        self.cancel.load(Ordering::Relaxed)
-    }
-}
-
-impl Drop for FitJob {
-    fn drop(&mut self) {
-        self.cancel();
-        // Do not block the UI on the thread: it exits after the current step.
-        drop(self.thread.take());
+        self.task.is_cancelling()
     }
 }
 

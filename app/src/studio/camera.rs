@@ -23,7 +23,49 @@ impl Default for OrbitCamera {
     }
 }
 
+/// The camera presets: the subject seen from the front, the side (its left), the back or the
+/// top, keeping the target and the distance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Preset {
+    Front,
+    Side,
+    Back,
+    Top,
+}
+
+impl Preset {
+    pub const ALL: [Preset; 4] = [Preset::Front, Preset::Side, Preset::Back, Preset::Top];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            Preset::Front => "Front",
+            Preset::Side => "Side",
+            Preset::Back => "Back",
+            Preset::Top => "Top",
+        }
+    }
+
+    /// (yaw, pitch) in radians.
+    pub fn angles(self) -> (f32, f32) {
+        match self {
+            Preset::Front => (0.0, 0.0),
+            Preset::Side => (std::f32::consts::FRAC_PI_2, 0.0),
+            Preset::Back => (std::f32::consts::PI, 0.0),
+            Preset::Top => (0.0, 1.5),
+        }
+    }
+
+    pub fn apply(self, camera: &mut OrbitCamera) {
+        (camera.yaw, camera.pitch) = self.angles();
+    }
+}
+
 impl OrbitCamera {
+    /// Turn around the target (the turntable): `radians` about +Y.
+    pub fn turn(&mut self, radians: f32) {
+        self.yaw = (self.yaw + radians).rem_euclid(std::f32::consts::TAU);
+    }
+
     pub fn target(&self) -> Vec3 {
         Vec3::from(self.target)
     }
@@ -118,6 +160,17 @@ mod tests {
             let p = (m.proj * m.view).project_point3(corner);
             assert!(p.x.abs() <= 1.0 && p.y.abs() <= 1.0, "{p}");
         }
+    }
+
+    #[test]
+    fn presets_look_along_the_axes() {
+        let mut c = OrbitCamera::default();
+        for (p, dir) in [(Preset::Front, Vec3::Z), (Preset::Side, Vec3::X), (Preset::Back, -Vec3::Z)] {
+            p.apply(&mut c);
+            assert!(((c.eye() - c.target()).normalize() - dir).length() < 1e-5, "{p:?}");
+        }
+        Preset::Top.apply(&mut c);
+        assert!((c.eye() - c.target()).normalize().y > 0.99);
     }
 
     #[test]

@@ -1,26 +1,38 @@
 //! The studio: an eframe (egui + wgpu) desktop app over the avatar crates.
 //!
-//! Modules: `app` (state and per-frame logic), `panels` (the UI), `viewport` (the wgpu
-//! renderer: scene + camera in, pixels out), `camera`, `avatar_job` (the avatar trait and the
-//! background fine-tuning job), `posing` (the pose worker), `timeline`, `session` (captures),
-//! `project` (the project file), `settings`, `screenshot`, `style`, `demo`.
+//! The state (`state`) is changed in one place (`commands`, from the [`commands::Command`]s the
+//! panels return); background work (`tasks`) is polled in one place (`background`); the
+//! viewport's scene is built from the state (`scene`). Modules: `app` (start-up and the
+//! frame), `panels` (the UI), `viewport` (the wgpu renderer: scene + camera in, pixels out),
+//! `camera`, `avatar_job` (the avatar trait and the fine-tuning job), `posing` (the pose
+//! worker), `playback` (baked clips), `timeline`, `capture_view` (a capture as the studio shows
+//! it), `project` (the project file), `settings` (and the native dialogs), `path_dialog` (the
+//! in-app one), `screenshot`, `style`, `demo`.
 
 pub mod app;
 pub mod avatar_job;
+mod background;
 pub mod bench;
 pub mod camera;
+pub mod capture_view;
+pub mod commands;
 pub mod demo;
 pub mod panels;
+pub mod path_dialog;
+pub mod playback;
 pub mod posing;
 pub mod project;
+pub mod scene;
 pub mod screenshot;
-pub mod session;
 pub mod settings;
+pub mod state;
 pub mod style;
+pub mod tasks;
 pub mod timeline;
 pub mod viewport;
 
-pub use app::{StudioApp, StudioOptions};
+pub use commands::Command;
+pub use state::{StudioApp, StudioOptions};
 
 use eframe::egui;
 

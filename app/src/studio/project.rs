@@ -29,11 +29,26 @@ pub struct ViewState {
     pub shading: Shading,
     pub camera: OrbitCamera,
     pub selected_frame: usize,
+    /// The avatar's material colour (linear RGB): the viewport's and the exported glTF's.
+    #[serde(default = "default_material")]
+    pub material: [f32; 3],
+    /// The key light's direction in view space (towards the light).
+    #[serde(default = "default_light")]
+    pub light: [f32; 3],
+}
+
+fn default_material() -> [f32; 3] {
+    avatar_core::export::DEFAULT_COLOR
+}
+
+/// From the camera's upper left.
+pub fn default_light() -> [f32; 3] {
+    [-0.45, 0.6, 0.65]
 }
 
 impl Default for ViewState {
     fn default() -> Self {
-        ViewState { mode: ViewMode::Posed, skeleton: false, shading: Shading::Lit, camera: OrbitCamera::default(), selected_frame: 0 }
+        ViewState { mode: ViewMode::Posed, skeleton: false, shading: Shading::Lit, camera: OrbitCamera::default(), selected_frame: 0, material: default_material(), light: default_light() }
     }
 }
 

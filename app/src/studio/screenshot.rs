@@ -1,7 +1,7 @@
 //! Screenshots: P saves the viewport; `StudioOptions::screenshot` saves the whole window once
 //! the studio is idle and then closes it (for README images taken from a real window).
 
-use crate::studio::app::{Status, StudioApp};
+use crate::studio::state::{Status, StudioApp};
 use eframe::egui;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU8, Ordering};

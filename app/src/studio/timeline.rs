@@ -61,7 +61,12 @@ impl Timeline {
 
     /// The pose at the current frame with the joint offsets applied, in the given shape.
     pub fn params(&self, betas: &[f32]) -> BodyParams {
-        let mut p = self.clip.frames.get(self.current_frame()).cloned().unwrap_or_default();
+        self.params_at(self.current_frame(), betas)
+    }
+
+    /// The pose at frame `f` with the joint offsets applied, in the given shape.
+    pub fn params_at(&self, f: usize, betas: &[f32]) -> BodyParams {
+        let mut p = self.clip.frames.get(f).cloned().unwrap_or_default();
         for (j, o) in self.offsets.iter().enumerate() {
             if o.iter().any(|v| *v != 0.0) {
                 let q = Quat::from_euler(EulerRot::XYZ, o[0].to_radians(), o[1].to_radians(), o[2].to_radians());

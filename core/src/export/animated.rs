@@ -22,11 +22,16 @@ pub struct ExportOptions {
     pub newton_steps: usize,
     /// PCA components moving no vertex by more than this (metres) are not exported.
     pub min_target_effect: f32,
+    /// The avatar material's base colour (linear RGB): a PBR metallic-roughness material.
+    pub color: [f32; 3],
 }
+
+/// A neutral skin-like base colour (linear RGB), the material's default.
+pub const DEFAULT_COLOR: [f32; 3] = [0.80, 0.58, 0.47];
 
 impl Default for ExportOptions {
     fn default() -> Self {
-        ExportOptions { max_targets: 64, newton_steps: 4, min_target_effect: 1e-4 }
+        ExportOptions { max_targets: 64, newton_steps: 4, min_target_effect: 1e-4, color: DEFAULT_COLOR }
     }
 }
 
@@ -182,10 +187,11 @@ pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &Export
         })
         .chain(std::iter::once(json!({"name": "avatar", "mesh": 0, "skin": 0})))
         .collect();
+    let c = options.color.map(|v| if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.5 });
     let doc = json!({
         "asset": {"version": "2.0", "generator": "Avatar Studio"},
         "scene": 0,
-        "scenes": [{"nodes": [0, NUM_JOINTS]}],
+        "scenes": [{"name": "avatar", "nodes": [0, NUM_JOINTS]}],
         "nodes": nodes,
         "skins": [{"joints": (0..NUM_JOINTS).collect::<Vec<_>>(), "inverseBindMatrices": ibm_acc, "skeleton": 0}],
         "meshes": [{
@@ -193,10 +199,15 @@ pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &Export
             "primitives": [{
                 "attributes": {"POSITION": position, "NORMAL": normal, "JOINTS_0": joints_acc, "WEIGHTS_0": weights_acc},
                 "indices": indices,
+                "material": 0,
                 "targets": targets,
             }],
             "weights": morphs.all_weights(0),
             "extras": {"targetNames": target_names},
+        }],
+        "materials": [{
+            "name": "avatar",
+            "pbrMetallicRoughness": {"baseColorFactor": [c[0], c[1], c[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.7},
         }],
         "animations": [{"name": clip.name, "samplers": samplers, "channels": channels}],
     });

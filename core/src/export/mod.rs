@@ -7,6 +7,6 @@ pub mod glb;
 pub mod morph;
 pub mod source;
 
-pub use animated::{export_glb, top4, write_mesh_sequence, ExportOptions, Exported};
+pub use animated::{export_glb, top4, write_mesh_sequence, ExportOptions, Exported, DEFAULT_COLOR};
 pub use morph::{compress, MorphTargets};
 pub use source::{AvatarSource, SyntheticAvatar};

@@ -48,15 +48,7 @@ impl TriMesh {
 
     /// Area-weighted unit vertex normals.
     pub fn vertex_normals(&self) -> Vec<Vec3> {
-        let mut normals = vec![Vec3::ZERO; self.positions.len()];
-        for (f, face) in self.faces.iter().enumerate() {
-            let [a, b, c] = self.triangle(f);
-            let n = (b - a).cross(c - a); // length = 2 * area
-            for &v in face {
-                normals[v as usize] += n;
-            }
-        }
-        normals.iter().map(|n| n.normalize_or_zero()).collect()
+        vertex_normals(&self.positions, &self.faces)
     }
 
     /// Axis-aligned bounds (min, max); `None` for an empty mesh.
@@ -97,6 +89,20 @@ impl PointCloud {
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }
+}
+
+/// Area-weighted unit vertex normals of a triangle soup over `positions` (zero for a vertex
+/// on no face or only on degenerate faces). The mesh, the exporter and the viewport use it.
+pub fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut normals = vec![Vec3::ZERO; positions.len()];
+    for face in faces {
+        let [a, b, c] = face.map(|i| positions[i as usize]);
+        let n = (b - a).cross(c - a); // length = 2 * area
+        for &v in face {
+            normals[v as usize] += n;
+        }
+    }
+    normals.iter().map(|n| n.normalize_or_zero()).collect()
 }
 
 #[cfg(test)]

@@ -56,9 +56,23 @@ impl Scene {
 
     /// Add a triangle mesh with smooth vertex normals in one colour (linear RGB).
     pub fn add_mesh(&mut self, positions: &[Vec3], faces: &[[u32; 3]], color: [f32; 3]) {
-        let normals = vertex_normals(positions, faces);
+        self.add_mesh_with_normals(positions, None, faces, color);
+    }
+
+    /// Add a triangle mesh with the given unit vertex normals (an SDF's gradient), or normals
+    /// from its triangles (area-weighted) when there are none.
+    pub fn add_mesh_with_normals(&mut self, positions: &[Vec3], normals: Option<&[Vec3]>, faces: &[[u32; 3]], color: [f32; 3]) {
+        let owned;
+        let normals = match normals {
+            Some(n) if n.len() == positions.len() => n,
+            _ => {
+                // A vertex on no proper triangle gets "up" rather than no normal at all.
+                owned = avatar_core::mesh::vertex_normals(positions, faces).into_iter().map(|n| n.normalize_or(Vec3::Y)).collect::<Vec<_>>();
+                &owned[..]
+            }
+        };
         let base = self.vertices.len() as u32;
-        self.vertices.extend(positions.iter().zip(&normals).map(|(p, n)| MeshVertex { pos: p.to_array(), normal: n.to_array(), color: [color[0], color[1], color[2], 1.0] }));
+        self.vertices.extend(positions.iter().zip(normals).map(|(p, n)| MeshVertex { pos: p.to_array(), normal: n.to_array(), color: [color[0], color[1], color[2], 1.0] }));
         self.indices.extend(faces.iter().flat_map(|f| f.map(|i| i + base)));
     }
 
@@ -118,18 +132,6 @@ impl Scene {
     }
 }
 
-pub fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
-    let mut n = vec![Vec3::ZERO; positions.len()];
-    for f in faces {
-        let [a, b, c] = f.map(|i| positions[i as usize]);
-        let fnrm = (b - a).cross(c - a);
-        for &i in f {
-            n[i as usize] += fnrm;
-        }
-    }
-    n.iter().map(|v| v.normalize_or(Vec3::Y)).collect()
-}
-
 /// How meshes are shaded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Shading {
@@ -155,10 +157,10 @@ struct Globals {
 
 /// Paint `scene` into `rect` of `ui`. Does nothing visible (but paints the background) when the
 /// wgpu renderer is missing.
-pub fn paint(ui: &mut egui::Ui, rect: egui::Rect, scene: Arc<Scene>, camera: CameraMatrices, shading: Shading, point_size: f32) {
+pub fn paint(ui: &mut egui::Ui, rect: egui::Rect, scene: Arc<Scene>, camera: CameraMatrices, shading: Shading, point_size: f32, light: [f32; 3]) {
     let ppp = ui.ctx().pixels_per_point();
     let size = [(rect.width() * ppp).round().max(1.0) as u32, (rect.height() * ppp).round().max(1.0) as u32];
-    let cb = ViewportCallback { scene, camera, shading, point_size: point_size * ppp, size };
+    let cb = ViewportCallback { scene, camera, shading, point_size: point_size * ppp, size, light };
     ui.painter().add(egui_wgpu::Callback::new_paint_callback(rect, cb));
 }
 
@@ -168,6 +170,7 @@ struct ViewportCallback {
     shading: Shading,
     point_size: f32,
     size: [u32; 2],
+    light: [f32; 3],
 }
 
 /// GPU objects of the viewport, kept in egui-wgpu's callback resources.
@@ -315,7 +318,7 @@ impl ViewportResources {
     /// Draw the scene into the offscreen MSAA target (resolved into `resolved`, which `paint`
     /// blits into egui's pass). Used by the paint callback and by the headless benchmark.
     #[allow(clippy::too_many_arguments)]
-    pub fn render(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, scene: &Scene, camera: &CameraMatrices, shading: Shading, point_size: f32, size: [u32; 2]) {
+    pub fn render(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, scene: &Scene, camera: &CameraMatrices, shading: Shading, point_size: f32, size: [u32; 2], light: [f32; 3]) {
         self.ensure_targets(device, size);
         self.upload(device, queue, scene);
         let mode = match shading {
@@ -326,7 +329,7 @@ impl ViewportResources {
             view_proj: (camera.proj * camera.view).to_cols_array_2d(),
             view: camera.view.to_cols_array_2d(),
             params: [mode, point_size, size[0] as f32, size[1] as f32],
-            light: [0.0, 1.0, 0.0, 0.0],
+            light: [light[0], light[1], light[2], 0.0],
         };
         queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
         let (Some(targets), Some(up)) = (&self.targets, &self.uploaded) else {
@@ -439,7 +442,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
         resources: &mut egui_wgpu::CallbackResources,
     ) -> Vec<wgpu::CommandBuffer> {
         if let Some(res) = resources.get_mut::<ViewportResources>() {
-            res.render(device, queue, encoder, &self.scene, &self.camera, self.shading, self.point_size, self.size);
+            res.render(device, queue, encoder, &self.scene, &self.camera, self.shading, self.point_size, self.size, self.light);
         }
         Vec::new()
     }

@@ -43,11 +43,12 @@ fn fs_mesh(in: MeshOut, @builtin(front_facing) front: bool) -> @location(0) vec4
         // Normal view: world normal mapped to colour.
         return vec4<f32>(to_display(n * 0.5 + vec3<f32>(0.5)), 1.0);
     }
-    // Three-point lighting in view space (key from the camera's upper left, fill, rim) plus a
+    // Three-point lighting in view space (the key from the studio's light direction, by default
+    // the camera's upper left; fill, rim) plus a
     // soft hemisphere ambient, with a little Blinn-Phong specular.
     let vn = normalize((globals.view * vec4<f32>(n, 0.0)).xyz);
     let v = normalize(-in.view_pos);
-    let key = normalize(vec3<f32>(-0.45, 0.6, 0.65));
+    let key = normalize(globals.light_dir.xyz);
     let fill = normalize(vec3<f32>(0.7, 0.1, 0.5));
     let rim = normalize(vec3<f32>(0.0, 0.4, -1.0));
     let hemi = 0.5 + 0.5 * vn.y;

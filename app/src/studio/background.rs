@@ -1,0 +1,217 @@
+//! The one place where the studio takes the results of its background work (capture loading,
+//! avatar meshing, export, fine-tuning, posing and playback bakes), once per frame.
+
+use crate::studio::avatar_job::{body_canonical, JobEvent};
+use crate::studio::capture_view::LoadedCapture;
+use crate::studio::project::DEMO;
+use crate::studio::settings::Settings;
+use crate::studio::state::StudioApp;
+use crate::studio::tasks::take_done;
+use eframe::egui;
+use std::sync::Arc;
+use std::time::Instant;
+
+impl StudioApp {
+    pub(crate) fn poll_tasks(&mut self) {
+        if let Some(r) = self.tasks.capture.as_ref().and_then(|(_, t)| t.poll()) {
+            let (source, _) = self.tasks.capture.take().expect("polled above");
+            match r {
+                Ok(c) => self.capture_loaded(source, c),
+                Err(e) => {
+                    let what = if source == DEMO { "the demo capture".to_string() } else { source.clone() };
+                    self.fail(format!("Could not open {what}: {e}"));
+                    self.scene_dirty = true;
+                }
+            }
+        }
+        match take_done(&mut self.tasks.avatar) {
+            Some(Ok(ready)) => {
+                let already = self.avatar.as_ref().is_some_and(|a| Arc::ptr_eq(a, &ready.avatar));
+                if !already {
+                    self.info(format!("Opened the avatar ({})", ready.avatar.describe()));
+                    self.avatar_saved = ready.path.is_some();
+                    self.avatar_path = ready.path.clone();
+                    self.avatar = Some(ready.avatar);
+                }
+                self.avatar_canonical = Some(ready.mesh);
+                self.avatar_normals = ready.normals;
+                self.preview = None;
+                self.pose_needed = true;
+                self.scene_dirty = true;
+            }
+            Some(Err(e)) => self.fail(e.to_string()),
+            None => {}
+        }
+        match take_done(&mut self.tasks.export) {
+            Some(Ok(m)) => self.info(m),
+            Some(Err(e)) => self.fail(format!("Export failed: {e}")),
+            None => {}
+        }
+        self.poll_job();
+        match self.bakes.poll() {
+            Some(Ok(b)) => {
+                self.info(format!("Baked {} frames for playback in {:.1} s", b.frames.len(), b.seconds));
+                self.show_baked();
+            }
+            Some(Err(e)) => self.fail(format!("{e:#}")),
+            None => {}
+        }
+        self.poll_pose();
+    }
+
+    fn capture_loaded(&mut self, source: String, capture: LoadedCapture) {
+        self.thumbnails = capture
+            .frames
+            .iter()
+            .map(|f| f.thumbnail.clone().map(|img| self.ctx.load_texture(format!("thumb-{}-{}", capture.name, f.index), img, egui::TextureOptions::LINEAR)))
+            .collect();
+        self.body_rest = Some(Arc::new(body_canonical(&capture.body, &capture.betas)));
+        match self.pending_view.take() {
+            Some(v) => {
+                self.view = v;
+                self.view.selected_frame = self.view.selected_frame.min(capture.frames.len().saturating_sub(1));
+                self.framed = true;
+            }
+            None => {
+                self.view.selected_frame = capture.first_usable().unwrap_or(0);
+                self.framed = false;
+            }
+        }
+        let flagged = capture.flagged();
+        let msg = format!(
+            "Opened {}: {} frames, {} usable{}",
+            if source == DEMO { "the demo capture".to_string() } else { capture.dir.display().to_string() },
+            capture.frames.len(),
+            capture.usable(),
+            if flagged > 0 { format!(", {flagged} flagged") } else { String::new() }
+        );
+        self.info(msg);
+        if source != DEMO {
+            Settings::push_recent(&mut self.settings.recent_captures, &source);
+        }
+        let title = if source == DEMO { "Avatar Studio - demo capture".to_string() } else { format!("Avatar Studio - {}", capture.name) };
+        self.ctx.send_viewport_cmd(egui::ViewportCommand::Title(title));
+        self.capture = Some(Arc::new(capture));
+        self.capture_source = Some(source);
+        if let Some(cfg) = self.options.auto_fit.take() {
+            self.apply(crate::studio::commands::Command::StartFit(cfg));
+        }
+        self.error = None;
+        self.pose_needed = true;
+        self.scene_dirty = true;
+    }
+
+    fn poll_job(&mut self) {
+        let Some(job) = &self.job else { return };
+        let mut finished = None;
+        for e in job.events.try_iter() {
+            match e {
+                JobEvent::Started { points, frames } => {
+                    self.job_view.points = points;
+                    self.job_view.frames = frames;
+                }
+                JobEvent::Progress { step, steps, loss, terms, elapsed_s } => {
+                    self.job_view.step = step;
+                    self.job_view.steps = steps;
+                    self.job_view.loss = loss;
+                    self.job_view.terms = terms;
+                    self.job_view.elapsed_s = elapsed_s;
+                    if loss.is_finite() && loss > 0.0 {
+                        self.job_view.losses.push([step as f64, (loss as f64).log10()]);
+                    }
+                }
+                JobEvent::Preview { step, mesh } => {
+                    self.job_view.preview_step = Some(step);
+                    self.preview = Some(mesh);
+                    self.pose_needed = true;
+                    self.scene_dirty = true;
+                }
+                e @ (JobEvent::Finished { .. } | JobEvent::Failed(_)) => finished = Some(e),
+            }
+        }
+        match finished {
+            Some(JobEvent::Finished { avatar, cancelled, warnings, seconds }) => {
+                let what = if cancelled { "Fine-tuning cancelled: the partial avatar is loaded" } else { "Fine-tuning finished" };
+                let text = format!("{what} ({}, {seconds:.1} s){}", avatar.describe(), if warnings.is_empty() { String::new() } else { format!("; {} warnings", warnings.len()) });
+                self.job_view.finished = Some(text.clone());
+                self.info(text);
+                self.job = None;
+                self.set_avatar(avatar, None);
+            }
+            Some(JobEvent::Failed(e)) => {
+                self.job = None;
+                self.preview = None;
+                self.job_view.finished = Some(format!("Failed: {e}"));
+                self.fail(format!("Fine-tuning failed: {e}"));
+            }
+            _ => {}
+        }
+    }
+
+    // ---- posing and playback -------------------------------------------------------------
+
+    /// The bake of the current clip for what is shown now, if it is done.
+    fn current_bake(&self) -> Option<(crate::studio::playback::BakeKey, crate::studio::posing::Posable)> {
+        let posable = self.posable()?;
+        Some((crate::studio::playback::BakeKey::new(&posable, &self.timeline.clip_source, self.timeline.frames(), &self.timeline.offsets), posable))
+    }
+
+    /// Bake the clip's poses for playback (in the background, once per posable and clip).
+    /// Nothing is baked while a fit runs: its partial result changes.
+    pub(crate) fn start_bake(&mut self) {
+        if self.job.is_some() {
+            return;
+        }
+        let Some((key, posable)) = self.current_bake() else { return };
+        let betas = self.betas();
+        let params = (0..self.timeline.frames()).map(|f| self.timeline.params_at(f, &betas)).collect();
+        let (body, wake) = (self.body(), self.wake());
+        self.bakes.start(key, posable.exact(), body, params, wake);
+    }
+
+    /// Show the baked mesh of the current frame, if the clip is baked. Returns true if shown.
+    fn show_baked(&mut self) -> bool {
+        let Some((key, _)) = self.current_bake() else { return false };
+        let Some(frame) = self.bakes.get(&key).and_then(|b| b.frames.get(self.timeline.current_frame()).cloned()) else { return false };
+        if !self.posed.as_ref().is_some_and(|p| Arc::ptr_eq(p, &frame)) {
+            self.posed = Some(frame);
+            self.scene_dirty = true;
+        }
+        true
+    }
+
+    /// Pose the current frame: from the bake when there is one, else ask the pose worker.
+    pub(crate) fn request_pose(&mut self) {
+        self.pose_needed = false;
+        if self.show_baked() {
+            self.last_request_to_mesh = Some(0.0);
+            return;
+        }
+        let Some(posable) = self.posable() else { return };
+        let params = self.timeline.params(&self.betas());
+        self.poser.request(params, posable, self.body());
+        self.pose_requested_at = Some(Instant::now());
+    }
+
+    fn poll_pose(&mut self) {
+        if let Some(r) = self.poser.poll() {
+            match r {
+                Ok(m) => {
+                    self.last_pose_seconds = Some(m.seconds);
+                    if m.id == self.poser.latest {
+                        self.last_request_to_mesh = self.pose_requested_at.map(|t| t.elapsed().as_secs_f64());
+                    }
+                    // A baked frame shown meanwhile is newer than a live pose that arrives late.
+                    if !self.show_baked() {
+                        self.posed = Some(Arc::new(m));
+                        self.scene_dirty = true;
+                    }
+                }
+                Err(e) => {
+                    self.pose_failed = Some(e.id);
+                    self.fail(format!("Posing failed: {e}"));
+                }
+            }
+        }
+    }
+}

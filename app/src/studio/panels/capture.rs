@@ -1,0 +1,100 @@
+//! The capture panel: open a capture (dialog, demo, typed path), the error box, the frames as
+//! depth thumbnails with the flagged ones and their reasons.
+
+use crate::studio::commands::Command;
+use crate::studio::project::DEMO;
+use crate::studio::settings::PathPurpose;
+use crate::studio::state::StudioApp;
+use crate::studio::style::{self, ACCENT, ERROR, WARN};
+use eframe::egui;
+use std::path::PathBuf;
+
+pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
+    style::heading(ui, "Capture");
+    ui.horizontal(|ui| {
+        if ui.button("Open…").on_hover_text("Open a capture folder (or drop it on the window)").clicked() {
+            out.push(Command::AskPath(PathPurpose::OpenCapture));
+        }
+        if ui.button("Demo").on_hover_text("The embedded demo capture").clicked() {
+            out.push(Command::OpenCapture(DEMO.into()));
+        }
+    });
+    ui.horizontal(|ui| {
+        let field = ui.add(egui::TextEdit::singleline(&mut app.path_field).hint_text("or type a folder path").desired_width(ui.available_width() - 40.0));
+        let go = ui.add_enabled(!app.path_field.trim().is_empty(), egui::Button::new("Go")).on_hover_text("Open the capture folder, project, avatar or motion at this path");
+        if go.clicked() || (field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) && !app.path_field.trim().is_empty()) {
+            out.push(Command::OpenPath(PathBuf::from(app.path_field.trim())));
+        }
+    });
+    if let Some(src) = app.loading() {
+        ui.horizontal(|ui| {
+            ui.spinner();
+            ui.label(format!("Opening {}…", if src == DEMO { "the demo" } else { src }));
+        });
+    }
+    if let Some(e) = app.error.clone() {
+        egui::Frame::new().fill(egui::Color32::from_rgb(60, 28, 28)).corner_radius(4.0).inner_margin(6.0).show(ui, |ui| {
+            ui.label(egui::RichText::new("Error").strong().color(ERROR));
+            ui.label(egui::RichText::new(e).small());
+            if ui.small_button("Dismiss").clicked() {
+                out.push(Command::DismissError);
+            }
+        });
+    }
+    let Some(c) = app.capture.clone() else {
+        ui.weak("No capture open. Open a folder with capture.json, drop one here, or use the demo.");
+        return;
+    };
+    ui.label(egui::RichText::new(if app.capture_source.as_deref() == Some(DEMO) { "Demo capture".to_string() } else { c.name.clone() }).strong());
+    ui.label(egui::RichText::new(format!("{} frames · {} usable · {} × {} px · {:.0} fps", c.frames.len(), c.usable(), c.manifest.intrinsics.width, c.manifest.intrinsics.height, c.fps)).small().weak());
+    if c.flagged() > 0 {
+        ui.label(egui::RichText::new(format!("{} frames flagged", c.flagged())).small().color(WARN));
+    }
+    ui.add_space(4.0);
+    let size = 60.0;
+    let cols = ((ui.available_width() + 4.0) / (size + 4.0)).floor().max(1.0) as usize;
+    egui::Grid::new("thumbs").spacing([4.0, 4.0]).show(ui, |ui| {
+        for (i, f) in c.frames.iter().enumerate() {
+            let selected = app.view.selected_frame == i;
+            let (rect, resp) = ui.allocate_exact_size(egui::vec2(size, size), egui::Sense::click());
+            let painter = ui.painter_at(rect);
+            painter.rect_filled(rect, 3.0, egui::Color32::from_rgb(14, 15, 18));
+            if let Some(Some(tex)) = app.thumbnails.get(i) {
+                let img_size = tex.size_vec2();
+                let scale = (size - 4.0) / img_size.x.max(img_size.y);
+                let r = egui::Rect::from_center_size(rect.center(), img_size * scale);
+                painter.image(tex.id(), r, egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)), egui::Color32::WHITE);
+            }
+            let border = if f.problem.is_some() {
+                egui::Stroke::new(2.0, ERROR)
+            } else if selected {
+                egui::Stroke::new(2.0, ACCENT)
+            } else {
+                egui::Stroke::new(1.0, egui::Color32::from_rgb(50, 53, 60))
+            };
+            painter.rect_stroke(rect, 3.0, border, egui::StrokeKind::Inside);
+            painter.text(rect.left_bottom() + egui::vec2(4.0, -3.0), egui::Align2::LEFT_BOTTOM, format!("{}", f.index), egui::FontId::monospace(10.0), egui::Color32::from_white_alpha(200));
+            if f.problem.is_some() {
+                painter.text(rect.right_top() + egui::vec2(-4.0, 3.0), egui::Align2::RIGHT_TOP, "!", egui::FontId::proportional(13.0), ERROR);
+            }
+            let resp = match &f.problem {
+                Some(p) => resp.on_hover_text(format!("Frame {} is not used: {p}", f.index)),
+                None => resp.on_hover_text(format!("Frame {}: {} points", f.index, f.points.len())),
+            };
+            if resp.clicked() {
+                out.push(Command::SelectFrame(i));
+            }
+            if (i + 1) % cols == 0 {
+                ui.end_row();
+            }
+        }
+    });
+    let flagged: Vec<_> = c.frames.iter().filter_map(|f| f.problem.as_ref().map(|p| (f.index, f.file.clone(), p.clone()))).collect();
+    if !flagged.is_empty() {
+        ui.add_space(6.0);
+        style::heading(ui, "Flagged frames");
+        for (i, file, p) in flagged {
+            ui.label(egui::RichText::new(format!("frame {i} ({}): {p}", file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())).small().color(WARN));
+        }
+    }
+}
