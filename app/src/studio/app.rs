@@ -331,8 +331,24 @@ impl StudioApp {
         self.meshing = Some(rx);
     }
 
+    /// What the session reads, for the output-path guard: the capture's files and a motion file.
+    fn inputs(&self) -> avatar_core::io::Inputs {
+        let mut inputs = avatar_core::io::Inputs::new();
+        if let Some(c) = &self.capture {
+            inputs = inputs.capture(&c.dir);
+        }
+        let clip = Path::new(&self.timeline.clip_source);
+        if clip.is_file() {
+            inputs = inputs.file(clip);
+        }
+        inputs
+    }
+
     pub fn save_avatar_to(&mut self, path: &Path) {
         let Some(a) = &self.avatar else { return };
+        if let Err(e) = self.inputs().check_file(path, &["avatar"]) {
+            return self.fail(format!("Could not save the avatar: {e}"));
+        }
         match a.save(path) {
             Ok(()) => {
                 self.avatar_path = Some(path.to_path_buf());
@@ -475,6 +491,9 @@ impl StudioApp {
             self.fail("Fit or open an avatar before exporting".into());
             return;
         };
+        if let Err(e) = self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(&path, &["glb"]) {
+            return self.fail(format!("Export failed: {e}"));
+        }
         let clip = self.timeline.clip.clone();
         let (tx, rx) = crossbeam_channel::bounded(1);
         let ctx = self.ctx.clone();
@@ -502,6 +521,9 @@ impl StudioApp {
             self.fail("Nothing posed yet".into());
             return;
         };
+        if let Err(e) = self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(path, &["obj"]) {
+            return self.fail(format!("Could not write the OBJ: {e}"));
+        }
         let mesh = avatar_core::mesh::TriMesh::new(p.positions.clone(), p.faces.clone());
         match avatar_core::mesh::io::write_obj(path, &mesh) {
             Ok(()) => self.status = Some(Status::Info(format!("Wrote {} ({} vertices)", path.display(), mesh.positions.len()))),
@@ -523,6 +545,9 @@ impl StudioApp {
 
     /// Save the session; an unsaved avatar is saved beside the project first.
     pub fn save_project_to(&mut self, path: &Path) {
+        if let Err(e) = self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(path, &["json"]) {
+            return self.fail(format!("Could not save the project: {e}"));
+        }
         if self.avatar.is_some() && !self.avatar_saved {
             let stem = path.file_name().and_then(|n| n.to_str()).map(|n| n.trim_end_matches(".studio.json").trim_end_matches(".json").to_string()).unwrap_or_else(|| "avatar".into());
             let avatar_path = path.with_file_name(format!("{stem}.avatar"));
