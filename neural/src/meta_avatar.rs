@@ -138,10 +138,10 @@ impl MetaAvatar {
             model = {
                 let mut chunk_progress = |step: usize, loss: f32, terms: [f32; 4]| {
                     ran = base + step + 1;
+                    progress(base + step, loss, terms);
                     if cancelled() {
                         stop.store(true, Ordering::Relaxed);
                     }
-                    progress(base + step, loss, terms)
                 };
                 fit_hyper(model, &samples, &chunk_options, &mut optimisers, &device, Some(&prior), Some(&stop), &mut chunk_progress)
             };

@@ -82,10 +82,10 @@ impl StaticAvatar {
         let model = {
             let mut counted = |step: usize, loss: f32, terms: [f32; 4]| {
                 ran = step + 1;
+                progress(step, loss, terms);
                 if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                     stop.store(true, Ordering::Relaxed);
                 }
-                progress(step, loss, terms)
             };
             fit_sdf(model, &points, &normals, options, &device, Some(&prior), Some(&stop), &mut counted)
         };

@@ -48,10 +48,21 @@ pub struct Run {
     pub seconds: f64,
 }
 
-/// Run the binary and reap it with wait4 for its own peak memory.
-fn run(args: &[OsString], cache: &Path) -> Run {
+/// Run the binary and reap it with wait4. Peak memory: GNU time's figure for the command when
+/// /usr/bin/time is there (exact); else wait4's, an upper bound (Linux counts the test process's
+/// own peak in a child it spawns).
+fn run(args: &[OsString], cache: &Path, index: usize) -> Run {
     let t = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_avatar-studio"))
+    let time = Path::new("/usr/bin/time");
+    let measured = cache.join(format!("peak-{index}.txt"));
+    let mut command = if time.exists() {
+        let mut c = Command::new(time);
+        c.arg("-f").arg("%M").arg("-o").arg(&measured).arg(env!("CARGO_BIN_EXE_avatar-studio"));
+        c
+    } else {
+        Command::new(env!("CARGO_BIN_EXE_avatar-studio"))
+    };
+    let mut child = command
         .args(args)
         .env("XDG_CACHE_HOME", cache)
         .env("RUST_BACKTRACE", "0")
@@ -81,13 +92,19 @@ fn run(args: &[OsString], cache: &Path) -> Run {
         std::thread::sleep(Duration::from_millis(5));
     }
     let code = libc::WIFEXITED(status).then(|| libc::WEXITSTATUS(status));
-    Run { code, stderr: reader.join().unwrap(), peak_mb: usage.ru_maxrss as f64 / 1024.0, seconds: t.elapsed().as_secs_f64() }
+    let mut peak_mb = usage.ru_maxrss as f64 / 1024.0;
+    if let Ok(text) = std::fs::read_to_string(&measured) {
+        // GNU time writes "Command exited with non-zero status 1" before the figure.
+        peak_mb = text.lines().filter_map(|l| l.trim().parse::<f64>().ok()).next_back().unwrap_or(peak_mb * 1024.0) / 1024.0;
+    }
+    Run { code, stderr: reader.join().unwrap(), peak_mb, seconds: t.elapsed().as_secs_f64() }
 }
 
 #[test]
 fn bad_input_corpus() {
     let dir = tempfile::tempdir().unwrap();
     let (root, cache) = (dir.path().join("data"), dir.path().join("cache"));
+    std::fs::create_dir_all(&cache).unwrap();
     let f = fixtures::Fixtures::write(&root);
     f.check_valid();
     let cases = corpus::Corpus::new(&f).build();
@@ -103,7 +120,7 @@ fn bad_input_corpus() {
                     loop {
                         let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                         let Some(case) = cases.get(i) else { break };
-                        mine.push((i, run(&case.args, &cache)));
+                        mine.push((i, run(&case.args, &cache, i)));
                     }
                     mine
                 })
