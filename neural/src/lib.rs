@@ -2,6 +2,7 @@
 //! loss and SDF fitting (burn 0.22, flex CPU backend). The hypernetwork, meta-learning,
 //! fine-tuning of captures and posing build on these (issue 6).
 
+pub mod avatar_header;
 pub mod encoder;
 pub mod eval_rows;
 pub mod bench;
@@ -31,6 +32,7 @@ pub use siren::{batched_sdf_and_gradient, sdf_and_gradient, Siren, SirenConfig};
 pub use meta_avatar::{Init, MetaAvatar};
 pub use model_file::MetaModel;
 pub use static_avatar::{FitReport, StaticAvatar};
+pub use avatar_header::PartialFit;
 
 /// The CPU device with autodiff (gradients for training).
 pub fn cpu_training_device() -> burn::tensor::Device {
@@ -63,6 +65,14 @@ impl AnyAvatar {
         match self {
             AnyAvatar::Static(a) => a,
             AnyAvatar::Meta(a) => a,
+        }
+    }
+
+    /// How far a cancelled fit got (None for a finished avatar).
+    pub fn partial(&self) -> Option<avatar_header::PartialFit> {
+        match self {
+            AnyAvatar::Static(a) => a.header.partial,
+            AnyAvatar::Meta(a) => a.header.partial,
         }
     }
 

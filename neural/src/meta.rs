@@ -105,6 +105,21 @@ impl Checkpoint {
     fn new(options: &MetaOptions, stage: &str, iteration: usize, seconds: f64) -> Checkpoint {
         Checkpoint { format: "avatar-studio-checkpoint".into(), version: 1, kind: "meta-checkpoint".into(), options: options.clone(), stage: stage.into(), iteration, seconds }
     }
+
+    /// Check a checkpoint's header before its weights are read; the number of weights it needs.
+    /// An unknown stage is an error: silently restarting would throw the run away.
+    fn expected_weights(&self) -> Result<usize> {
+        if self.format != "avatar-studio-checkpoint" || self.version != 1 || self.kind != "meta-checkpoint" {
+            return Err(Error::invalid(format!("checkpoint format {:?} version {} kind {:?} is not supported by this build", self.format, self.version, self.kind)));
+        }
+        self.options.config.check().map_err(Error::invalid)?;
+        let sdf = self.options.config.siren.num_params();
+        match self.stage.as_str() {
+            "sdf" => Ok(sdf),
+            "hyper" => Ok(self.options.config.num_params() + sdf),
+            other => Err(Error::invalid(format!("unknown checkpoint stage {other:?} (sdf or hyper); refusing to restart over it: move it away to start afresh"))),
+        }
+    }
 }
 
 const CHECKPOINT: &str = "checkpoint.bin";
@@ -136,7 +151,7 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
     let log_path = out.join("loss.csv");
     let mut resume: Option<(Checkpoint, Vec<f32>)> = None;
     if ckpt_path.exists() {
-        let (ck, w): (Checkpoint, Vec<f32>) = weights_file::read(&ckpt_path)?;
+        let (ck, w): (Checkpoint, Vec<f32>) = weights_file::read_expecting(&ckpt_path, Checkpoint::expected_weights)?;
         // A run may be resumed with other iteration counts (to extend or shorten it), nothing else.
         let same = MetaOptions { sdf_iterations: options.sdf_iterations, hyper_iterations: options.hyper_iterations, ..ck.options.clone() };
         if same != *options {

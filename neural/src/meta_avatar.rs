@@ -3,6 +3,7 @@
 //! bone encoding -> hypernetwork -> SIREN -> coarse-to-fine marching cubes -> largest component
 //! -> forward skinning.
 
+use crate::avatar_header::{check_subject, PartialFit, AVATAR_BODY_MODEL};
 use crate::capture_points::CapturePoints;
 use crate::fit::Progress;
 use crate::hyper::{HyperConfig, HyperNet};
@@ -23,7 +24,7 @@ use burn::tensor::{Device, Tensor};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 pub const META_AVATAR_KIND: &str = "meta-hyper";
 
@@ -74,7 +75,11 @@ pub struct MetaAvatarHeader {
     /// "meta-learned" or "from scratch", frames and steps of the fine-tuning.
     pub init: String,
     pub frames: usize,
+    /// Steps that ran (fewer than asked for in a partial avatar).
     pub steps: usize,
+    /// Present when the fit was cancelled before its last step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub partial: Option<PartialFit>,
 }
 
 /// The bone encoder's Adam rate when fine-tuning from scratch (the reference's).
@@ -121,25 +126,42 @@ impl MetaAvatar {
             _ => options.clone(),
         };
         let every = chunks.as_ref().map_or(options.steps, |(every, _)| (*every).clamp(1, options.steps.max(1)));
+        let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed));
+        // A cancel is passed on to the fit at its next logged step, so the steps that ran are known.
+        let stop = AtomicBool::new(false);
         let mut done = 0;
-        while done < options.steps && !cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {
+        while done < options.steps && !cancelled() {
             let n = every.min(options.steps - done);
             let chunk_options = HyperFitOptions { steps: n, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
             let base = done;
-            let mut chunk_progress = |step: usize, loss: f32, terms: [f32; 4]| progress(base + step, loss, terms);
-            model = fit_hyper(model, &samples, &chunk_options, &mut optimisers, &device, Some(&prior), cancel, &mut chunk_progress);
+            let mut ran = base;
+            model = {
+                let mut chunk_progress = |step: usize, loss: f32, terms: [f32; 4]| {
+                    ran = base + step + 1;
+                    progress(base + step, loss, terms);
+                    if cancelled() {
+                        stop.store(true, Ordering::Relaxed);
+                    }
+                };
+                fit_hyper(model, &samples, &chunk_options, &mut optimisers, &device, Some(&prior), Some(&stop), &mut chunk_progress)
+            };
+            if stop.load(Ordering::Relaxed) {
+                done = ran;
+                break;
+            }
             done += n;
             if let Some((_, look)) = chunks.as_mut()
                 && done < options.steps
             {
-                look(done, &Self::from_fitted(capture, init, options.steps, &model).0);
+                look(done, &Self::from_fitted(capture, init, done, options.steps, &model).0);
             }
         }
-        Self::from_fitted(capture, init, options.steps, &model)
+        Self::from_fitted(capture, init, done, options.steps, &model)
     }
 
-    /// The avatar of a fitted hypernetwork (inference copy of its weights).
-    fn from_fitted(capture: &CapturePoints, init: &Init, steps: usize, model: &HyperNet) -> (MetaAvatar, FitReport) {
+    /// The avatar of a fitted hypernetwork (inference copy of its weights) after `done` of
+    /// `requested` steps.
+    fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet) -> (MetaAvatar, FitReport) {
         let header = MetaAvatarHeader {
             format: AVATAR_FORMAT.into(),
             version: AVATAR_VERSION,
@@ -147,11 +169,12 @@ impl MetaAvatar {
             config: init.config(),
             normalisation: capture.normalisation,
             betas: capture.betas.clone(),
-            body_model: "open_body".into(),
+            body_model: AVATAR_BODY_MODEL.into(),
             field_cells: capture.field_cells,
             init: init.label().into(),
             frames: capture.frames.len(),
-            steps,
+            steps: done,
+            partial: PartialFit::of(done, requested),
         };
         let report = FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() };
         let avatar = MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body: capture.body.clone(), field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 };
@@ -165,17 +188,21 @@ impl MetaAvatar {
     pub fn load(path: impl AsRef<Path>) -> Result<MetaAvatar> {
         let path = path.as_ref();
         check_avatar_header(path, META_AVATAR_KIND)?;
-        let (header, weights): (MetaAvatarHeader, Vec<f32>) = weights_file::read(path)?;
-        header.config.check().map_err(|e| Error::file(path, e))?;
-        let expected = header.config.num_params();
-        if weights.len() != expected {
-            return Err(Error::file(path, format!("truncated avatar file: {} weights, expected {expected}", weights.len())));
-        }
+        let (header, weights): (MetaAvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &MetaAvatarHeader| {
+            h.config.check().map_err(Error::invalid)?;
+            check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
+            if let Some(p) = h.partial
+                && p.steps_done != h.steps
+            {
+                return Err(Error::invalid(format!("\"steps\" {} and \"partial\" ({p}) disagree", h.steps)));
+            }
+            Ok(h.config.num_params())
+        })?;
         let device = crate::cpu_device();
         let blank = header.config.init(header.config.siren.init(0, &device), 0, &device);
         let model = load_flat(blank, &weights).map_err(|e| Error::file(path, e))?;
         let body = open_body_ref().clone();
-        let field = avatar_field(&body, &header.betas, header.field_cells)?;
+        let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let rest_joints = body.regress_joints(&body.shaped_vertices(&header.betas));
         Ok(MetaAvatar { header, model, body, field, rest_joints, device, resolution: 128 })
     }

@@ -69,6 +69,45 @@ pub struct Manifest {
     pub groups: Vec<Group>,
 }
 
+/// Largest data set read: samples x floats per sample (4 GB of float32 would not fit in memory).
+const MAX_DATA_FLOATS: usize = 1 << 28;
+
+impl Manifest {
+    /// Groups contiguous from sample 0, each with 24 finite rest joints, a plausible shape and
+    /// normalisation; returns (samples, floats per sample), bounded.
+    fn validate(&self) -> Result<(usize, usize)> {
+        let points = self.config.points_per_pose;
+        if points == 0 || points > 1_000_000 {
+            return Err(Error::invalid(format!("points_per_pose {points} is out of range (1 to 1000000)")));
+        }
+        if self.groups.is_empty() {
+            return Err(Error::invalid("no groups: the data set is empty"));
+        }
+        let mut next = 0usize;
+        for (k, g) in self.groups.iter().enumerate() {
+            let bad = |m: String| Err(Error::invalid(format!("group {k} (subject {}, {}): {m}", g.subject, g.outfit)));
+            if g.first_sample != next || g.samples == 0 {
+                return bad(format!("samples {}..+{} do not follow the previous group's (next sample {next})", g.first_sample, g.samples));
+            }
+            next = match next.checked_add(g.samples) {
+                Some(n) => n,
+                None => return bad("sample count overflows".into()),
+            };
+            if g.rest_joints.len() != avatar_core::body::NUM_JOINTS || g.rest_joints.iter().flatten().any(|v| !(v.is_finite() && v.abs() <= 10.0)) {
+                return bad(format!("rest_joints must be 24 finite points within 10 m ({} given)", g.rest_joints.len()));
+            }
+            if let Err(e) = g.normalisation.validate().and_then(|_| avatar_core::body::check_betas(&g.betas)) {
+                return bad(e.to_string());
+            }
+        }
+        let per = 72 + 6 * points;
+        if next.checked_mul(per).is_none_or(|n| n > MAX_DATA_FLOATS) {
+            return Err(Error::invalid(format!("{next} samples of {per} floats is more than this build reads")));
+        }
+        Ok((next, per))
+    }
+}
+
 pub struct MetaData {
     pub manifest: Manifest,
     /// Per sample: the pose and its canonical points and normals (normalised space).
@@ -163,18 +202,22 @@ impl MetaData {
 
     pub fn load(dir: &Path) -> Result<MetaData> {
         let mpath = dir.join("meta-data.json");
+        if std::fs::metadata(&mpath).map_err(|e| Error::io(&mpath, e))?.len() > 64 << 20 {
+            return Err(Error::file(&mpath, "too large for a meta-training manifest (64 MB at most)"));
+        }
         let text = std::fs::read(&mpath).map_err(|e| Error::io(&mpath, e))?;
         let manifest: Manifest = serde_json::from_slice(&text).map_err(|e| Error::file(&mpath, format!("bad manifest: {e}")))?;
         if manifest.format != DATA_FORMAT || manifest.version != DATA_VERSION {
             return Err(Error::file(&mpath, format!("meta-training data {:?} version {} is not supported (this build reads {DATA_FORMAT:?} version {DATA_VERSION})", manifest.format, manifest.version)));
         }
+        let (count, per) = manifest.validate().map_err(|e| e.in_file(&mpath))?;
         let spath = dir.join("samples.bin");
-        let bytes = std::fs::read(&spath).map_err(|e| Error::io(&spath, e))?;
-        let count: usize = manifest.groups.iter().map(|g| g.samples).sum();
-        let per = 72 + 6 * manifest.config.points_per_pose;
-        if bytes.len() != count * per * 4 {
-            return Err(Error::file(&spath, format!("{} bytes, expected {} for {count} samples (truncated or from another run)", bytes.len(), count * per * 4)));
+        // The size first: the manifest says how much to read.
+        let size = std::fs::metadata(&spath).map_err(|e| Error::io(&spath, e))?.len();
+        if size != (count * per * 4) as u64 {
+            return Err(Error::file(&spath, format!("{size} bytes, expected {} for the {count} samples {} lists (truncated, or from another run)", count * per * 4, mpath.display())));
         }
+        let bytes = std::fs::read(&spath).map_err(|e| Error::io(&spath, e))?;
         let floats: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
         if floats.iter().any(|v| !v.is_finite()) {
             return Err(Error::file(&spath, "samples contain NaN or infinity"));

@@ -13,6 +13,7 @@ use std::path::Path;
 
 pub const MODEL_FORMAT: &str = "avatar-studio-meta-model";
 pub const MODEL_VERSION: u32 = 1;
+pub const MODEL_KIND: &str = "meta-model";
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelHeader {
@@ -55,7 +56,7 @@ impl MetaModel {
         let hyper = flatten(hyper);
         let static_sdf = flatten(static_sdf);
         MetaModel {
-            header: ModelHeader { format: MODEL_FORMAT.into(), version: MODEL_VERSION, kind: "meta-model".into(), config, hyper_params: hyper.len(), static_params: static_sdf.len(), provenance },
+            header: ModelHeader { format: MODEL_FORMAT.into(), version: MODEL_VERSION, kind: MODEL_KIND.into(), config, hyper_params: hyper.len(), static_params: static_sdf.len(), provenance },
             hyper,
             static_sdf,
         }
@@ -67,25 +68,40 @@ impl MetaModel {
         weights_file::write(path, &self.header, &w)
     }
 
+    /// Read a model file: the header is checked (format, kind, sizes) and the file's size
+    /// compared with it before the weights are read.
     pub fn load(path: &Path) -> Result<MetaModel> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-        Self::parse(&bytes, path)
+        let (header, weights) = weights_file::read_expecting(path, Self::check_header)?;
+        Ok(Self::split(header, weights))
     }
 
     pub fn parse(bytes: &[u8], origin: &Path) -> Result<MetaModel> {
         let (header, weights): (ModelHeader, Vec<f32>) = weights_file::parse(bytes, origin)?;
+        let expected = Self::check_header(&header).map_err(|e| e.in_file(origin))?;
+        if weights.len() != expected {
+            return Err(Error::file(origin, format!("truncated model file: {} weights, expected {expected}", weights.len())));
+        }
+        Ok(Self::split(header, weights))
+    }
+
+    /// Format, version, kind and sizes of a header; the number of weights it needs.
+    fn check_header(header: &ModelHeader) -> Result<usize> {
         if header.format != MODEL_FORMAT || header.version != MODEL_VERSION {
-            return Err(Error::file(origin, format!("meta-model format {:?} version {} is not supported by this build (it reads {MODEL_FORMAT:?} version {MODEL_VERSION})", header.format, header.version)));
+            return Err(Error::invalid(format!("meta-model format {:?} version {} is not supported by this build (it reads {MODEL_FORMAT:?} version {MODEL_VERSION})", header.format, header.version)));
         }
-        header.config.check().map_err(|e| Error::file(origin, e))?;
+        if header.kind != MODEL_KIND {
+            return Err(Error::invalid(format!("kind {:?} is not a meta-model ({MODEL_KIND:?}): an avatar or another file under a meta-model header", header.kind)));
+        }
+        header.config.check().map_err(Error::invalid)?;
         if header.hyper_params != header.config.num_params() || header.static_params != header.config.siren.num_params() {
-            return Err(Error::file(origin, "the header's parameter counts do not match its network configuration"));
+            return Err(Error::invalid("the header's parameter counts do not match its network configuration"));
         }
-        if weights.len() != header.hyper_params + header.static_params {
-            return Err(Error::file(origin, format!("truncated model file: {} weights, expected {}", weights.len(), header.hyper_params + header.static_params)));
-        }
+        Ok(header.hyper_params + header.static_params)
+    }
+
+    fn split(header: ModelHeader, weights: Vec<f32>) -> MetaModel {
         let (hyper, static_sdf) = weights.split_at(header.hyper_params);
-        Ok(MetaModel { hyper: hyper.to_vec(), static_sdf: static_sdf.to_vec(), header })
+        MetaModel { hyper: hyper.to_vec(), static_sdf: static_sdf.to_vec(), header }
     }
 
     /// The trainable hypernetwork.

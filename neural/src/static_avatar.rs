@@ -3,6 +3,7 @@
 //! avatar the studio can fit, pose and export. The meta-learned hypernetwork avatar replaces
 //! the static SDF with a pose-conditioned one (issue 6).
 
+use crate::avatar_header::{check_subject, PartialFit, AVATAR_BODY_MODEL};
 use crate::capture_points::CapturePoints;
 use crate::fit::{fit_sdf, FitOptions, Progress};
 use crate::siren_eval::MetricSdf;
@@ -19,7 +20,7 @@ use burn::module::Module;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 pub const AVATAR_FORMAT: &str = "avatar-studio-avatar";
 pub const AVATAR_VERSION: u32 = 1;
@@ -34,6 +35,9 @@ pub struct AvatarHeader {
     pub betas: Vec<f32>,
     pub body_model: String,
     pub field_cells: usize,
+    /// Present when the fit was cancelled before its last step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub partial: Option<PartialFit>,
 }
 
 pub struct StaticAvatar {
@@ -72,9 +76,23 @@ impl StaticAvatar {
         let device = crate::compute::training_device();
         let model = init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device);
         let prior = capture.sign_prior();
-        let model = fit_sdf(model, &points, &normals, options, &device, Some(&prior), cancel, progress);
+        // A cancel is passed on at the next logged step, so the steps that ran are known.
+        let stop = AtomicBool::new(false);
+        let mut ran = 0;
+        let model = {
+            let mut counted = |step: usize, loss: f32, terms: [f32; 4]| {
+                ran = step + 1;
+                progress(step, loss, terms);
+                if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                    stop.store(true, Ordering::Relaxed);
+                }
+            };
+            fit_sdf(model, &points, &normals, options, &device, Some(&prior), Some(&stop), &mut counted)
+        };
         let report = FitReport { frames: capture.frames.len(), points: points.len(), dropped: capture.dropped, warnings: capture.warnings.clone() };
-        (Self::from_fitted(capture, siren, &model), report)
+        let mut avatar = Self::from_fitted(capture, siren, &model);
+        avatar.header.partial = if stop.load(Ordering::Relaxed) { PartialFit::of(ran, options.steps) } else { None };
+        (avatar, report)
     }
 
     /// The avatar of a SIREN fitted to a canonicalized capture (for callers that run the fit
@@ -87,8 +105,9 @@ impl StaticAvatar {
             siren,
             normalisation: capture.normalisation,
             betas: capture.betas.clone(),
-            body_model: "open_body".into(),
+            body_model: AVATAR_BODY_MODEL.into(),
             field_cells: capture.field_cells,
+            partial: None,
         };
         let model = model.valid().to_device(&crate::cpu_device());
         let sdf = MetricSdf::of(&model, header.normalisation);
@@ -112,16 +131,15 @@ impl StaticAvatar {
     pub fn load(path: impl AsRef<Path>) -> Result<StaticAvatar> {
         let path = path.as_ref();
         check_avatar_header(path, "static-sdf")?;
-        let (header, weights): (AvatarHeader, Vec<f32>) = weights_file::read(path)?;
-        header.siren.check().map_err(|e| Error::file(path, e))?;
-        let expected = header.siren.num_params();
-        if weights.len() != expected {
-            return Err(Error::file(path, format!("truncated avatar file: {} weights, expected {expected}", weights.len())));
-        }
+        let (header, weights): (AvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &AvatarHeader| {
+            h.siren.check().map_err(Error::invalid)?;
+            check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
+            Ok(h.siren.num_params())
+        })?;
         let device = crate::cpu_device();
         let model = load_flat(header.siren.init(0, &device), &weights).map_err(|e| Error::file(path, e))?;
         let body = open_body_ref().clone();
-        let field = avatar_field(&body, &header.betas, header.field_cells)?;
+        let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let sdf = MetricSdf::of(&model, header.normalisation);
         Ok(StaticAvatar { header, model, sdf, body, field, resolution: 128 })
     }

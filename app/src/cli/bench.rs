@@ -89,6 +89,9 @@ fn neural_section() -> String {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(path) = &args.out {
+        avatar_core::io::Inputs::new().check_file(path, &["md"])?;
+    }
     let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section), ("capture", capture_section), ("canonical", avatar_core::canonical::report::bench_report), ("eval", avatar_core::eval::runner::bench_report), ("export", avatar_core::export::bench::bench_report), ("neural", neural_section), ("train", super::bench_train::bench_report), ("studio", avatar_studio::studio::bench::bench_report)];
     let mut report = format!(
         "# Avatar Studio benchmarks\n\n{} threads, profile {}, `avatar-studio bench`\n\n",

@@ -2,6 +2,7 @@
 
 use anyhow::Context;
 use avatar_core::body::{BodyModel, BodyParams};
+use avatar_core::io::Inputs;
 use avatar_core::mesh::io::write_mesh;
 use std::path::PathBuf;
 
@@ -32,6 +33,7 @@ pub fn load_model(model: Option<&PathBuf>, lowpoly: bool) -> anyhow::Result<Body
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    Inputs::new().maybe_file(args.pose.as_ref()).maybe_file(args.model.as_ref()).check_file(&args.out, &["obj", "ply"])?;
     let model = load_model(args.model.as_ref(), args.lowpoly)?;
     let params = match &args.pose {
         Some(p) => BodyParams::load_json(p)?,

@@ -3,6 +3,7 @@
 
 use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions};
 use avatar_core::capture::{Capture, CaptureOptions};
+use avatar_core::io::Inputs;
 use avatar_core::mesh::{io::write_point_cloud, PointCloud};
 use std::path::PathBuf;
 
@@ -16,7 +17,7 @@ pub struct Args {
     /// Use only the first N usable frames.
     #[arg(long)]
     frames: Option<usize>,
-    /// Cells of the skinning field along the body's height.
+    /// Cells of the skinning field along the body's height (16 to 256).
     #[arg(long, default_value_t = 128)]
     field_cells: usize,
     /// Do not read or write the skinning-field cache.
@@ -25,13 +26,18 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    Inputs::new().capture(&args.capture).check_file(&args.out, &["ply"])?;
+    let options = FieldOptions { cells_along_height: args.field_cells, ..FieldOptions::default() };
+    options.validate().map_err(|e| anyhow::anyhow!("--field-cells: {e}"))?;
+    if args.frames == Some(0) {
+        anyhow::bail!("--frames must be at least 1");
+    }
     let capture = Capture::open_with(&args.capture, &CaptureOptions::default())?;
     for w in &capture.warnings {
         eprintln!("warning: {w}");
     }
     let frames: Vec<_> = capture.frames.iter().take(args.frames.unwrap_or(usize::MAX)).collect();
     let betas = frames[0].params.betas.clone();
-    let options = FieldOptions { cells_along_height: args.field_cells.clamp(16, 512), ..FieldOptions::default() };
     let cache = if args.no_cache { None } else { default_cache_dir() };
     let canon = Canonicalizer::new(&capture.body, &betas, &options, cache.as_deref())?;
     if let Some(w) = &canon.cache_warning {

@@ -80,6 +80,11 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let inputs = avatar_core::io::Inputs::new().maybe_file(args.model.as_ref());
+    inputs.check_file(&args.out, &["json"])?;
+    if let Some(md) = &args.markdown {
+        inputs.clone().file(&args.out).check_file(md, &["md"])?;
+    }
     let protocols = Protocol::parse_list(&args.protocol)
         .with_context(|| format!("unknown protocol {:?}: use interpolation, extrapolation, few-shot or all", args.protocol))?;
     if args.subjects == 0 || args.subjects > EVAL_SUBJECT_SEEDS.len() {

@@ -6,6 +6,7 @@ use avatar_core::canonical::FieldOptions;
 use avatar_core::export::{export_glb, write_mesh_sequence, ExportOptions, SyntheticAvatar};
 use avatar_core::motion::{clip_by_name, clip_names, MotionClip};
 use avatar_core::synth::Outfit;
+use avatar_core::io::Inputs;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -36,6 +37,11 @@ pub struct Args {
     synthetic_subject: u64,
 }
 
+/// The clip file a --motion argument names (None for a library clip).
+pub fn clip_file(name: &str) -> Option<&Path> {
+    (clip_by_name(name).is_none()).then_some(Path::new(name))
+}
+
 pub fn load_clip(name: &str) -> anyhow::Result<MotionClip> {
     if let Some(c) = clip_by_name(name) {
         return Ok(c);
@@ -54,6 +60,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !(1..=256).contains(&args.targets) {
         bail!("--targets must be between 1 and 256");
     }
+    let inputs = Inputs::new().maybe_file(args.avatar.as_ref()).maybe_file(clip_file(&args.motion));
+    match args.format.as_str() {
+        "glb" => inputs.check_file(&args.out, &["glb"])?,
+        "obj" | "ply" => inputs.check_folder(&args.out)?,
+        other => bail!("unknown --format {other:?}: use glb, obj or ply"),
+    }
     let mut clip = load_clip(&args.motion)?;
     if let Some(n) = args.frames {
         if n == 0 {
@@ -61,12 +73,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         clip.frames.truncate(n);
     }
+    if args.format != "glb" {
+        for f in 0..clip.len() {
+            inputs.check_file(&args.out.join(format!("frame_{f:06}.{}", args.format)), &[&args.format])?;
+        }
+    }
     let t = std::time::Instant::now();
     let loaded;
     let synthetic;
     let avatar: &dyn avatar_core::export::AvatarSource = match &args.avatar {
         Some(path) => {
             loaded = avatar_neural::AnyAvatar::load(path)?;
+            if let Some(p) = loaded.partial() {
+                eprintln!("note: {} is a partial avatar ({p}): its fit was cancelled", path.display());
+            }
             loaded.source()
         }
         None => {
@@ -75,7 +95,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             &synthetic
         }
     };
-    let exported = export_glb(avatar, &clip, &ExportOptions { max_targets: args.targets, ..ExportOptions::default() })?;
+    let exported = export_glb(avatar, &clip, &ExportOptions { max_targets: args.targets, ..ExportOptions::default() }).map_err(|e| match &args.avatar {
+        Some(path) => e.in_file(path),
+        None => e,
+    })?;
     match args.format.as_str() {
         "glb" => {
             avatar_core::io::write_bytes_atomic(&args.out, &exported.glb).with_context(|| "writing the glTF")?;

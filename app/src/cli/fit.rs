@@ -48,6 +48,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.steps == 0 || args.frames == 0 {
         bail!("--steps and --frames must be at least 1");
     }
+    avatar_core::io::Inputs::new().capture(&args.capture).maybe_file(args.model.as_ref()).check_file(&args.out, &["avatar"])?;
     let Some(preset) = HyperConfig::preset(&args.preset) else {
         bail!("unknown --preset {:?}: use compact or paper", args.preset);
     };
@@ -79,13 +80,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         let _ = std::io::stderr().flush();
     };
-    let (report, what) = if args.static_sdf {
+    let (report, what, partial) = if args.static_sdf {
         let model = MetaModel::load_or_shipped(args.model.as_deref())?;
         let init = if args.from_scratch { None } else { Some(model.static_siren()) };
         let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() }.static_equivalent();
         let (avatar, report) = StaticAvatar::fit_capture(&args.capture, args.frames, model.header.config.siren, init, &options, Some(&cancel), &mut progress)?;
         avatar.save(&args.out)?;
-        (report, format!("static SDF ({})", if args.from_scratch { "from scratch" } else { "static meta-SDF" }))
+        (report, format!("static SDF ({})", if args.from_scratch { "from scratch" } else { "static meta-SDF" }), avatar.header.partial)
     } else {
         let model;
         let init = if args.from_scratch {
@@ -97,13 +98,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
         let (avatar, report) = MetaAvatar::fit_capture(&args.capture, args.frames, &init, &options, Some(&cancel), &mut progress)?;
         avatar.save(&args.out)?;
-        (report, format!("pose-dependent avatar ({}, {} parameters)", init.label(), avatar.num_params()))
+        (report, format!("pose-dependent avatar ({}, {} parameters)", init.label(), avatar.num_params()), avatar.header.partial)
     };
     eprintln!();
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
-    let cancelled = if cancel.load(Ordering::Relaxed) { " (cancelled: partial result)" } else { "" };
+    let cancelled = match partial {
+        Some(p) => format!(" (cancelled: {p})"),
+        None => String::new(),
+    };
     println!(
         "wrote {}: {what}, {} frames, {} canonical points ({} dropped by the 2 cm filter), {:.1} s{cancelled}",
         args.out.display(),

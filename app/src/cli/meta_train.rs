@@ -65,6 +65,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.subjects == 0 || args.poses == 0 {
         bail!("--subjects and --poses must be at least 1");
     }
+    // The data folder's files and --sdf-from are inputs; the run writes these three files.
+    let inputs = avatar_core::io::Inputs::new().file(args.data.join("meta-data.json")).file(args.data.join("samples.bin")).maybe_file(args.sdf_from.as_ref());
+    inputs.check_folder(&args.out)?;
+    for (name, ext) in [("checkpoint.bin", "bin"), ("meta-model.bin", "bin"), ("loss.csv", "csv")] {
+        inputs.check_file(&args.out.join(name), &[ext])?;
+    }
     let body = avatar_core::body::open_body_ref();
     let data_config = MetaDataConfig { subjects: args.subjects, poses_per_group: args.poses, seed: args.seed, ..MetaDataConfig::default() };
     let data = MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?;

@@ -56,6 +56,17 @@ fn load_clip(name: &str) -> anyhow::Result<MotionClip> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let inputs = args.clips.iter().filter(|c| clip_by_name(c).is_none()).fold(avatar_core::io::Inputs::new(), |i, c| i.file(c));
+    inputs.check_folder(&args.out)?;
+    if !(args.turn.is_finite() && args.turn.abs() <= 360.0) {
+        bail!("--turn {} is not an angle in degrees (-360 to 360)", args.turn);
+    }
+    if args.frames_per_clip == Some(0) {
+        bail!("--frames-per-clip must be at least 1");
+    }
+    if let Some(sheet) = &args.contact_sheet {
+        inputs.check_file(sheet, &["png"])?;
+    }
     let body = open_body_ref();
     let outfits: Vec<Outfit> = args.outfits.iter().map(|o| Outfit::from_name(o)).collect::<Result<_, _>>()?;
     let clips: Vec<MotionClip> = args.clips.iter().map(|c| load_clip(c)).collect::<anyhow::Result<_>>()?;

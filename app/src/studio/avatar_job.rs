@@ -40,7 +40,8 @@ pub trait StudioAvatar: Send + Sync {
 
 impl StudioAvatar for StaticAvatar {
     fn describe(&self) -> String {
-        format!("static SDF {} x {}", self.header.siren.layers, self.header.siren.hidden)
+        let partial = self.header.partial.map(|p| format!(" ({p})")).unwrap_or_default();
+        format!("static SDF {} x {}{partial}", self.header.siren.layers, self.header.siren.hidden)
     }
     fn source(&self) -> &dyn AvatarSource {
         self
@@ -55,7 +56,8 @@ impl StudioAvatar for StaticAvatar {
 
 impl StudioAvatar for MetaAvatar {
     fn describe(&self) -> String {
-        format!("MetaAvatar ({}, {} frames)", self.header.init, self.header.frames)
+        let partial = self.header.partial.map(|p| format!(", {p}")).unwrap_or_default();
+        format!("MetaAvatar ({}, {} frames{partial})", self.header.init, self.header.frames)
     }
     fn source(&self) -> &dyn AvatarSource {
         self

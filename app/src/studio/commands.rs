@@ -209,10 +209,26 @@ impl StudioApp {
         self.tasks.avatar = Some(task);
     }
 
+    /// What the session reads, for the output-path guard: the capture's files and a motion file.
+    fn inputs(&self) -> avatar_core::io::Inputs {
+        let mut inputs = avatar_core::io::Inputs::new();
+        if let Some(c) = &self.capture {
+            inputs = inputs.capture(&c.dir);
+        }
+        let clip = Path::new(&self.timeline.clip_source);
+        if clip.is_file() {
+            inputs = inputs.file(clip);
+        }
+        inputs
+    }
+
     fn save_avatar_to(&mut self, path: &Path) {
         let Some(a) = &self.avatar else {
             return self.fail("Fit or open an avatar before saving one".into());
         };
+        if let Err(e) = self.inputs().check_file(path, &["avatar"]) {
+            return self.fail(format!("Could not save the avatar: {e}"));
+        }
         match a.save(path) {
             Ok(()) => {
                 self.avatar_path = Some(path.to_path_buf());
@@ -253,6 +269,9 @@ impl StudioApp {
         let Some(avatar) = self.avatar.clone() else {
             return self.fail("Fit or open an avatar before exporting".into());
         };
+        if let Err(e) = self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(&path, &["glb"]) {
+            return self.fail(format!("Export failed: {e}"));
+        }
         let clip = self.timeline.clip.clone();
         let options = avatar_core::export::ExportOptions { color: self.view.material, ..Default::default() };
         let task = Task::spawn("export", self.wake(), move |_| -> anyhow::Result<String> {
@@ -269,6 +288,9 @@ impl StudioApp {
         let Some(p) = &self.posed else {
             return self.fail("Nothing posed yet".into());
         };
+        if let Err(e) = self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(path, &["obj"]) {
+            return self.fail(format!("Could not write the OBJ: {e}"));
+        }
         let mesh = avatar_core::mesh::TriMesh::new(p.positions.clone(), p.faces.to_vec());
         match avatar_core::mesh::io::write_obj(path, &mesh) {
             Ok(()) => self.info(format!("Wrote {} ({} vertices)", path.display(), mesh.positions.len())),
@@ -290,6 +312,9 @@ impl StudioApp {
 
     /// Save the session; an unsaved avatar is saved beside the project first.
     pub fn save_project_to(&mut self, path: &Path) {
+        if let Err(e) = self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(path, &["json"]) {
+            return self.fail(format!("Could not save the project: {e}"));
+        }
         if self.avatar.is_some() && !self.avatar_saved {
             let stem = path.file_name().and_then(|n| n.to_str()).map(|n| n.trim_end_matches(".studio.json").trim_end_matches(".json").to_string()).unwrap_or_else(|| "avatar".into());
             let avatar_path = path.with_file_name(format!("{stem}.avatar"));

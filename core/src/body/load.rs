@@ -34,7 +34,7 @@ fn read_model<R: Read + Seek>(npz: &mut Npz<R>) -> Result<BodyModel> {
     let bad = |key: &str, msg: String| Error::file(&origin, format!("array '{key}': {msg}"));
 
     let v_template = npz.require("v_template")?;
-    check_finite(&v_template, "v_template", &bad)?;
+    check_metres(&v_template, "v_template", &bad)?;
     let nv = match v_template.shape.as_slice() {
         [n, 3] if *n > 0 => *n,
         s => return Err(bad("v_template", format!("shape {s:?}, expected (V, 3)"))),
@@ -59,7 +59,7 @@ fn read_model<R: Read + Seek>(npz: &mut Npz<R>) -> Result<BodyModel> {
     }
 
     let shapedirs = npz.require("shapedirs")?;
-    check_finite(&shapedirs, "shapedirs", &bad)?;
+    check_metres(&shapedirs, "shapedirs", &bad)?;
     let num_betas = match shapedirs.shape.as_slice() {
         [n, 3, k] if *n == nv => *k,
         s => return Err(bad("shapedirs", format!("shape {s:?}, expected ({nv}, 3, K)"))),
@@ -68,7 +68,7 @@ fn read_model<R: Read + Seek>(npz: &mut Npz<R>) -> Result<BodyModel> {
     let posedirs = match npz.get("posedirs")? {
         None => None,
         Some(a) => {
-            check_finite(&a, "posedirs", &bad)?;
+            check_metres(&a, "posedirs", &bad)?;
             match a.shape.as_slice() {
                 [n, 3, p] if *n == nv && *p == NUM_POSE_FEATURES => Some(vec3_blocks(&a, nv, NUM_POSE_FEATURES)),
                 s => return Err(bad("posedirs", format!("shape {s:?}, expected ({nv}, 3, {NUM_POSE_FEATURES})"))),
@@ -93,6 +93,10 @@ fn read_model<R: Read + Seek>(npz: &mut Npz<R>) -> Result<BodyModel> {
         .collect();
     if let Some(j) = j_regressor.iter().position(|r| r.is_empty()) {
         return Err(bad("J_regressor", format!("row {j} is all zeros")));
+    }
+    // Each joint is a weighted mean of vertices: rows sum to 1.
+    if let Some((j, sum)) = j_regressor.iter().map(|r| r.iter().map(|&(_, w)| w as f64).sum::<f64>()).enumerate().find(|(_, s)| (s - 1.0).abs() > 0.1) {
+        return Err(bad("J_regressor", format!("row {j} sums to {sum:.4}, expected 1")));
     }
 
     let weights = npz.require("weights")?;
@@ -148,9 +152,23 @@ fn read_model<R: Read + Seek>(npz: &mut Npz<R>) -> Result<BodyModel> {
     })
 }
 
+/// Largest plausible coordinate or blend-shape offset in a body model file (metres): a body in
+/// millimetres (values in the hundreds or thousands) or a corrupt array is refused.
+const MAX_BODY_COORDINATE: f64 = 10.0;
+
+/// Finite as float32 too (1e300 is a finite float64 but infinite once converted).
 fn check_finite(a: &Array, key: &str, bad: &dyn Fn(&str, String) -> Error) -> Result<()> {
-    match a.data.iter().position(|x| !x.is_finite()) {
+    match a.data.iter().position(|x| !(x.is_finite() && (*x as f32).is_finite())) {
         Some(i) => Err(bad(key, format!("contains NaN or infinity (flat index {i})"))),
+        None => Ok(()),
+    }
+}
+
+/// Finite and within [`MAX_BODY_COORDINATE`] metres.
+fn check_metres(a: &Array, key: &str, bad: &dyn Fn(&str, String) -> Error) -> Result<()> {
+    check_finite(a, key, bad)?;
+    match a.data.iter().position(|x| x.abs() > MAX_BODY_COORDINATE) {
+        Some(i) => Err(bad(key, format!("value {} at flat index {i} is beyond {MAX_BODY_COORDINATE} m: the model must be in metres", a.data[i]))),
         None => Ok(()),
     }
 }

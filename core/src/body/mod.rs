@@ -13,6 +13,6 @@ pub mod skinning;
 pub use embedded::{open_body, open_body_lowpoly, open_body_lowpoly_ref, open_body_ref};
 pub use kinematics::{forward_kinematics, Bones};
 pub use model::{BodyModel, PosedBody};
-pub use params::BodyParams;
+pub use params::{check_betas, BodyParams, MAX_ABS_BETA};
 pub use skeleton::{BodyPart, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS};
 pub use skinning::{blend_transform, skin_normal, skin_point, unskin_point, Weights};

@@ -10,6 +10,12 @@ use std::path::Path;
 /// Largest accepted joint rotation (radians). Axis-angle beyond 2 pi is a unit error
 /// (degrees passed as radians) rather than a real pose.
 pub const MAX_JOINT_ANGLE: f32 = 2.0 * std::f32::consts::PI + 1e-3;
+/// Largest accepted shape coefficient in magnitude: SMPL's betas are in standard deviations
+/// (|b| <= 5 covers real people), the open body's in slider units (-1..1); beyond 10 the body
+/// is no longer a person (1e4 made a 4 km body).
+pub const MAX_ABS_BETA: f32 = 10.0;
+/// At most this many shape coefficients (SMPL-X has 400).
+pub const MAX_BETAS: usize = 512;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BodyParams {
@@ -81,6 +87,7 @@ impl BodyParams {
         if let Some(i) = self.betas.iter().position(|b| !b.is_finite()) {
             return Err(Error::invalid(format!("shape coefficient {i} is not finite")));
         }
+        check_betas(&self.betas)?;
         if !self.trans.is_finite() {
             return Err(Error::invalid("translation is not finite"));
         }
@@ -112,6 +119,17 @@ impl BodyParams {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         Self::from_json_str(&text).map_err(|e| e.in_file(path))
     }
+}
+
+/// Shape coefficients within [`MAX_ABS_BETA`] and at most [`MAX_BETAS`] of them (NaN refused).
+pub fn check_betas(betas: &[f32]) -> Result<()> {
+    if betas.len() > MAX_BETAS {
+        return Err(Error::invalid(format!("{} shape coefficients, at most {MAX_BETAS} are read", betas.len())));
+    }
+    if let Some((i, b)) = betas.iter().enumerate().find(|(_, b)| !(b.abs() <= MAX_ABS_BETA)) {
+        return Err(Error::invalid(format!("shape coefficient {i} is {b}: not a plausible body shape (|beta| <= {MAX_ABS_BETA})")));
+    }
+    Ok(())
 }
 
 fn flatten_numbers(value: &serde_json::Value) -> Result<Vec<f32>> {

@@ -25,6 +25,23 @@ pub struct FieldOptions {
     pub smoothing_iterations: usize,
 }
 
+/// Cells along the height a skinning field may have: 128 is the default; 256 is already about
+/// half a gigabyte (24 weights a node), beyond that the grid does not fit in memory.
+pub const FIELD_CELLS: std::ops::RangeInclusive<usize> = 16..=256;
+
+impl FieldOptions {
+    /// Refuse grids that cannot be built (checked before anything is allocated).
+    pub fn validate(&self) -> Result<()> {
+        if !FIELD_CELLS.contains(&self.cells_along_height) {
+            return Err(Error::invalid(format!("skinning field of {} cells along the height is out of range ({} to {})", self.cells_along_height, FIELD_CELLS.start(), FIELD_CELLS.end())));
+        }
+        if !(0.0..=2.0).contains(&self.margin) || !(0.0..=100.0).contains(&self.fixed_band) || self.smoothing_iterations > 10_000 {
+            return Err(Error::invalid("skinning field options out of range (margin 0-2 m, band 0-100 cells, at most 10000 iterations)"));
+        }
+        Ok(())
+    }
+}
+
 impl Default for FieldOptions {
     fn default() -> Self {
         FieldOptions { cells_along_height: 128, margin: 0.35, fixed_band: 1.5, smoothing_iterations: 24 }
@@ -43,10 +60,15 @@ pub struct SkinningField {
 impl SkinningField {
     /// Build around a body's rest surface (`rest` = shaped canonical vertices of `body`).
     pub fn build(body: &BodyModel, rest: &[Vec3], options: &FieldOptions) -> Result<SkinningField> {
+        options.validate()?;
         if rest.len() != body.weights.len() {
             return Err(Error::invalid(format!("{} rest vertices for {} skinning weights", rest.len(), body.weights.len())));
         }
         let (lo, hi) = crate::mesh::bounds(rest).ok_or_else(|| Error::invalid("empty body"))?;
+        let extent = hi - lo;
+        if !extent.is_finite() || extent.max_element() > 10.0 || extent.y <= 0.0 {
+            return Err(Error::invalid(format!("the shaped body spans {extent} m: not a plausible person (shape coefficients out of range?)")));
+        }
         let (lo, hi) = (lo - Vec3::splat(options.margin), hi + Vec3::splat(options.margin));
         let cell = (hi.y - lo.y) / options.cells_along_height.max(8) as f32;
         let dims = [0, 1, 2].map(|a| (((hi[a] - lo[a]) / cell).ceil() as usize + 1).max(2));

@@ -11,7 +11,7 @@ pub mod root_finding;
 
 pub use cache::{cached_field, default_cache_dir};
 pub use canonicalize::{canonicalize_points, choose_by_agreement, forward_skin_mesh, CanonicalFrame, REPROJECTION_THRESHOLD};
-pub use field::{FieldOptions, SkinningField};
+pub use field::{FieldOptions, SkinningField, FIELD_CELLS};
 pub use normalise::Normalisation;
 pub use root_finding::{find_roots, forward_point, start_bones, Root, RootOptions};
 
@@ -36,6 +36,8 @@ pub struct Canonicalizer<'a> {
 
 impl<'a> Canonicalizer<'a> {
     pub fn new(body: &'a BodyModel, betas: &[f32], field_options: &FieldOptions, cache_dir: Option<&Path>) -> Result<Self> {
+        field_options.validate()?;
+        crate::body::check_betas(betas)?;
         let rest = body.shaped_vertices(betas);
         let (field, cache_warning) = cached_field(body, &rest, field_options, cache_dir)?;
         let normalisation = Normalisation::from_body(&rest);

@@ -6,6 +6,9 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+/// Plausible range of a normalisation (metres): from a small child to well beyond any adult.
+pub const NORMALISATION_RANGE: std::ops::RangeInclusive<f32> = 0.2..=5.0;
+
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Normalisation {
     pub centre: Vec3,
@@ -23,6 +26,22 @@ impl Normalisation {
             hi = hi.max(c.max_element());
         }
         Normalisation { centre, coord_min: lo, range: (hi - lo).max(1e-6) }
+    }
+
+    /// Refuse a normalisation no body gives: non-finite values, a range (the body's largest
+    /// extent, metres) outside [`NORMALISATION_RANGE`], a centre beyond 1 km.
+    pub fn validate(&self) -> crate::Result<()> {
+        let bad = |m: String| Err(crate::Error::invalid(format!("normalisation: {m}")));
+        if !NORMALISATION_RANGE.contains(&self.range) {
+            return bad(format!("range {} m is not a body's size ({} to {} m)", self.range, NORMALISATION_RANGE.start(), NORMALISATION_RANGE.end()));
+        }
+        if !(self.centre.is_finite() && self.centre.length() <= 1000.0) {
+            return bad(format!("centre {} is not finite or beyond 1 km", self.centre));
+        }
+        if !(self.coord_min.is_finite() && self.coord_min.abs() <= self.range) {
+            return bad(format!("coord_min {} does not fit its range {}", self.coord_min, self.range));
+        }
+        Ok(())
     }
 
     fn pad(&self) -> f32 {

@@ -16,12 +16,15 @@ pub struct AmassSequence {
     pub frames: Vec<BodyParams>,
 }
 
+/// Widths of a `poses` row: 22 body joints alone, SMPL (24), SMPL-H (52), SMPL-X (55 joints).
+pub const POSE_WIDTHS: [usize; 4] = [66, 72, 156, 165];
+
 pub fn read_amass(path: impl AsRef<Path>) -> Result<AmassSequence> {
     let path = path.as_ref();
     let mut npz = Npz::open(path)?;
     let poses = npz.require("poses")?;
-    if poses.shape.len() != 2 || poses.shape[1] < 66 {
-        return Err(Error::file(path, format!("'poses' has shape {:?}, expected (frames, 72) or (frames, 156)", poses.shape)));
+    if poses.shape.len() != 2 || !POSE_WIDTHS.contains(&poses.shape[1]) {
+        return Err(Error::file(path, format!("'poses' has shape {:?}, expected (frames, W) with W one of {POSE_WIDTHS:?} (SMPL body, SMPL, SMPL-H, SMPL-X)", poses.shape)));
     }
     let (n, width) = (poses.shape[0], poses.shape[1]);
     if n == 0 {
@@ -42,8 +45,8 @@ pub fn read_amass(path: impl AsRef<Path>) -> Result<AmassSequence> {
         .and_then(|a| a.data.first().copied())
         .map(|v| v as f32)
         .unwrap_or(30.0);
-    if !(fps.is_finite() && fps > 0.0 && fps <= 1000.0) {
-        return Err(Error::file(path, format!("frame rate {fps} is not plausible")));
+    if !(crate::motion::MIN_FPS..=crate::motion::MAX_FPS).contains(&fps) {
+        return Err(Error::file(path, format!("frame rate {fps} is not plausible ({} to {} fps)", crate::motion::MIN_FPS, crate::motion::MAX_FPS)));
     }
     let mut frames = Vec::with_capacity(n);
     for i in 0..n {
@@ -51,7 +54,7 @@ pub fn read_amass(path: impl AsRef<Path>) -> Result<AmassSequence> {
         // SMPL has 24 joints; SMPL-H/X files have 22 body joints then hands: SMPL's hand joints
         // (22, 23) stay at rest.
         let mut flat = vec![0f32; 3 * NUM_JOINTS];
-        let body = if width >= 72 && width < 156 { 72 } else { 66 };
+        let body = if width == 72 { 72 } else { 66 };
         for (k, v) in row[..body].iter().enumerate() {
             flat[k] = *v as f32;
         }

@@ -49,12 +49,36 @@ pub fn write_depth_png(path: impl AsRef<Path>, metres: &[f32], width: u32, heigh
     crate::io::write_bytes_atomic(path, &bytes)
 }
 
+/// Open a PNG and check its size from the header before anything is decoded: the image must be
+/// `expected` (width, height) when given, and within the capture limits always.
+fn open_png(path: &Path, expected: Option<(u32, u32)>, what: &str) -> Result<image::codecs::png::PngDecoder<std::io::BufReader<std::fs::File>>> {
+    use crate::capture::manifest::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE};
+    use image::ImageDecoder;
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let decoder = image::codecs::png::PngDecoder::new(std::io::BufReader::new(file)).map_err(|e| Error::file(path, format!("not a readable PNG {what}: {e}")))?;
+    let (w, h) = decoder.dimensions();
+    if let Some((ew, eh)) = expected
+        && (w, h) != (ew, eh)
+    {
+        return Err(Error::file(path, format!("image is {w}x{h}, the capture's intrinsics say {ew}x{eh}")));
+    }
+    if w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE || w as u64 * h as u64 > MAX_IMAGE_PIXELS {
+        return Err(Error::file(path, format!("image is {w}x{h}: larger than a capture image may be ({MAX_IMAGE_PIXELS} pixels, {MAX_IMAGE_SIDE} a side)")));
+    }
+    Ok(decoder)
+}
+
 /// Read a 16-bit depth PNG. 8-bit or colour images are refused: they cannot hold depth.
 pub fn read_depth_png(path: impl AsRef<Path>, depth_scale: f32) -> Result<DepthImage> {
+    read_depth_png_sized(path, depth_scale, None)
+}
+
+/// [`read_depth_png`] for an image that must be `expected` (width, height): the size is read
+/// from the PNG header first, so an oversized image is refused before it is decoded.
+pub fn read_depth_png_sized(path: impl AsRef<Path>, depth_scale: f32, expected: Option<(u32, u32)>) -> Result<DepthImage> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let img = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
-        .map_err(|e| Error::file(path, format!("not a readable PNG depth image: {e}")))?;
+    let decoder = open_png(path, expected, "depth image")?;
+    let img = image::DynamicImage::from_decoder(decoder).map_err(|e| Error::file(path, format!("not a readable PNG depth image: {e}")))?;
     let img = match img {
         image::DynamicImage::ImageLuma16(g) => g,
         other => {
@@ -71,9 +95,14 @@ pub fn read_depth_png(path: impl AsRef<Path>, depth_scale: f32) -> Result<DepthI
 
 /// Read an optional 8-bit (or 16-bit) mask: non-zero = person.
 pub fn read_mask_png(path: impl AsRef<Path>) -> Result<(u32, u32, Vec<bool>)> {
+    read_mask_png_sized(path, None)
+}
+
+/// [`read_mask_png`] for a mask that must be `expected` (width, height), checked before decoding.
+pub fn read_mask_png_sized(path: impl AsRef<Path>, expected: Option<(u32, u32)>) -> Result<(u32, u32, Vec<bool>)> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let img = image::load_from_memory(&bytes).map_err(|e| Error::file(path, format!("not a readable mask image: {e}")))?;
+    let decoder = open_png(path, expected, "mask image")?;
+    let img = image::DynamicImage::from_decoder(decoder).map_err(|e| Error::file(path, format!("not a readable mask image: {e}")))?;
     let g = img.to_luma16();
     let (w, h) = g.dimensions();
     Ok((w, h, g.into_raw().into_iter().map(|v| v > 0).collect()))

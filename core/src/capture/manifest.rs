@@ -14,6 +14,12 @@ pub const FORMAT_VERSION: u32 = 1;
 pub const DEPTH_SCALE_MM: f32 = 1000.0;
 /// Depth PNG units per metre in the TUM RGB-D datasets.
 pub const DEPTH_SCALE_TUM: f32 = 5000.0;
+/// A manifest larger than this is not a capture (tens of thousands of frames fit in a few MB).
+pub const MAX_MANIFEST_BYTES: u64 = 64 << 20;
+/// Largest image side, and largest image, a capture may declare (4096 x 4096 depth pixels
+/// decode to 100 MB; depth sensors give at most about 1 megapixel).
+pub const MAX_IMAGE_SIDE: u32 = 8192;
+pub const MAX_IMAGE_PIXELS: u64 = 4096 * 4096;
 
 /// Pinhole intrinsics in pixels (OpenCV convention: x right, y down, z forward).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -40,7 +46,7 @@ impl Intrinsics {
         if !(self.cx.is_finite() && self.cy.is_finite()) {
             return Err(Error::invalid("intrinsics: principal point is not finite"));
         }
-        if self.width == 0 || self.height == 0 || self.width > 16384 || self.height > 16384 {
+        if self.width == 0 || self.height == 0 || self.width > MAX_IMAGE_SIDE || self.height > MAX_IMAGE_SIDE || self.width as u64 * self.height as u64 > MAX_IMAGE_PIXELS {
             return Err(Error::invalid(format!("intrinsics: image size {}x{} is out of range", self.width, self.height)));
         }
         Ok(())
@@ -153,6 +159,10 @@ impl CaptureManifest {
     /// Load and validate the header (frames are checked one by one when opened).
     pub fn load(dir_or_file: impl AsRef<Path>) -> Result<Self> {
         let path = Self::path_in(dir_or_file.as_ref());
+        let size = std::fs::metadata(&path).map_err(|e| Error::io(&path, e))?.len();
+        if size > MAX_MANIFEST_BYTES {
+            return Err(Error::file(&path, format!("{size} bytes: too large for a capture manifest (at most {MAX_MANIFEST_BYTES})")));
+        }
         let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
         let manifest: CaptureManifest =
             serde_json::from_str(&text).map_err(|e| Error::file(&path, format!("not a valid capture manifest: {e}")))?;
@@ -170,6 +180,11 @@ impl CaptureManifest {
         self.intrinsics.validate()?;
         if !(self.depth_scale.is_finite() && self.depth_scale > 0.0) {
             return Err(Error::invalid(format!("\"depth_scale\" must be positive (PNG units per metre), got {}", self.depth_scale)));
+        }
+        if let Some(fps) = self.fps
+            && !(crate::motion::MIN_FPS..=crate::motion::MAX_FPS).contains(&fps)
+        {
+            return Err(Error::invalid(format!("\"fps\" {fps} is not a plausible frame rate ({} to {})", crate::motion::MIN_FPS, crate::motion::MAX_FPS)));
         }
         if self.frames.is_empty() {
             return Err(Error::invalid("the capture has no frames"));

@@ -2,7 +2,7 @@
 //! Bad frames become per-frame warnings that name the frame, the file and the problem; the
 //! good frames stay usable. Only a capture with no usable frame is an error.
 
-use super::depth_png::{read_depth_png, read_mask_png};
+use super::depth_png::{read_depth_png_sized, read_mask_png_sized};
 use super::manifest::{CaptureManifest, FrameRecord};
 use super::points::{backproject, crop_to_body, estimate_normals, CropOptions, CropReport};
 use crate::body::{open_body_ref, BodyModel, BodyParams};
@@ -99,7 +99,8 @@ impl Capture {
         let dir = dir.as_ref();
         let dir = if dir.is_file() { dir.parent().unwrap_or(Path::new(".")) } else { dir };
         let manifest = CaptureManifest::load(dir)?;
-        let body = load_body_model(dir, &manifest.body_model)?;
+        let body = load_body_model(dir, &manifest.body_model)
+            .map_err(|e| Error::file(dir.join(super::manifest::MANIFEST_FILE), format!("body_model {:?}: {e}", manifest.body_model)))?;
         let selected: Vec<usize> = match &options.frames {
             Some(list) => {
                 if let Some(&bad) = list.iter().find(|&&i| i >= manifest.frames.len()) {
@@ -163,8 +164,8 @@ fn load_frame(
     // The fitting first: a frame without one is useless whatever its image holds.
     let params = record.params().map_err(|e| fail(format!("body fitting: {e}")))?;
     let camera_to_world = record.camera_to_world().map_err(|e| fail(e.to_string()))?;
-    let depth = read_depth_png(&depth_file, manifest.depth_scale).map_err(|e| fail(strip_path(&e, &depth_file)))?;
     let intr = &manifest.intrinsics;
+    let depth = read_depth_png_sized(&depth_file, manifest.depth_scale, Some((intr.width, intr.height))).map_err(|e| fail(strip_path(&e, &depth_file)))?;
     if (depth.width, depth.height) != (intr.width, intr.height) {
         return Err(fail(format!(
             "image is {}x{} but the intrinsics say {}x{}",
@@ -176,7 +177,7 @@ fn load_frame(
         None => None,
         Some(m) => {
             let path = dir.join(m);
-            let (w, h, mask) = read_mask_png(&path).map_err(|e| fail(format!("mask: {e}")))?;
+            let (w, h, mask) = read_mask_png_sized(&path, Some((depth.width, depth.height))).map_err(|e| fail(format!("mask: {e}")))?;
             if (w, h) != (depth.width, depth.height) {
                 return Err(fail(format!("mask {} is {w}x{h}, the depth image {}x{}", path.display(), depth.width, depth.height)));
             }

@@ -7,6 +7,9 @@ use npyz::{npz::NpzArchive, DType, Order, TypeChar};
 use std::io::{Cursor, Read, Seek};
 use std::path::{Path, PathBuf};
 
+/// Largest array read (values): SMPL-X's pose blend shapes (10475 x 3 x 486) fit.
+pub const MAX_ARRAY_VALUES: usize = 1 << 24;
+
 /// A numeric array read from an npz: values in C (row-major) order plus its shape.
 #[derive(Debug, Clone)]
 pub struct Array {
@@ -72,6 +75,12 @@ impl<R: Read + Seek> Npz<R> {
             return Ok(None);
         };
         let shape: Vec<usize> = file.shape().iter().map(|&d| d as usize).collect();
+        // The header's shape is checked before anything is inflated (a small zip entry can
+        // claim gigabytes).
+        let expected = shape.iter().try_fold(1usize, |a, &d| a.checked_mul(d)).filter(|&n| n <= MAX_ARRAY_VALUES);
+        let Some(expected) = expected else {
+            return Err(bad(format!("shape {shape:?} is larger than any model or motion array ({MAX_ARRAY_VALUES} values at most)")));
+        };
         let order = file.order();
         let DType::Plain(ts) = file.dtype() else {
             return Err(bad("structured dtype is not a numeric array".into()));
@@ -93,7 +102,6 @@ impl<R: Read + Seek> Npz<R> {
             (TypeChar::Object, _) => return Err(bad("pickled object array; convert it to a numeric array".into())),
             (other, _) => return Err(bad(format!("unsupported dtype {other:?}"))),
         };
-        let expected: usize = shape.iter().product();
         if data.len() != expected {
             return Err(bad(format!("holds {} values but its shape {shape:?} needs {expected}", data.len())));
         }

@@ -14,6 +14,9 @@ use std::path::Path;
 
 pub const MOTION_FORMAT: &str = "avatar-studio-motion";
 pub const MOTION_VERSION: u32 = 1;
+/// Plausible frame rates of a clip file (frames per second).
+pub const MIN_FPS: f32 = 1.0;
+pub const MAX_FPS: f32 = 1000.0;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct MotionClip {
@@ -61,8 +64,8 @@ impl MotionClip {
 
     /// Reject empty clips, a bad frame rate and invalid frames (names the frame).
     pub fn validate(&self) -> Result<()> {
-        if !(self.fps.is_finite() && self.fps > 0.0 && self.fps <= 1000.0) {
-            return Err(Error::invalid(format!("motion '{}': fps {} is not in (0, 1000]", self.name, self.fps)));
+        if !(MIN_FPS..=MAX_FPS).contains(&self.fps) {
+            return Err(Error::invalid(format!("motion '{}': fps {} is not a plausible frame rate ({MIN_FPS} to {MAX_FPS})", self.name, self.fps)));
         }
         if self.frames.is_empty() {
             return Err(Error::invalid(format!("motion '{}' has no frames", self.name)));

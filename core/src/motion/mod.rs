@@ -12,7 +12,7 @@ pub mod library;
 pub mod limits;
 pub mod pose_builder;
 
-pub use clip::MotionClip;
+pub use clip::{MotionClip, MAX_FPS, MIN_FPS};
 pub use library::{clip_by_name, clip_names, library, library_split, HELDOUT_CLIPS, LIBRARY_FPS};
 pub use limits::{check_clip_limits, JointLimit, JOINT_LIMITS};
 pub use pose_builder::{PoseBuilder, Side};
