@@ -24,7 +24,7 @@ use burn::tensor::{Device, Tensor};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 pub const META_AVATAR_KIND: &str = "meta-hyper";
 
@@ -126,30 +126,24 @@ impl MetaAvatar {
             _ => options.clone(),
         };
         let every = chunks.as_ref().map_or(options.steps, |(every, _)| (*every).clamp(1, options.steps.max(1)));
-        let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed));
-        // A cancel is passed on to the fit at its next logged step, so the steps that ran are known.
-        let stop = AtomicBool::new(false);
+        // The fit calls the sign prior once a step: its calls are the steps that ran when a
+        // cancel stops it early (neural/tests/partial_fit.rs checks the count).
+        let steps_run = AtomicUsize::new(0);
+        let counted = |p: &[Vec3]| {
+            steps_run.fetch_add(1, Ordering::Relaxed);
+            prior(p)
+        };
         let mut done = 0;
-        while done < options.steps && !cancelled() {
+        while done < options.steps && !cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             let n = every.min(options.steps - done);
             let chunk_options = HyperFitOptions { steps: n, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
             let base = done;
-            let mut ran = base;
-            model = {
-                let mut chunk_progress = |step: usize, loss: f32, terms: [f32; 4]| {
-                    ran = base + step + 1;
-                    progress(base + step, loss, terms);
-                    if cancelled() {
-                        stop.store(true, Ordering::Relaxed);
-                    }
-                };
-                fit_hyper(model, &samples, &chunk_options, &mut optimisers, &device, Some(&prior), Some(&stop), &mut chunk_progress)
-            };
-            if stop.load(Ordering::Relaxed) {
-                done = ran;
+            let mut chunk_progress = |step: usize, loss: f32, terms: [f32; 4]| progress(base + step, loss, terms);
+            model = fit_hyper(model, &samples, &chunk_options, &mut optimisers, &device, Some(&counted), cancel, &mut chunk_progress);
+            done = steps_run.load(Ordering::Relaxed).min(base + n);
+            if done < base + n {
                 break;
             }
-            done += n;
             if let Some((_, look)) = chunks.as_mut()
                 && done < options.steps
             {
