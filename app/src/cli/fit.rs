@@ -36,7 +36,8 @@ pub struct Args {
     /// Network preset for --from-scratch: compact or paper.
     #[arg(long, default_value = "compact")]
     preset: String,
-    /// cpu, or gpu in a build with the `gpu` feature (`cargo build --release --features gpu`).
+    /// cpu (the training path), gpu in a build with the `gpu` feature (`cargo build --release --features gpu`), or
+    /// cpu-burn (burn's autodiff on the CPU: the reference, about 5x slower).
     #[arg(long, default_value = "cpu")]
     device: String,
     #[arg(long, default_value_t = 0)]

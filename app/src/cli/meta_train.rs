@@ -52,7 +52,8 @@ pub struct Args {
     hyper_outer_lr_encoder: Option<f64>,
     #[arg(long)]
     hyper_outer_lr_sdf: Option<f64>,
-    /// cpu, or gpu in a build with the `gpu` feature (`cargo build --release --features gpu`).
+    /// cpu (the training path), gpu in a build with the `gpu` feature (`cargo build --release --features gpu`), or
+    /// cpu-burn (burn's autodiff on the CPU: the reference, about 5x slower).
     #[arg(long, default_value = "cpu")]
     device: String,
     #[arg(long, default_value_t = 0)]
