@@ -330,6 +330,7 @@ fn fit_static(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Re
     let chunk = if cfg.preview_every == 0 { cfg.steps } else { cfg.preview_every.min(cfg.steps) };
     let (lo, hi) = (norm.from_unit(Vec3::splat(-1.0)), norm.from_unit(Vec3::splat(1.0)));
     let mut done = 0;
+    let steps_run = std::sync::atomic::AtomicUsize::new(0);
     while done < cfg.steps && !cancel.load(Ordering::Relaxed) {
         if done > 0 {
             wait_at_gate(gate, cancel);
@@ -347,7 +348,12 @@ fn fit_static(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Re
         let mut progress = |step: usize, loss: f32, terms: [f32; 4]| {
             send(JobEvent::Progress { step: base + step + 1, steps: cfg.steps, loss, terms, elapsed_s: t.elapsed().as_secs_f64() });
         };
-        model = fit_sdf(model, &points, &normals, &options, &device, Some(&prior), Some(cancel), &mut progress);
+        // The prior is asked once a step: counting its calls gives the steps that ran.
+        let counted = |p: &[Vec3]| {
+            steps_run.fetch_add(1, Ordering::Relaxed);
+            prior(p)
+        };
+        model = fit_sdf(model, &points, &normals, &options, &device, Some(&counted), Some(cancel), &mut progress);
         done += n;
         if cfg.preview_every > 0 && done < cfg.steps && !cancel.load(Ordering::Relaxed) {
             let sdf = MetricSdf::of(&model, norm);
@@ -358,6 +364,7 @@ fn fit_static(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Re
         }
     }
     let mut avatar = StaticAvatar::from_fitted(&capture, siren, &model);
+    avatar.header.partial = avatar_neural::PartialFit::of(steps_run.load(Ordering::Relaxed).min(cfg.steps), cfg.steps);
     avatar.set_resolution(cfg.final_resolution);
     Ok((Arc::new(avatar), warnings))
 }
