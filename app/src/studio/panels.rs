@@ -25,7 +25,7 @@ pub fn draw(app: &mut StudioApp, ui: &mut egui::Ui) {
             app.load_motion(&name);
         }
         if a.open_file {
-            if let Some(p) = app.dialogs.pick_file("Open a motion", ("Motion", &["json", "npz"])) {
+            if let Some(p) = app.dialogs.pick_file("Open a motion", ("Motion", &["json", "npz", "bvh"])) {
                 app.load_motion(&p.display().to_string());
             }
         }
