@@ -47,6 +47,9 @@ impl CapturePoints {
         let mut warnings: Vec<String> = capture.warnings.iter().map(|w| w.to_string()).collect();
         // Most frames without depth near the body: the one-line reason (units, camera, axes).
         warnings.extend(capture.diagnose());
+        // Too few usable frames is refused here already, before the skinning field is built.
+        let opened: Vec<usize> = capture.frames.iter().map(|f| f.index).take(frames.max(1)).collect();
+        avatar_core::capture::plausibility::require_usable_frames(&capture, frames.max(1), &opened, &[])?;
         let betas = capture.frames[0].params.betas.clone();
         let field_options = FieldOptions::default();
         let cache = default_cache_dir();
