@@ -135,7 +135,14 @@ fn json_pose_files_in_camera_coordinates_and_an_intrinsics_file() {
     let out = root.path().join("cap");
     let report = import_depth(&job, &out).unwrap();
     assert_eq!(report.usable, 2, "{:?}", report.warnings);
-    assert_on_body(&Capture::open(&out).unwrap(), 3.0);
+    let capture = Capture::open(&out).unwrap();
+    assert_on_body(&capture, 3.0);
+    // The capture's world is Y up: the head above the pelvis, the camera 2.5 m in front (+Z).
+    for f in &capture.frames {
+        let j = open_body_ref().pose(&f.params).posed_joints();
+        assert!(j[15].y > j[0].y + 0.4, "head {} pelvis {}", j[15], j[0]);
+        assert!((f.camera_center() - j[0]).z > 2.4, "camera {} pelvis {}", f.camera_center(), j[0]);
+    }
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! `import scan`: OBJ files written here (normals, quads, several objects) load with tobj; a
 //! synthetic clothed person written as an OBJ becomes a capture whose depth points lie on the
 //! scan and cover it; scans in the wrong units or that the fitting does not describe are refused.
-//! (The avatar fitted from such a capture against the scan: neural/tests/scan_avatar.rs.)
+//! (The avatar fitted from such a capture against the scan: app/tests/scan_avatar.rs.)
 
 use avatar_core::body::{open_body_ref, BodyParams};
 use avatar_core::capture::scan::{import_scan, load_scan, ScanViews};

@@ -10,7 +10,7 @@ use super::manifest::{CaptureManifest, FrameRecord, Intrinsics};
 use super::open::{Capture, FrameError};
 use crate::body::BodyParams;
 use crate::error::{Error, Result};
-use glam::Mat4;
+use glam::{Mat4, Quat};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -58,7 +58,8 @@ pub struct DepthImport {
     /// The fittings are Z-up (AMASS's world): turn them to the studio's Y-up.
     pub z_up: bool,
     /// Camera-to-world of every frame (row-major 4x4 in the file); `None` = the fittings are
-    /// in the depth camera's coordinates.
+    /// in the depth camera's coordinates (OpenCV axes; the capture's world is then the camera's
+    /// turned 180 degrees about X, Y up).
     pub cameras: Option<PathBuf>,
     pub fps: Option<f32>,
 }
@@ -196,8 +197,19 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
     }
     let intrinsics = Intrinsics { fx: p.fx, fy: p.fy, cx: p.cx, cy: p.cy, width: first.width, height: first.height };
     let cameras = match &job.cameras {
-        Some(path) => Some(read_cameras(path, images.len())?),
-        None => None,
+        Some(path) => read_cameras(path, images.len())?,
+        None => {
+            // Fittings in OpenCV camera axes (y down): the capture's world is the camera's
+            // turned 180 degrees about X, so that it is Y up like the body (floor removal needs
+            // the up axis), and the fittings are turned with it.
+            let flip = Quat::from_rotation_x(std::f32::consts::PI);
+            for p in &mut seq.frames {
+                let j0 = crate::body::open_body_ref().rest_joints(&p.betas)[0];
+                p.pose[0] = (flip * Quat::from_scaled_axis(p.pose[0])).to_scaled_axis();
+                p.trans = flip * (p.trans + j0) - j0;
+            }
+            vec![Mat4::from_quat(flip); images.len()]
+        }
     };
     let mut manifest = CaptureManifest::new(intrinsics, job.depth_scale);
     manifest.fps = Some(job.fps.unwrap_or(seq.fps));
@@ -210,9 +222,7 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
             translation: Some(params.trans.to_array()),
             camera_to_world: None,
         };
-        if let Some(c) = &cameras {
-            rec.set_camera_to_world(c[i]);
-        }
+        rec.set_camera_to_world(cameras[i]);
         manifest.frames.push(rec);
     }
     manifest.validate()?;
