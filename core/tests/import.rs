@@ -178,6 +178,21 @@ fn millimetre_translations_are_diagnosed_and_too_few_frames_refused() {
     let e = import_depth(&job, &root.path().join("all")).unwrap_err().to_string();
     assert!(e.contains("translations look like millimetres"), "{e}");
 
+    // A capture.json whose translations (a body 1.45 m from the camera) are in millimetres:
+    // over 1 km, every frame is refused, and the capture's error says why in one line. (An npz
+    // or JSON fitting with such translations is refused when read, naming the file and frame.)
+    let far = root.path().join("far");
+    std::fs::create_dir_all(far.join("depth")).unwrap();
+    let mut manifest = CaptureManifest::new(Intrinsics { fx: 250.0, fy: 250.0, cx: 125.0, cy: 125.0, width: 250, height: 250 }, DEPTH_SCALE_MM);
+    for i in 0..2 {
+        let name = format!("depth/{i}.png");
+        render(&far.join(&name), &pose(i), camera(i), DEPTH_SCALE_MM);
+        manifest.frames.push(FrameRecord { depth: name, mask: None, pose: Some(pose(i).flat_pose()), shape: vec![], translation: Some([0.0, 0.0, 1450.0]), camera_to_world: None });
+    }
+    manifest.save(&far).unwrap();
+    let e = Capture::open(&far).unwrap_err().to_string();
+    assert!(e.contains("no usable frame") && e.contains("translations look like millimetres: 1450 m"), "{e}");
+
     // The same capture where one frame is at the origin (0 mm = 0 m): that frame is usable.
     let dir = root.path().join("mm");
     let mut manifest = CaptureManifest::new(Intrinsics { fx: 250.0, fy: 250.0, cx: 125.0, cy: 125.0, width: 250, height: 250 }, DEPTH_SCALE_MM);

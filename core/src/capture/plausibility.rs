@@ -49,6 +49,20 @@ impl Capture {
 /// [`NO_DEPTH_NEAR_BODY`]: each correction is tried on a few of them and the one that puts the
 /// most depth points on the fitted skeleton is named.
 pub fn diagnose(dir: &Path, manifest: &CaptureManifest, body: &BodyModel, warnings: &[FrameError], considered: usize) -> Option<String> {
+    // Translations beyond 1 km are refused before any depth is read: millimetres, most likely.
+    let huge: Vec<f32> = warnings
+        .iter()
+        .filter(|w| w.reason.contains("over 1 km"))
+        .filter_map(|w| manifest.frames[w.index].translation.map(|t| Vec3::from_array(t).length()))
+        .collect();
+    if !huge.is_empty() && 2 * huge.len() >= considered {
+        let t = median(huge);
+        return Some(if t / 1000.0 < 20.0 {
+            format!("translations look like millimetres: {t:.0} m; a person is metres from the camera (write metres in \"translation\")")
+        } else {
+            format!("translations of {t:.0} m are not plausible: wrong units?")
+        });
+    }
     let far: Vec<&FrameError> = warnings.iter().filter(|w| w.reason.starts_with(NO_DEPTH_NEAR_BODY)).collect();
     if far.is_empty() || 2 * far.len() < considered {
         return None;
