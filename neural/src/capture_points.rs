@@ -45,6 +45,11 @@ impl CapturePoints {
             return Err(Error::invalid(format!("{}: fitting supports the embedded open body only in this build", dir.display())));
         }
         let mut warnings: Vec<String> = capture.warnings.iter().map(|w| w.to_string()).collect();
+        // Most frames without depth near the body: the one-line reason (units, camera, axes).
+        warnings.extend(capture.diagnose());
+        // Too few usable frames is refused here already, before the skinning field is built.
+        let opened: Vec<usize> = capture.frames.iter().map(|f| f.index).take(frames.max(1)).collect();
+        avatar_core::capture::plausibility::require_usable_frames(&capture, frames.max(1), &opened, &[])?;
         let betas = capture.frames[0].params.betas.clone();
         let field_options = FieldOptions::default();
         let cache = default_cache_dir();
@@ -53,15 +58,24 @@ impl CapturePoints {
         let norm = canon.normalisation;
         let mut out = Vec::new();
         let mut dropped = 0;
-        for (k, f) in capture.frames.iter().take(frames.max(1)).enumerate() {
+        // The first `frames` usable frames: a frame skipped here is replaced by the next one.
+        let (mut used, mut skipped) = (Vec::new(), Vec::new());
+        for f in &capture.frames {
+            if out.len() >= frames.max(1) {
+                break;
+            }
             let c = canon.frame(f);
             dropped += c.dropped + c.unsolved;
             if c.points.len() < MIN_FRAME_POINTS {
-                warnings.push(format!("{}: frame {k}: only {} canonical points survived; skipped", dir.display(), c.points.len()));
+                warnings.push(format!("{}: frame {}: only {} canonical points survived; skipped", dir.display(), f.index, c.points.len()));
+                skipped.push((f.index, format!("only {} canonical points survived", c.points.len())));
                 continue;
             }
+            used.push(f.index);
             out.push(FramePoints { params: f.params.clone(), points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals });
         }
+        // Fewer usable frames than asked (and than the capture has) is an error naming them.
+        avatar_core::capture::plausibility::require_usable_frames(&capture, frames.max(1), &used, &skipped)?;
         let total: usize = out.iter().map(|f| f.points.len()).sum();
         if total < 100 {
             return Err(Error::invalid(format!("{}: only {total} canonical points survived; cannot fit an avatar", dir.display())));

@@ -14,7 +14,7 @@ pub struct Args {
     /// The avatar (NAME.avatar from `avatar-studio fit`). Without it, a synthetic avatar (see
     /// --synthetic-outfit) is exported.
     avatar: Option<PathBuf>,
-    /// Motion clip: a library name (walk, squat, ...) or a clip file (.json, AMASS .npz).
+    /// Motion clip: a library name (walk, squat, ...) or a clip file (.json, AMASS .npz, BVH .bvh).
     #[arg(long)]
     motion: String,
     /// Output: a .glb file, or a folder for --format obj|ply.

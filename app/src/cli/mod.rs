@@ -7,6 +7,7 @@ mod canonicalize;
 mod eval;
 mod export;
 mod fit;
+mod import;
 mod meta_train;
 mod pose;
 mod synth;
@@ -54,6 +55,8 @@ pub enum Command {
     MetaTrain(meta_train::Args),
     /// Fine-tune a personal avatar from a capture.
     Fit(fit::Args),
+    /// Make a capture folder from depth images with fittings, or from a 3D scan (OBJ).
+    Import(import::Args),
     /// Pose an avatar along a motion clip and write meshes.
     Pose(pose::Args),
     /// Export an animated binary glTF.
@@ -71,6 +74,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Eval(a)) => eval::run(a),
         Some(Command::MetaTrain(a)) => meta_train::run(a),
         Some(Command::Fit(a)) => fit::run(a),
+        Some(Command::Import(a)) => import::run(a),
         Some(Command::Pose(a)) => pose::run(a),
         Some(Command::Export(a)) => export::run(a),
         Some(Command::Bench(a)) => bench::run(a),

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 pub struct Args {
     /// The avatar (NAME.avatar).
     avatar: PathBuf,
-    /// Motion clip: a library name or a clip file (.json, AMASS .npz).
+    /// Motion clip: a library name or a clip file (.json, AMASS .npz, BVH .bvh).
     #[arg(long)]
     motion: String,
     /// Output folder.

@@ -148,7 +148,7 @@ impl PathPurpose {
             PathPurpose::SaveProject => ("Save the project", SaveFile, ("Studio project", &["json"])),
             PathPurpose::OpenAvatar => ("Open an avatar", OpenFile, ("Avatar", &["avatar"])),
             PathPurpose::SaveAvatar => ("Save the avatar", SaveFile, ("Avatar", &["avatar"])),
-            PathPurpose::OpenMotion => ("Open a motion", OpenFile, ("Motion", &["json", "npz"])),
+            PathPurpose::OpenMotion => ("Open a motion", OpenFile, ("Motion", &["json", "npz", "bvh"])),
             PathPurpose::ExportGlb => ("Export animated glTF", SaveFile, ("glTF binary", &["glb"])),
             PathPurpose::ExportObj => ("Export the posed mesh", SaveFile, ("OBJ", &["obj"])),
         };

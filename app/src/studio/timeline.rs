@@ -78,10 +78,7 @@ impl Timeline {
     }
 
     pub fn load_file(path: &Path) -> anyhow::Result<Timeline> {
-        let clip = match path.extension().and_then(|e| e.to_str()) {
-            Some("npz") => avatar_core::motion::amass::load_amass_clip(path)?,
-            _ => MotionClip::load(path)?,
-        };
+        let clip = MotionClip::load(path)?;
         if clip.frames.is_empty() {
             anyhow::bail!("{}: the motion has no frames", path.display());
         }

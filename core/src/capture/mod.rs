@@ -1,14 +1,18 @@
 //! Captures: the `capture.json` folder format, 16-bit depth PNGs, back-projection to oriented
-//! points, cropping to the person, and imports (AMASS-style fittings, TUM depth scale).
+//! points, cropping to the person, units and plausibility checks, and imports (a depth folder
+//! with AMASS-style or JSON fittings, TUM depth scale, OBJ scans).
 //! See docs/capture-format.md.
 
 pub mod amass;
 pub mod depth_png;
+pub mod import;
 pub mod manifest;
 pub mod open;
+pub mod plausibility;
 pub mod points;
+pub mod scan;
 
 pub use depth_png::{read_depth_png, read_mask_png, write_depth_png, write_mask_png, DepthImage};
 pub use manifest::{CaptureManifest, FrameRecord, Intrinsics, DEPTH_SCALE_MM, DEPTH_SCALE_TUM, MANIFEST_FILE};
-pub use open::{Capture, CaptureFrame, CaptureOptions, FrameError};
+pub use open::{Capture, CaptureFrame, CaptureOptions, FrameError, NO_DEPTH_NEAR_BODY};
 pub use points::{backproject, crop_to_body, estimate_normals, CropOptions, CropReport};

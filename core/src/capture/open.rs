@@ -20,6 +20,9 @@ pub const MAX_PLAUSIBLE_DEPTH: f32 = 10.0;
 pub const MIN_PLAUSIBLE_DEPTH: f32 = 0.2;
 /// Fewer valid pixels than this fraction: the image is "mostly zero".
 pub const MIN_VALID_FRACTION: f32 = 0.005;
+/// How the warning of a frame whose depth misses the fitted body begins
+/// (`plausibility::diagnose` looks for it).
+pub const NO_DEPTH_NEAR_BODY: &str = "no depth point lies within";
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct CaptureOptions {
@@ -128,9 +131,12 @@ impl Capture {
         }
         if frames.is_empty() {
             let reasons: Vec<String> = warnings.iter().take(5).map(|w| w.to_string()).collect();
+            let why = super::plausibility::diagnose(dir, &manifest, &body, &warnings, warnings.len())
+                .map(|d| format!(": {d}"))
+                .unwrap_or_default();
             return Err(Error::file(
                 dir.join(super::manifest::MANIFEST_FILE),
-                format!("no usable frame in the capture ({} skipped): {}", warnings.len(), reasons.join("; ")),
+                format!("no usable frame in the capture ({} skipped){why}. Frames: {}", warnings.len(), reasons.join("; ")),
             ));
         }
         Ok(Capture { dir: dir.to_path_buf(), manifest, body, frames, warnings })
@@ -192,7 +198,7 @@ fn load_frame(
     let (kept, crop) = crop_to_body(&points, &bvh, Vec3::Y, &options.crop).map_err(|e| fail(e.to_string()))?;
     if kept.is_empty() {
         return Err(fail(format!(
-            "no depth point lies within {:.0} cm of the fitted body ({} points, all background): is this frame's fitting right?",
+            "{NO_DEPTH_NEAR_BODY} {:.0} cm of the fitted body ({} points, all background): is this frame's fitting right?",
             options.crop.max_distance * 100.0,
             points.len()
         )));

@@ -130,7 +130,8 @@ impl MotionClip {
         Ok(clip)
     }
 
-    /// Load a clip: `.json` (this format) or an AMASS-style `.npz`.
+    /// Load a clip: `.json` (this format), an AMASS-style `.npz` or a BVH file (retargeted).
+    /// Every command and the studio's timeline open clip files through here.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
@@ -140,7 +141,8 @@ impl MotionClip {
                 Self::from_json_str(&text).map_err(|e| e.in_file(path))
             }
             Some("npz") => super::amass::load_amass_clip(path),
-            _ => Err(Error::file(path, "unknown motion file type: expected .json (avatar-studio motion) or .npz (AMASS)")),
+            Some("bvh") => super::retarget::load_bvh_clip(path),
+            _ => Err(Error::file(path, "unknown motion file type: expected .json (avatar-studio motion), .npz (AMASS) or .bvh (motion capture)")),
         }
     }
 
@@ -205,7 +207,7 @@ mod tests {
 
         let e = MotionClip::load(dir.path().join("missing.json")).unwrap_err().to_string();
         assert!(e.contains("missing.json"), "{e}");
-        let e = MotionClip::load(dir.path().join("clip.bvh")).unwrap_err().to_string();
-        assert!(e.contains("clip.bvh") && e.contains(".json"), "{e}");
+        let e = MotionClip::load(dir.path().join("clip.fbx")).unwrap_err().to_string();
+        assert!(e.contains("clip.fbx") && e.contains(".json") && e.contains(".bvh"), "{e}");
     }
 }
