@@ -2,6 +2,7 @@
 //! loss and SDF fitting (burn 0.22, flex CPU backend). The hypernetwork, meta-learning,
 //! fine-tuning of captures and posing build on these (issue 6).
 
+pub mod avatar_body;
 pub mod encoder;
 pub mod eval_rows;
 pub mod bench;

@@ -19,13 +19,16 @@ pub struct Args {
     /// Cells of the skinning field along the body's height.
     #[arg(long, default_value_t = 128)]
     field_cells: usize,
+    /// The SMPL-family model file (.npz) of the fittings, replacing the one capture.json names.
+    #[arg(long)]
+    body_model: Option<PathBuf>,
     /// Do not read or write the skinning-field cache.
     #[arg(long)]
     no_cache: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let capture = Capture::open_with(&args.capture, &CaptureOptions::default())?;
+    let capture = Capture::open_with(&args.capture, &CaptureOptions { body_model: args.body_model.clone(), ..CaptureOptions::default() })?;
     for w in &capture.warnings {
         eprintln!("warning: {w}");
     }
