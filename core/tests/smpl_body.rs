@@ -38,7 +38,7 @@ fn a_capture_fitted_with_the_users_smpl_model_opens_and_canonicalizes_with_that_
     let betas = capture.frames[0].params.betas.clone();
     assert_eq!(betas.len(), 10);
 
-    // Canonical points land on the ground-truth canonical clothing (the stand-in's shape).
+    // Canonical points land on the ground-truth canonical clothing (the stand-in's shape): 0.2-0.3 mm median.
     let gt = GroundTruth::load(dir.path()).unwrap();
     let canon = Canonicalizer::new(&capture.body, &betas, &FieldOptions { cells_along_height: 80, ..FieldOptions::default() }, None).unwrap();
     for (i, f) in capture.frames.iter().enumerate() {
@@ -46,15 +46,13 @@ fn a_capture_fitted_with_the_users_smpl_model_opens_and_canonicalizes_with_that_
         assert!(c.points.len() > f.points.len() * 8 / 10, "frame {i}: {} of {} points kept", c.points.len(), f.points.len());
         let bvh = Bvh::build(&gt.canonical_mesh(i));
         let d = median(c.points.iter().map(|&p| bvh.closest_point(p).unwrap().distance).collect());
-        eprintln!("frame {i}: median {:.2} mm, kept {} of {}", d * 1000.0, c.points.len(), f.points.len());
-        assert!(d < 0.005, "frame {i}: median {:.1} mm from the true canonical surface", d * 1000.0);
+        assert!(d < 0.002, "frame {i}: median {:.1} mm from the true canonical surface", d * 1000.0);
     }
     // Read as the open body's seven directions, the coefficients give another person: the
-    // heights of the two rest bodies differ by centimetres.
+    // heights of the two rest bodies differ by decimetres (1.68 m vs 2.18 m for this subject).
     let height = |v: &[glam::Vec3]| v.iter().map(|p| p.y).fold(f32::MIN, f32::max) - v.iter().map(|p| p.y).fold(f32::MAX, f32::min);
     let misread = open_body_lowpoly_ref().shaped_vertices(&betas);
-    eprintln!("heights {} vs {}", height(&canon.rest), height(&misread));
-    assert!((height(&canon.rest) - height(&misread)).abs() > 0.02, "{} vs {}", height(&canon.rest), height(&misread));
+    assert!((height(&canon.rest) - height(&misread)).abs() > 0.1, "{} vs {}", height(&canon.rest), height(&misread));
 }
 
 #[test]
