@@ -85,7 +85,7 @@ fn a_capture_fitted_with_an_smpl_model_fits_and_its_avatar_works_without_the_mod
     let posed = dir.path().join("posed");
     let o = studio().arg("pose").arg(&out).args(["--motion", "squat", "--frames", "2", "--resolution", "32"]).arg("--out").arg(&posed).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(posed.join("frame_0001.obj").exists());
+    assert!(posed.join("frame_000001.obj").exists(), "{:?}", std::fs::read_dir(&posed).unwrap().map(|e| e.unwrap().file_name()).collect::<Vec<_>>());
     let glb = dir.path().join("me.glb");
     let o = studio().arg("export").arg(&out).args(["--motion", "walk", "--frames", "3", "--targets", "4"]).arg("--out").arg(&glb).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
