@@ -53,3 +53,41 @@ fn bad_arguments_are_named() {
     let o = studio().arg("fit").arg(&demo).arg("--out").arg(dir.path().join("a.avatar")).args(["--device", "tpu"]).output().unwrap();
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("expected cpu, gpu or cpu-burn"));
 }
+
+/// A capture fitted with the user's SMPL model (the stand-in the test writes, never a licensed
+/// file): the studio opens it with that body; `fit --body-model` fits it; the avatar then poses
+/// and exports with the model file gone.
+#[test]
+fn a_capture_fitted_with_an_smpl_model_fits_and_its_avatar_works_without_the_model_file() {
+    use avatar_core::synth::{generate_smpl_capture, Outfit, SynthJob};
+    let dir = tempfile::tempdir().unwrap();
+    let cap = dir.path().join("capture");
+    let mut job = SynthJob::new(3, Outfit::TshirtShorts, avatar_core::motion::clip_by_name("walk").unwrap());
+    job.frames = Some(2);
+    generate_smpl_capture(&cap, "my_smpl.npz", &job).unwrap();
+    let loaded = avatar_studio::studio::capture_view::load_capture(&cap).unwrap();
+    assert_eq!((loaded.body.num_betas, loaded.usable(), loaded.betas.len()), (10, 2, 10));
+
+    // The model moves away: capture.json's reference is missing, --body-model names the file.
+    let model = dir.path().join("elsewhere.npz");
+    std::fs::rename(cap.join("my_smpl.npz"), &model).unwrap();
+    let out = dir.path().join("me.avatar");
+    let fit = |extra: &[&std::ffi::OsStr]| studio().arg("fit").arg(&cap).arg("--out").arg(&out).args(["--steps", "3", "--frames", "2", "--static"]).args(extra).output().unwrap();
+    let o = fit(&[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("my_smpl.npz") && err.contains("capture.json"), "{err}");
+    let o = fit(&["--body-model".as_ref(), model.as_os_str()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::remove_file(&model).unwrap();
+
+    let avatar = avatar_neural::StaticAvatar::load(&out).unwrap();
+    assert_eq!(avatar.header.body_model, "smpl");
+    let posed = dir.path().join("posed");
+    let o = studio().arg("pose").arg(&out).args(["--motion", "squat", "--frames", "2", "--resolution", "32"]).arg("--out").arg(&posed).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(posed.join("frame_000001.obj").exists(), "{:?}", std::fs::read_dir(&posed).unwrap().map(|e| e.unwrap().file_name()).collect::<Vec<_>>());
+    let glb = dir.path().join("me.glb");
+    let o = studio().arg("export").arg(&out).args(["--motion", "walk", "--frames", "3", "--targets", "4"]).arg("--out").arg(&glb).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::metadata(&glb).unwrap().len() > 10_000);
+}

@@ -7,8 +7,6 @@ use avatar_core::canonical::{Normalisation, FIELD_CELLS};
 use avatar_core::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
-/// The only body an avatar is fitted to in this build.
-pub const AVATAR_BODY_MODEL: &str = "open_body";
 
 /// A fit cancelled before its last step: the avatar is usable but not finished.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -32,8 +30,11 @@ impl PartialFit {
 
 /// Check the subject fields of an avatar header (errors name no file: the loader adds it).
 pub fn check_subject(normalisation: &Normalisation, betas: &[f32], body_model: &str, field_cells: usize, partial: Option<PartialFit>) -> Result<()> {
-    if body_model != AVATAR_BODY_MODEL {
-        return Err(Error::invalid(format!("\"body_model\" is {body_model:?}: avatars of this build are fitted to the embedded open body ({AVATAR_BODY_MODEL:?})")));
+    use crate::avatar_body::{OPEN_BODY, SMPL};
+    // The embedded open body, or an SMPL-family body stored in the file (avatar_body checks
+    // that the two agree).
+    if body_model != OPEN_BODY && body_model != SMPL {
+        return Err(Error::invalid(format!("\"body_model\" is {body_model:?}: expected {OPEN_BODY:?} or {SMPL:?} (a body stored in the file)")));
     }
     check_betas(betas).map_err(|e| Error::invalid(format!("\"betas\": {e}")))?;
     normalisation.validate()?;

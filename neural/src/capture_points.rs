@@ -7,11 +7,11 @@ use crate::encoder::PoseEncoding;
 use crate::hyper_fit::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS};
 use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
-use avatar_core::capture::Capture;
+use avatar_core::capture::{Capture, CaptureOptions};
 use avatar_core::error::{Error, Result};
 use avatar_core::mesh::bvh::Bvh;
 use glam::Vec3;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// One frame's canonical points (normalised space) with normals, and its body pose.
 pub struct FramePoints {
@@ -21,7 +21,10 @@ pub struct FramePoints {
 }
 
 pub struct CapturePoints {
+    /// The fittings' body model: the open body or the user's SMPL model.
     pub body: BodyModel,
+    /// The SMPL file `body` came from (`None`: the open body).
+    pub body_file: Option<PathBuf>,
     pub betas: Vec<f32>,
     /// The shaped body in the rest pose (canonical space, metres).
     pub rest: Vec<Vec3>,
@@ -40,10 +43,13 @@ const MIN_FRAME_POINTS: usize = 50;
 impl CapturePoints {
     /// Canonicalize the first `frames` usable frames of the capture in `dir`.
     pub fn open(dir: &Path, frames: usize) -> Result<CapturePoints> {
-        let capture = Capture::open(dir)?;
-        if capture.manifest.body_model != "open_body" {
-            return Err(Error::invalid(format!("{}: fitting supports the embedded open body only in this build", dir.display())));
-        }
+        Self::open_with(dir, frames, None)
+    }
+
+    /// Like [`CapturePoints::open`], with `body_model` (an SMPL npz) replacing the body model
+    /// the capture names (`fit --body-model`).
+    pub fn open_with(dir: &Path, frames: usize, body_model: Option<&Path>) -> Result<CapturePoints> {
+        let capture = Capture::open_with(dir, &CaptureOptions { body_model: body_model.map(Path::to_path_buf), ..CaptureOptions::default() })?;
         let mut warnings: Vec<String> = capture.warnings.iter().map(|w| w.to_string()).collect();
         // Most frames without depth near the body: the one-line reason (units, camera, axes).
         warnings.extend(capture.diagnose());
@@ -82,6 +88,7 @@ impl CapturePoints {
         }
         Ok(CapturePoints {
             body: capture.body.as_ref().clone(),
+            body_file: capture.body_file.clone(),
             betas,
             rest: canon.rest.clone(),
             field: canon.field,

@@ -3,6 +3,7 @@
 //! fine-tuning of captures and posing build on these (issue 6).
 
 pub mod avatar_header;
+pub mod avatar_body;
 pub mod encoder;
 pub mod eval_rows;
 pub mod bench;

@@ -3,7 +3,8 @@
 //! bone encoding -> hypernetwork -> SIREN -> coarse-to-fine marching cubes -> largest component
 //! -> forward skinning.
 
-use crate::avatar_header::{check_subject, PartialFit, AVATAR_BODY_MODEL};
+use crate::avatar_body::{self, BodySection};
+use crate::avatar_header::{check_subject, PartialFit};
 use crate::capture_points::CapturePoints;
 use crate::fit::Progress;
 use crate::hyper::{HyperConfig, HyperNet};
@@ -11,9 +12,9 @@ use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
 use crate::model_file::MetaModel;
 use crate::params::{flatten, load_flat};
 use crate::siren_eval::{MetricSdf, SirenEval};
-use crate::static_avatar::{avatar_field, check_avatar_header, FitReport, AVATAR_FORMAT, AVATAR_VERSION};
+use crate::static_avatar::{avatar_field, check_avatar_header, FitReport, AVATAR_FORMAT};
 use crate::weights_file;
-use avatar_core::body::{open_body_ref, BodyModel, BodyParams, Weights, NUM_JOINTS};
+use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
 use avatar_core::canonical::{forward_skin_mesh, Normalisation, SkinningField};
 use avatar_core::error::{Error, Result};
 use avatar_core::export::AvatarSource;
@@ -70,6 +71,7 @@ pub struct MetaAvatarHeader {
     pub config: HyperConfig,
     pub normalisation: Normalisation,
     pub betas: Vec<f32>,
+    /// "open_body" or "smpl" (then `body` describes the stored body: avatar_body.rs).
     pub body_model: String,
     pub field_cells: usize,
     /// "meta-learned" or "from scratch", frames and steps of the fine-tuning.
@@ -80,6 +82,9 @@ pub struct MetaAvatarHeader {
     /// Present when the fit was cancelled before its last step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub partial: Option<PartialFit>,
+    /// The frozen body stored after the weights (version 2 files; absent for the open body).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body: Option<BodySection>,
 }
 
 /// The bone encoder's Adam rate when fine-tuning from scratch (the reference's).
@@ -156,33 +161,39 @@ impl MetaAvatar {
     /// The avatar of a fitted hypernetwork (inference copy of its weights) after `done` of
     /// `requested` steps.
     fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet) -> (MetaAvatar, FitReport) {
+        let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = MetaAvatarHeader {
             format: AVATAR_FORMAT.into(),
-            version: AVATAR_VERSION,
+            version,
             kind: META_AVATAR_KIND.into(),
             config: init.config(),
             normalisation: capture.normalisation,
             betas: capture.betas.clone(),
-            body_model: AVATAR_BODY_MODEL.into(),
+            body_model: body_model.into(),
             field_cells: capture.field_cells,
             init: init.label().into(),
             frames: capture.frames.len(),
             steps: done,
             partial: PartialFit::of(done, requested),
+            body: section,
         };
         let report = FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() };
-        let avatar = MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body: capture.body.clone(), field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 };
+        let avatar = MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 };
         (avatar, report)
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        weights_file::write(path.as_ref(), &self.header, &flatten(&self.model))
+        let mut values = flatten(&self.model);
+        if let Some(section) = &self.header.body {
+            values.extend(avatar_body::encode(&self.body, section));
+        }
+        weights_file::write(path.as_ref(), &self.header, &values)
     }
 
     pub fn load(path: impl AsRef<Path>) -> Result<MetaAvatar> {
         let path = path.as_ref();
         check_avatar_header(path, META_AVATAR_KIND)?;
-        let (header, weights): (MetaAvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &MetaAvatarHeader| {
+        let (header, values): (MetaAvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &MetaAvatarHeader| {
             h.config.check().map_err(Error::invalid)?;
             check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
             if let Some(p) = h.partial
@@ -190,12 +201,12 @@ impl MetaAvatar {
             {
                 return Err(Error::invalid(format!("\"steps\" {} and \"partial\" ({p}) disagree", h.steps)));
             }
-            Ok(h.config.num_params())
+            Ok(h.config.num_params() + h.body.as_ref().map_or(0, BodySection::len))
         })?;
+        let (weights, body) = avatar_body::split(path, &header.body_model, header.body.as_ref(), values, header.config.num_params())?;
         let device = crate::cpu_device();
         let blank = header.config.init(header.config.siren.init(0, &device), 0, &device);
         let model = load_flat(blank, &weights).map_err(|e| Error::file(path, e))?;
-        let body = open_body_ref().clone();
         let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let rest_joints = body.regress_joints(&body.shaped_vertices(&header.betas));
         Ok(MetaAvatar { header, model, body, field, rest_joints, device, resolution: 128 })

@@ -3,14 +3,15 @@
 //! avatar the studio can fit, pose and export. The meta-learned hypernetwork avatar replaces
 //! the static SDF with a pose-conditioned one (issue 6).
 
-use crate::avatar_header::{check_subject, PartialFit, AVATAR_BODY_MODEL};
+use crate::avatar_body::{self, BodySection};
+use crate::avatar_header::{check_subject, PartialFit};
 use crate::capture_points::CapturePoints;
 use crate::fit::{fit_sdf, FitOptions, Progress};
 use crate::siren_eval::MetricSdf;
 use crate::params::{flatten, load_flat};
 use crate::siren::{Siren, SirenConfig};
 use crate::weights_file;
-use avatar_core::body::{open_body_ref, BodyModel, BodyParams, Weights};
+use avatar_core::body::{BodyModel, BodyParams, Weights};
 use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
 use avatar_core::error::{Error, Result};
 use avatar_core::export::AvatarSource;
@@ -23,7 +24,9 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 pub const AVATAR_FORMAT: &str = "avatar-studio-avatar";
-pub const AVATAR_VERSION: u32 = 1;
+/// The newest avatar version this build writes and reads: 1 (open body, no body stored) and 2
+/// (the frozen body of a user's SMPL model stored after the weights: avatar_body.rs).
+pub const AVATAR_VERSION: u32 = avatar_body::VERSION_WITH_BODY;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AvatarHeader {
@@ -33,11 +36,15 @@ pub struct AvatarHeader {
     pub siren: SirenConfig,
     pub normalisation: Normalisation,
     pub betas: Vec<f32>,
+    /// "open_body" or "smpl" (then `body` describes the stored body: avatar_body.rs).
     pub body_model: String,
     pub field_cells: usize,
     /// Present when the fit was cancelled before its last step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub partial: Option<PartialFit>,
+    /// The frozen body stored after the weights (version 2 files; absent for the open body).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body: Option<BodySection>,
 }
 
 pub struct StaticAvatar {
@@ -93,20 +100,22 @@ impl StaticAvatar {
     /// The avatar of a SIREN fitted to a canonicalized capture (for callers that run the fit
     /// themselves, like the studio's chunked job).
     pub fn from_fitted(capture: &CapturePoints, siren: SirenConfig, model: &Siren) -> StaticAvatar {
+        let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = AvatarHeader {
             format: AVATAR_FORMAT.into(),
-            version: AVATAR_VERSION,
+            version,
             kind: "static-sdf".into(),
             siren,
             normalisation: capture.normalisation,
             betas: capture.betas.clone(),
-            body_model: AVATAR_BODY_MODEL.into(),
+            body_model: body_model.into(),
             field_cells: capture.field_cells,
+            body: section,
             partial: None,
         };
         let model = model.valid().to_device(&crate::cpu_device());
         let sdf = MetricSdf::of(&model, header.normalisation);
-        StaticAvatar { header, model, sdf, body: capture.body.clone(), field: capture.field.clone(), resolution: 128 }
+        StaticAvatar { header, model, sdf, body, field: capture.field.clone(), resolution: 128 }
     }
 
     /// The skinning field of the avatar's body shape.
@@ -120,20 +129,24 @@ impl StaticAvatar {
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        weights_file::write(path.as_ref(), &self.header, &flatten(&self.model))
+        let mut values = flatten(&self.model);
+        if let Some(section) = &self.header.body {
+            values.extend(avatar_body::encode(&self.body, section));
+        }
+        weights_file::write(path.as_ref(), &self.header, &values)
     }
 
     pub fn load(path: impl AsRef<Path>) -> Result<StaticAvatar> {
         let path = path.as_ref();
         check_avatar_header(path, "static-sdf")?;
-        let (header, weights): (AvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &AvatarHeader| {
+        let (header, values): (AvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &AvatarHeader| {
             h.siren.check().map_err(Error::invalid)?;
             check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
-            Ok(h.siren.num_params())
+            Ok(h.siren.num_params() + h.body.as_ref().map_or(0, BodySection::len))
         })?;
+        let (weights, body) = avatar_body::split(path, &header.body_model, header.body.as_ref(), values, header.siren.num_params())?;
         let device = crate::cpu_device();
         let model = load_flat(header.siren.init(0, &device), &weights).map_err(|e| Error::file(path, e))?;
-        let body = open_body_ref().clone();
         let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let sdf = MetricSdf::of(&model, header.normalisation);
         Ok(StaticAvatar { header, model, sdf, body, field, resolution: 128 })
@@ -151,8 +164,8 @@ pub(crate) fn avatar_field(body: &BodyModel, betas: &[f32], cells: usize) -> Res
 /// (read from the header alone, before the rest of the file is parsed).
 pub(crate) fn check_avatar_header(path: &Path, expected_kind: &str) -> Result<()> {
     let weights_file::Identity { format, version, kind } = weights_file::identity(path)?;
-    if format != AVATAR_FORMAT || version != AVATAR_VERSION {
-        return Err(Error::file(path, format!("avatar format {format:?} version {version} is not supported by this build (it reads {AVATAR_FORMAT:?} version {AVATAR_VERSION})")));
+    if format != AVATAR_FORMAT || !(avatar_body::VERSION_OPEN_BODY..=AVATAR_VERSION).contains(&version) {
+        return Err(Error::file(path, format!("avatar format {format:?} version {version} is not supported by this build (it reads {AVATAR_FORMAT:?} versions 1 to {AVATAR_VERSION})")));
     }
     if kind != expected_kind {
         return Err(Error::file(path, format!("avatar kind {kind:?} is not a {expected_kind:?} avatar")));

@@ -20,6 +20,9 @@ pub struct Args {
     /// Cells of the skinning field along the body's height (16 to 256).
     #[arg(long, default_value_t = 128)]
     field_cells: usize,
+    /// The SMPL-family model file (.npz) of the fittings, replacing the one capture.json names.
+    #[arg(long)]
+    body_model: Option<PathBuf>,
     /// Do not read or write the skinning-field cache.
     #[arg(long)]
     no_cache: bool,
@@ -32,7 +35,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.frames == Some(0) {
         anyhow::bail!("--frames must be at least 1");
     }
-    let capture = Capture::open_with(&args.capture, &CaptureOptions::default())?;
+    let capture = Capture::open_with(&args.capture, &CaptureOptions { body_model: args.body_model.clone(), ..CaptureOptions::default() })?;
     for w in &capture.warnings {
         eprintln!("warning: {w}");
     }

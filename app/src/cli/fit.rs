@@ -3,6 +3,7 @@
 //! with the same networks, `--static` the pose-independent SDF.
 
 use anyhow::bail;
+use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaAvatar, MetaModel, StaticAvatar};
 use std::io::Write;
 use std::path::PathBuf;
@@ -17,6 +18,10 @@ pub struct Args {
     /// Output avatar file (NAME.avatar).
     #[arg(long)]
     out: PathBuf,
+    /// The SMPL-family model file (.npz) the capture's fittings were made with; replaces the
+    /// body model capture.json names. The avatar stores the subject's shaped body, not the file.
+    #[arg(long)]
+    body_model: Option<PathBuf>,
     /// Use the first N usable frames.
     #[arg(long, default_value_t = 8)]
     frames: usize,
@@ -65,6 +70,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         });
     }
     let t = Instant::now();
+    let open_capture = || CapturePoints::open_with(&args.capture, args.frames, args.body_model.as_deref());
     let steps = args.steps;
     let mut progress = |step: usize, loss: f32, terms: [f32; 4]| {
         let done = (step + 1) as f64 / steps as f64;
@@ -85,7 +91,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let model = MetaModel::load_or_shipped(args.model.as_deref())?;
         let init = if args.from_scratch { None } else { Some(model.static_siren()) };
         let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() }.static_equivalent();
-        let (avatar, report) = StaticAvatar::fit_capture(&args.capture, args.frames, model.header.config.siren, init, &options, Some(&cancel), &mut progress)?;
+        let capture = open_capture()?;
+        let (avatar, report) = StaticAvatar::fit_points(&capture, model.header.config.siren, init, &options, Some(&cancel), &mut progress);
         avatar.save(&args.out)?;
         (report, format!("static SDF ({})", if args.from_scratch { "from scratch" } else { "static meta-SDF" }), avatar.header.partial)
     } else {
@@ -97,7 +104,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Init::MetaLearned(&model)
         };
         let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
-        let (avatar, report) = MetaAvatar::fit_capture(&args.capture, args.frames, &init, &options, Some(&cancel), &mut progress)?;
+        let capture = open_capture()?;
+        let (avatar, report) = MetaAvatar::fit_points(&capture, &init, &options, Some(&cancel), &mut progress);
         avatar.save(&args.out)?;
         (report, format!("pose-dependent avatar ({}, {} parameters)", init.label(), avatar.num_params()), avatar.header.partial)
     };

@@ -175,6 +175,12 @@ impl StudioApp {
     }
 
     pub fn body(&self) -> Arc<BodyModel> {
+        // An avatar of a user's SMPL model poses with the body it carries, whatever capture is open.
+        if let Some(a) = &self.avatar
+            && a.source().body().is_frozen()
+        {
+            return Arc::new(a.source().body().clone());
+        }
         self.capture.as_ref().map(|c| c.body.clone()).unwrap_or_else(|| Arc::new(open_body_ref().clone()))
     }
 

@@ -54,6 +54,7 @@ pub fn static_header() -> AvatarHeader {
         body_model: "open_body".into(),
         field_cells: 16,
         partial: None,
+        body: None,
     }
 }
 
@@ -71,6 +72,7 @@ pub fn meta_header() -> MetaAvatarHeader {
         frames: 2,
         steps: 10,
         partial: None,
+        body: None,
     }
 }
 

@@ -145,6 +145,7 @@ fn read_model<R: Read + Seek>(npz: &mut Npz<R>) -> Result<BodyModel> {
         num_betas,
         posedirs,
         j_regressor,
+        frozen_joints: None,
         weights: weight_rows,
         faces,
         shape_names: Vec::new(),

@@ -3,10 +3,12 @@
 //! body (MakeHuman CC0) and a user's own SMPL `.npz`.
 
 pub mod embedded;
+pub mod frozen;
 pub mod kinematics;
 pub mod load;
 pub mod model;
 pub mod params;
+pub mod save;
 pub mod skeleton;
 pub mod skinning;
 

@@ -21,8 +21,11 @@ pub struct BodyModel {
     pub num_betas: usize,
     /// Pose correctives, `NUM_POSE_FEATURES` per vertex, if the model has them.
     pub posedirs: Option<Vec<Vec3>>,
-    /// Sparse joint regressor: for each joint, (vertex, weight) pairs.
+    /// Sparse joint regressor: for each joint, (vertex, weight) pairs (empty for a frozen body).
     pub j_regressor: Vec<Vec<(u32, f32)>>,
+    /// The rest joints of a frozen body (one shape, no regressor: see `frozen.rs`); `None` for
+    /// a model, whose joints are regressed from its shaped vertices.
+    pub frozen_joints: Option<[Vec3; NUM_JOINTS]>,
     /// Per-vertex skinning weights (rows sum to 1).
     pub weights: Vec<Weights>,
     pub faces: Vec<[u32; 3]>,
@@ -74,7 +77,11 @@ impl BodyModel {
             .collect()
     }
 
+    /// Joints of shaped vertices (a frozen body has one shape: its stored joints).
     pub fn regress_joints(&self, vertices: &[Vec3]) -> [Vec3; NUM_JOINTS] {
+        if let Some(joints) = self.frozen_joints {
+            return joints;
+        }
         let mut joints = [Vec3::ZERO; NUM_JOINTS];
         for (j, row) in self.j_regressor.iter().enumerate() {
             joints[j] = row.iter().fold(Vec3::ZERO, |acc, &(v, w)| acc + vertices[v as usize] * w);

@@ -1,5 +1,5 @@
-//! On-disk cache of skinning fields, keyed by a hash of the body's rest surface and the build
-//! options. Stored compactly: the 6 largest weights of each node (joint u8 + weight u16).
+//! On-disk cache of skinning fields, keyed by a hash of the body's rest surface, its skinning
+//! weights (two models with one template but other weights differ) and the build options. Stored compactly: the 6 largest weights of each node (joint u8 + weight u16).
 //! A corrupt or stale cache file is rebuilt, never trusted and never a panic.
 
 use super::field::{FieldOptions, SkinningField};
@@ -19,7 +19,7 @@ pub fn default_cache_dir() -> Option<PathBuf> {
     Some(base.join("avatar-studio").join("fields"))
 }
 
-fn key(rest: &[Vec3], faces: &[[u32; 3]], options: &FieldOptions) -> u64 {
+fn key(rest: &[Vec3], body: &BodyModel, options: &FieldOptions) -> u64 {
     // FNV-1a over the exact bytes: stable across runs and platforms (unlike DefaultHasher seeds).
     struct Fnv(u64);
     impl Hasher for Fnv {
@@ -36,7 +36,10 @@ fn key(rest: &[Vec3], faces: &[[u32; 3]], options: &FieldOptions) -> u64 {
     for p in rest {
         p.to_array().map(f32::to_bits).hash(&mut h);
     }
-    faces.hash(&mut h);
+    body.faces.hash(&mut h);
+    for w in &body.weights {
+        w.map(f32::to_bits).hash(&mut h);
+    }
     (options.cells_along_height, options.margin.to_bits(), options.fixed_band.to_bits(), options.smoothing_iterations).hash(&mut h);
     VERSION.hash(&mut h);
     h.finish()
@@ -48,7 +51,7 @@ pub fn cached_field(body: &BodyModel, rest: &[Vec3], options: &FieldOptions, cac
     let Some(dir) = cache_dir else {
         return Ok((SkinningField::build(body, rest, options)?, None));
     };
-    let path = dir.join(format!("skinning-field-{:016x}.bin", key(rest, &body.faces, options)));
+    let path = dir.join(format!("skinning-field-{:016x}.bin", key(rest, body, options)));
     let mut warning = None;
     if path.exists() {
         match read_field(&path) {

@@ -126,16 +126,66 @@ pub struct CaptureManifest {
     pub intrinsics: Intrinsics,
     /// Depth PNG units per metre (1000 = millimetres, 5000 = TUM).
     pub depth_scale: f32,
-    /// `"open_body"` (the embedded body) or a path to an SMPL `.npz`, relative to the folder.
-    #[serde(default = "default_body_model")]
-    pub body_model: String,
+    /// The body model of the fittings: `"open_body"` or `{"smpl": PATH}`.
+    #[serde(default)]
+    pub body_model: BodyModelRef,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fps: Option<f32>,
     pub frames: Vec<FrameRecord>,
 }
 
-fn default_body_model() -> String {
-    "open_body".into()
+/// Which body model the fittings' pose and shape coefficients belong to.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub enum BodyModelRef {
+    /// The embedded open body (`"open_body"`, the default).
+    #[default]
+    OpenBody,
+    /// The user's own SMPL-family `.npz` (`{"smpl": PATH}`), relative to the capture folder or
+    /// absolute. A plain path string is read the same way (captures written before the object).
+    Smpl(PathBuf),
+}
+
+impl BodyModelRef {
+    /// The model file, resolved against the capture folder.
+    pub fn resolve(&self, capture_dir: &Path) -> Option<PathBuf> {
+        match self {
+            BodyModelRef::OpenBody => None,
+            BodyModelRef::Smpl(p) => Some(if p.is_absolute() { p.clone() } else { capture_dir.join(p) }),
+        }
+    }
+}
+
+impl Serialize for BodyModelRef {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        match self {
+            BodyModelRef::OpenBody => s.serialize_str("open_body"),
+            BodyModelRef::Smpl(p) => {
+                use serde::ser::SerializeMap;
+                let mut m = s.serialize_map(Some(1))?;
+                m.serialize_entry("smpl", p)?;
+                m.end()
+            }
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for BodyModelRef {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Name(String),
+            Model { smpl: PathBuf },
+        }
+        let raw = Raw::deserialize(d).map_err(|_| {
+            serde::de::Error::custom("\"body_model\" must be \"open_body\" or {\"smpl\": \"path/to/model.npz\"}")
+        })?;
+        Ok(match raw {
+            Raw::Name(n) if n.is_empty() || n == "open_body" => BodyModelRef::OpenBody,
+            Raw::Name(path) => BodyModelRef::Smpl(path.into()),
+            Raw::Model { smpl } => BodyModelRef::Smpl(smpl),
+        })
+    }
 }
 
 impl CaptureManifest {
@@ -145,7 +195,7 @@ impl CaptureManifest {
             version: FORMAT_VERSION,
             intrinsics,
             depth_scale,
-            body_model: default_body_model(),
+            body_model: BodyModelRef::OpenBody,
             fps: None,
             frames: Vec::new(),
         }
@@ -228,6 +278,19 @@ mod tests {
         m.depth_scale = 1000.0;
         m.intrinsics.fx = -1.0;
         assert!(m.validate().unwrap_err().to_string().contains("focal"));
+    }
+
+    #[test]
+    fn body_model_reads_the_name_the_object_and_a_plain_path() {
+        let read = |v: &str| serde_json::from_str::<BodyModelRef>(v);
+        assert_eq!(read(r#""open_body""#).unwrap(), BodyModelRef::OpenBody);
+        assert_eq!(read(r#"{"smpl": "models/SMPL_NEUTRAL.npz"}"#).unwrap(), BodyModelRef::Smpl("models/SMPL_NEUTRAL.npz".into()));
+        assert_eq!(read(r#""my.npz""#).unwrap(), BodyModelRef::Smpl("my.npz".into()));
+        assert!(read(r#"{"smplx": "a.npz"}"#).unwrap_err().to_string().contains("open_body"));
+        let m = BodyModelRef::Smpl("/abs/m.npz".into());
+        assert_eq!(serde_json::to_string(&m).unwrap(), r#"{"smpl":"/abs/m.npz"}"#);
+        assert_eq!(m.resolve(Path::new("/cap")), Some(PathBuf::from("/abs/m.npz")));
+        assert_eq!(BodyModelRef::Smpl("m.npz".into()).resolve(Path::new("/cap")), Some(PathBuf::from("/cap/m.npz")));
     }
 
     #[test]

@@ -13,6 +13,6 @@ pub mod points;
 pub mod scan;
 
 pub use depth_png::{read_depth_png, read_mask_png, write_depth_png, write_mask_png, DepthImage};
-pub use manifest::{CaptureManifest, FrameRecord, Intrinsics, DEPTH_SCALE_MM, DEPTH_SCALE_TUM, MANIFEST_FILE};
+pub use manifest::{BodyModelRef, CaptureManifest, FrameRecord, Intrinsics, DEPTH_SCALE_MM, DEPTH_SCALE_TUM, MANIFEST_FILE};
 pub use open::{Capture, CaptureFrame, CaptureOptions, FrameError, NO_DEPTH_NEAR_BODY};
 pub use points::{backproject, crop_to_body, estimate_normals, CropOptions, CropReport};

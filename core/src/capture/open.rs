@@ -3,7 +3,7 @@
 //! good frames stay usable. Only a capture with no usable frame is an error.
 
 use super::depth_png::{read_depth_png_sized, read_mask_png_sized};
-use super::manifest::{CaptureManifest, FrameRecord};
+use super::manifest::{BodyModelRef, CaptureManifest, FrameRecord, MANIFEST_FILE};
 use super::points::{backproject, crop_to_body, estimate_normals, CropOptions, CropReport};
 use crate::body::{open_body_ref, BodyModel, BodyParams};
 use crate::error::{Error, Result};
@@ -31,11 +31,13 @@ pub struct CaptureOptions {
     pub normal_neighbours: usize,
     /// Keep only these frame indices (in manifest order); `None` = all.
     pub frames: Option<Vec<usize>>,
+    /// An SMPL `.npz` that replaces the body model the manifest names (`fit --body-model`).
+    pub body_model: Option<PathBuf>,
 }
 
 impl Default for CaptureOptions {
     fn default() -> Self {
-        CaptureOptions { crop: CropOptions::default(), normal_neighbours: 16, frames: None }
+        CaptureOptions { crop: CropOptions::default(), normal_neighbours: 16, frames: None, body_model: None }
     }
 }
 
@@ -78,7 +80,10 @@ impl fmt::Display for FrameError {
 pub struct Capture {
     pub dir: PathBuf,
     pub manifest: CaptureManifest,
+    /// The body model of the fittings: the embedded open body or the user's SMPL file.
     pub body: Arc<BodyModel>,
+    /// The SMPL file `body` was read from (`None`: the open body).
+    pub body_file: Option<PathBuf>,
     pub frames: Vec<CaptureFrame>,
     pub warnings: Vec<FrameError>,
 }
@@ -102,8 +107,13 @@ impl Capture {
         let dir = dir.as_ref();
         let dir = if dir.is_file() { dir.parent().unwrap_or(Path::new(".")) } else { dir };
         let manifest = CaptureManifest::load(dir)?;
-        let body = load_body_model(dir, &manifest.body_model)
-            .map_err(|e| Error::file(dir.join(super::manifest::MANIFEST_FILE), format!("body_model {:?}: {e}", manifest.body_model)))?;
+        let (body_ref, named_by) = match &options.body_model {
+            Some(path) => (BodyModelRef::Smpl(path.clone()), "given with --body-model".to_string()),
+            None => (manifest.body_model.clone(), format!("named in {}", dir.join(MANIFEST_FILE).display())),
+        };
+        let body_file = body_ref.resolve(dir);
+        let body = load_body_model(body_file.as_deref(), &named_by)?;
+        check_shape_coefficients(dir, &manifest, &body, body_file.is_some())?;
         let selected: Vec<usize> = match &options.frames {
             Some(list) => {
                 if let Some(&bad) = list.iter().find(|&&i| i >= manifest.frames.len()) {
@@ -139,7 +149,7 @@ impl Capture {
                 format!("no usable frame in the capture ({} skipped){why}. Frames: {}", warnings.len(), reasons.join("; ")),
             ));
         }
-        Ok(Capture { dir: dir.to_path_buf(), manifest, body, frames, warnings })
+        Ok(Capture { dir: dir.to_path_buf(), manifest, body, body_file, frames, warnings })
     }
 
     /// All frames' points (world space), concatenated.
@@ -148,13 +158,38 @@ impl Capture {
     }
 }
 
-/// `"open_body"` -> the embedded body; anything else is an SMPL npz relative to the folder.
-pub fn load_body_model(dir: &Path, name: &str) -> Result<Arc<BodyModel>> {
-    if name.is_empty() || name == "open_body" {
+/// No file: the embedded open body; else the user's SMPL npz (`named_by` says where the path
+/// came from, for the message when it cannot be read).
+pub fn load_body_model(file: Option<&Path>, named_by: &str) -> Result<Arc<BodyModel>> {
+    let Some(path) = file else {
         return Ok(Arc::new(open_body_ref().clone()));
+    };
+    match BodyModel::load_npz(path) {
+        Err(Error::Io { path, cause }) => Err(Error::file(&path, format!("cannot read the SMPL body model {named_by}: {cause}"))),
+        other => Ok(Arc::new(other?)),
     }
-    let path = if Path::new(name).is_absolute() { PathBuf::from(name) } else { dir.join(name) };
-    Ok(Arc::new(BodyModel::load_npz(&path)?))
+}
+
+/// Shape coefficients the body model does not have mean the fittings are another model's (SMPL
+/// betas read as the open body's seven MakeHuman directions): refused, naming the first frame.
+/// Trailing zeros are padding and fine; fewer coefficients than the model has are zeros.
+fn check_shape_coefficients(dir: &Path, manifest: &CaptureManifest, body: &BodyModel, smpl: bool) -> Result<()> {
+    let k = body.num_betas;
+    let Some((i, n)) = manifest.frames.iter().enumerate().find_map(|(i, f)| {
+        let used = f.shape.iter().rposition(|&b| b != 0.0).map_or(0, |last| last + 1);
+        (used > k).then_some((i, f.shape.len()))
+    }) else {
+        return Ok(());
+    };
+    let hint = if smpl {
+        "is the capture fitted with another model? name it with \"body_model\": {\"smpl\": PATH} or fit --body-model PATH"
+    } else {
+        "SMPL fittings need the SMPL model they were made with: add \"body_model\": {\"smpl\": PATH} to capture.json or pass fit --body-model PATH"
+    };
+    Err(Error::file(
+        dir.join(MANIFEST_FILE),
+        format!("frame {i} has {n} shape coefficients but the body model {} has {k}: {hint}", body.label),
+    ))
 }
 
 fn load_frame(

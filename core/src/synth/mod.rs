@@ -9,6 +9,7 @@ pub mod ground_truth;
 pub mod noise;
 pub mod outfit;
 pub mod raster;
+pub mod smpl_stand_in;
 
 pub use camera::{look_at, orbit, PinholeCamera};
 pub use deform::{canonical_surface, pose_surface, PoseFeatures};
@@ -17,3 +18,4 @@ pub use ground_truth::{GroundTruth, GtFrame};
 pub use noise::DepthNoise;
 pub use outfit::{ClothedTemplate, Outfit, ALL_OUTFITS};
 pub use raster::{render_depth, DepthRender, NO_TRIANGLE};
+pub use smpl_stand_in::{generate_smpl_capture, smpl_stand_in};
