@@ -71,6 +71,15 @@ pub fn of_capture(capture: &CapturePoints) -> (BodyModel, &'static str, u32, Opt
     (body, SMPL, VERSION_WITH_BODY, Some(section))
 }
 
+/// A version-2 file carries a body section and a version-1 file none.
+pub fn check_version(version: u32, section: Option<&BodySection>) -> Result<()> {
+    if (version == VERSION_WITH_BODY) != section.is_some() {
+        let has = if section.is_some() { "a stored body" } else { "no stored body" };
+        return Err(Error::invalid(format!("version {version} with {has} (version {VERSION_OPEN_BODY}: none, version {VERSION_WITH_BODY}: one)")));
+    }
+    Ok(())
+}
+
 /// The values of a frozen body's section (appended to the network's weights).
 pub fn encode(body: &BodyModel, section: &BodySection) -> Vec<f32> {
     let mut out = Vec::with_capacity(section.len());

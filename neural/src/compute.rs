@@ -5,6 +5,7 @@
 //! The choice is process-wide: the command line sets it once from `--device` before any fit
 //! starts, and every fitting entry point asks [`training_device`].
 
+use avatar_core::error::Error;
 use burn::tensor::Device;
 use std::sync::atomic::{AtomicU8, Ordering};
 
@@ -23,13 +24,13 @@ static SELECTED: AtomicU8 = AtomicU8::new(0);
 
 impl Compute {
     /// `cpu` or `gpu`; `gpu` in a build without the `gpu` feature is refused with the reason.
-    pub fn parse(name: &str) -> Result<Compute, String> {
+    pub fn parse(name: &str) -> avatar_core::error::Result<Compute> {
         match name {
             "cpu" => Ok(Compute::Cpu),
             "cpu-burn" => Ok(Compute::CpuBurn),
             "gpu" if cfg!(feature = "gpu") => Ok(Compute::Gpu),
-            "gpu" => Err("--device gpu: this build has no GPU support (rebuild with `cargo build --release --features gpu`)".into()),
-            other => Err(format!("--device {other:?}: expected cpu, gpu or cpu-burn")),
+            "gpu" => Err(Error::invalid("--device gpu: this build has no GPU support (rebuild with `cargo build --release --features gpu`)")),
+            other => Err(Error::invalid(format!("--device {other:?}: expected cpu, gpu or cpu-burn"))),
         }
     }
 
@@ -87,13 +88,13 @@ mod tests {
 
     #[test]
     fn device_names_parse_and_a_cpu_build_refuses_gpu_with_the_reason() {
-        assert_eq!(Compute::parse("cpu"), Ok(Compute::Cpu));
-        assert!(Compute::parse("tpu").unwrap_err().contains("expected cpu, gpu or cpu-burn"));
-        assert_eq!(Compute::parse("cpu-burn"), Ok(Compute::CpuBurn));
+        assert_eq!(Compute::parse("cpu").unwrap(), Compute::Cpu);
+        assert!(Compute::parse("tpu").unwrap_err().to_string().contains("expected cpu, gpu or cpu-burn"));
+        assert_eq!(Compute::parse("cpu-burn").unwrap(), Compute::CpuBurn);
         if cfg!(feature = "gpu") {
-            assert_eq!(Compute::parse("gpu"), Ok(Compute::Gpu));
+            assert_eq!(Compute::parse("gpu").unwrap(), Compute::Gpu);
         } else {
-            assert!(Compute::parse("gpu").unwrap_err().contains("--features gpu"));
+            assert!(Compute::parse("gpu").unwrap_err().to_string().contains("--features gpu"));
         }
     }
 }

@@ -112,7 +112,7 @@ impl Checkpoint {
         if self.format != "avatar-studio-checkpoint" || self.version != 1 || self.kind != "meta-checkpoint" {
             return Err(Error::invalid(format!("checkpoint format {:?} version {} kind {:?} is not supported by this build", self.format, self.version, self.kind)));
         }
-        self.options.config.check().map_err(Error::invalid)?;
+        self.options.config.check()?;
         let sdf = self.options.config.siren.num_params();
         match self.stage.as_str() {
             "sdf" => Ok(sdf),
@@ -171,12 +171,12 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
     let mut hyper_resume: Option<(usize, Vec<f32>)> = None;
     match &resume {
         Some((ck, w)) if ck.stage == "sdf" => {
-            meta_sdf = load_flat(meta_sdf, w).map_err(|e| Error::file(&ckpt_path, e))?;
+            meta_sdf = load_flat(meta_sdf, w).map_err(|e| e.in_file(&ckpt_path))?;
             start = ck.iteration;
         }
         Some((ck, w)) if ck.stage == "hyper" => {
             let n_sdf = sdf_config.num_params();
-            meta_sdf = load_flat(meta_sdf, &w[w.len() - n_sdf..]).map_err(|e| Error::file(&ckpt_path, e))?;
+            meta_sdf = load_flat(meta_sdf, &w[w.len() - n_sdf..]).map_err(|e| e.in_file(&ckpt_path))?;
             start = options.sdf_iterations;
             hyper_resume = Some((ck.iteration, w[..w.len() - n_sdf].to_vec()));
         }
@@ -224,7 +224,7 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
     let mut model = options.config.init(meta_sdf.clone(), options.seed, &train_device);
     let mut start = 0;
     if let Some((it, w)) = hyper_resume {
-        model = load_flat(model, &w).map_err(|e| Error::file(&ckpt_path, e))?;
+        model = load_flat(model, &w).map_err(|e| e.in_file(&ckpt_path))?;
         start = it;
     }
     let static_flat = flatten(&meta_sdf);
@@ -283,12 +283,12 @@ pub fn start_from_static(out: &Path, options: &MetaOptions, model: &MetaModel, m
 }
 
 /// The meta-SDF as a trainable SIREN on the training device.
-pub fn trainable_siren(config: &crate::siren::SirenConfig, flat: &[f32], seed: u64) -> std::result::Result<Siren, String> {
+pub fn trainable_siren(config: &crate::siren::SirenConfig, flat: &[f32], seed: u64) -> Result<Siren> {
     load_flat(config.init(seed, &crate::compute::training_device()), flat)
 }
 
 /// The hypernetwork (its base SDF included) as a trainable module on the training device.
-pub fn trainable_hyper(config: &HyperConfig, flat: &[f32], seed: u64) -> std::result::Result<HyperNet, String> {
+pub fn trainable_hyper(config: &HyperConfig, flat: &[f32], seed: u64) -> Result<HyperNet> {
     let device = crate::compute::training_device();
     load_flat(config.init(config.siren.init(seed, &device), seed, &device), flat)
 }

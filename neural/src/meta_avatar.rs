@@ -194,8 +194,9 @@ impl MetaAvatar {
         let path = path.as_ref();
         check_avatar_header(path, META_AVATAR_KIND)?;
         let (header, values): (MetaAvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &MetaAvatarHeader| {
-            h.config.check().map_err(Error::invalid)?;
+            h.config.check()?;
             check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
+            avatar_body::check_version(h.version, h.body.as_ref())?;
             if let Some(p) = h.partial
                 && p.steps_done != h.steps
             {
@@ -206,7 +207,7 @@ impl MetaAvatar {
         let (weights, body) = avatar_body::split(path, &header.body_model, header.body.as_ref(), values, header.config.num_params())?;
         let device = crate::cpu_device();
         let blank = header.config.init(header.config.siren.init(0, &device), 0, &device);
-        let model = load_flat(blank, &weights).map_err(|e| Error::file(path, e))?;
+        let model = load_flat(blank, &weights).map_err(|e| e.in_file(path))?;
         let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let rest_joints = body.regress_joints(&body.shaped_vertices(&header.betas));
         Ok(MetaAvatar { header, model, body, field, rest_joints, device, resolution: 128 })

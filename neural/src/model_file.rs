@@ -92,7 +92,7 @@ impl MetaModel {
         if header.kind != MODEL_KIND {
             return Err(Error::invalid(format!("kind {:?} is not a meta-model ({MODEL_KIND:?}): an avatar or another file under a meta-model header", header.kind)));
         }
-        header.config.check().map_err(Error::invalid)?;
+        header.config.check()?;
         if header.hyper_params != header.config.num_params() || header.static_params != header.config.siren.num_params() {
             return Err(Error::invalid("the header's parameter counts do not match its network configuration"));
         }

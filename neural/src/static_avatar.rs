@@ -140,13 +140,14 @@ impl StaticAvatar {
         let path = path.as_ref();
         check_avatar_header(path, "static-sdf")?;
         let (header, values): (AvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &AvatarHeader| {
-            h.siren.check().map_err(Error::invalid)?;
+            h.siren.check()?;
             check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
+            avatar_body::check_version(h.version, h.body.as_ref())?;
             Ok(h.siren.num_params() + h.body.as_ref().map_or(0, BodySection::len))
         })?;
         let (weights, body) = avatar_body::split(path, &header.body_model, header.body.as_ref(), values, header.siren.num_params())?;
         let device = crate::cpu_device();
-        let model = load_flat(header.siren.init(0, &device), &weights).map_err(|e| Error::file(path, e))?;
+        let model = load_flat(header.siren.init(0, &device), &weights).map_err(|e| e.in_file(path))?;
         let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let sdf = MetricSdf::of(&model, header.normalisation);
         Ok(StaticAvatar { header, model, sdf, body, field, resolution: 128 })

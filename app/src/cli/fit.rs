@@ -50,7 +50,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&args.device).map_err(anyhow::Error::msg)?);
+    avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&args.device)?);
     if args.steps == 0 || args.frames == 0 {
         bail!("--steps and --frames must be at least 1");
     }

@@ -61,7 +61,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&args.device).map_err(anyhow::Error::msg)?);
+    avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&args.device)?);
     let config = HyperConfig::preset(&args.preset).with_context(|| format!("unknown --preset {:?}: use compact or paper", args.preset))?;
     if args.subjects == 0 || args.poses == 0 {
         bail!("--subjects and --poses must be at least 1");

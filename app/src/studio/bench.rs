@@ -142,12 +142,12 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
 type Headless = (eframe::egui_wgpu::wgpu::Device, eframe::egui_wgpu::wgpu::Queue, eframe::egui_wgpu::wgpu::AdapterInfo);
 
 /// A wgpu device without a window, on the adapter wgpu picks (`WGPU_BACKEND` chooses the API).
-fn headless() -> Result<Headless, String> {
+fn headless() -> anyhow::Result<Headless> {
     use eframe::egui_wgpu::wgpu;
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions { power_preference: wgpu::PowerPreference::HighPerformance, ..Default::default() })).map_err(|e| format!("no wgpu adapter: {e}"))?;
+    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions { power_preference: wgpu::PowerPreference::HighPerformance, ..Default::default() })).map_err(|e| anyhow::anyhow!("no wgpu adapter: {e}"))?;
     let info = adapter.get_info();
-    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())).map_err(|e| format!("no device on {}: {e}", info.name))?;
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())).map_err(|e| anyhow::anyhow!("no device on {}: {e}", info.name))?;
     Ok((device, queue, info))
 }
 

@@ -58,21 +58,21 @@ impl PathDialog {
     }
 
     /// The path the dialog would answer now, or why it cannot answer.
-    pub fn answer(&self) -> Result<PathBuf, String> {
+    pub fn answer(&self) -> anyhow::Result<PathBuf> {
         let name = self.name.trim();
         match self.request.kind {
             PathKind::Folder => Ok(if name.is_empty() { self.folder.clone() } else { self.folder.join(name) }),
-            PathKind::OpenFile | PathKind::SaveFile if name.is_empty() => Err("Type a file name or pick one from the list".into()),
+            PathKind::OpenFile | PathKind::SaveFile if name.is_empty() => Err(anyhow::anyhow!("Type a file name or pick one from the list")),
             PathKind::OpenFile => {
                 let p = self.folder.join(name);
-                if p.is_file() { Ok(p) } else { Err(format!("{}: no such file", p.display())) }
+                if p.is_file() { Ok(p) } else { Err(anyhow::anyhow!("{}: no such file", p.display())) }
             }
             PathKind::SaveFile => {
                 let p = self.folder.join(name);
                 if !self.folder.is_dir() {
-                    Err(format!("{}: no such folder", self.folder.display()))
+                    Err(anyhow::anyhow!("{}: no such folder", self.folder.display()))
                 } else if p.is_dir() {
-                    Err(format!("{} is a folder", p.display()))
+                    Err(anyhow::anyhow!("{} is a folder", p.display()))
                 } else {
                     Ok(p)
                 }
@@ -157,7 +157,7 @@ impl PathDialog {
             if accept {
                 match self.answer() {
                     Ok(p) => outcome = Some(PathDialogOutcome::Chosen(p)),
-                    Err(e) => self.problem = Some(e),
+                    Err(e) => self.problem = Some(e.to_string()),
                 }
             }
         });
@@ -207,10 +207,10 @@ mod tests {
         let mut s = PathDialog::new(PathPurpose::ExportGlb.request("walk.glb"), dir.path().to_path_buf());
         assert_eq!(s.answer().unwrap(), dir.path().join("walk.glb"));
         s.name = "captures".into();
-        assert!(s.answer().unwrap_err().contains("is a folder"));
+        assert!(s.answer().unwrap_err().to_string().contains("is a folder"));
         let mut missing = PathDialog::new(PathPurpose::SaveAvatar.request("a.avatar"), dir.path().join("nope"));
         assert!(missing.listing_error.is_some());
-        assert!(missing.answer().unwrap_err().contains("no such folder"));
+        assert!(missing.answer().unwrap_err().to_string().contains("no such folder"));
         missing.go_to(dir.path().to_path_buf());
         assert!(missing.answer().is_ok());
     }

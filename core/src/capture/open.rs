@@ -166,6 +166,7 @@ pub fn load_body_model(file: Option<&Path>, named_by: &str) -> Result<Arc<BodyMo
     };
     match BodyModel::load_npz(path) {
         Err(Error::Io { path, cause }) => Err(Error::file(&path, format!("cannot read the SMPL body model {named_by}: {cause}"))),
+        Err(Error::InvalidFile { path, message }) => Err(Error::file(&path, format!("{message} (the SMPL body model {named_by})"))),
         other => Ok(Arc::new(other?)),
     }
 }
