@@ -7,6 +7,7 @@ pub mod metrics;
 pub mod occupancy;
 pub mod predictor;
 pub mod protocol;
+pub mod report;
 pub mod runner;
 pub mod sampling;
 pub mod surface_error;

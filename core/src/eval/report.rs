@@ -33,8 +33,9 @@ pub struct RowResult {
     pub cloth_spurious: Summary,
     pub cloth_missing: Summary,
     pub cloth_p99_cm: Summary,
-    /// Fine-tuning and scoring time of this row (seconds, summed over subjects).
-    pub seconds: f64,
+    /// Fine-tuning and scoring time of this row (seconds, summed over subjects; f32 so that
+    /// the JSON round trip is exact).
+    pub seconds: f32,
 }
 
 /// What a row is summarised from.
@@ -70,7 +71,7 @@ impl RowResult {
             cloth_spurious: s(|m| m.cloth.spurious)?,
             cloth_missing: s(|m| m.cloth.missing)?,
             cloth_p99_cm: s(|m| m.cloth.p99_cm)?,
-            seconds: input.seconds,
+            seconds: input.seconds as f32,
         })
     }
 }
