@@ -43,5 +43,8 @@ fn bad_arguments_are_named() {
         assert!(!out.status.success(), "{flag} {value}");
         assert!(String::from_utf8_lossy(&out.stderr).contains(value), "{flag}: {}", String::from_utf8_lossy(&out.stderr));
     }
+    let same = dir.path().join("r.json");
+    let out = studio().args(["eval", "--preset", "paper", "--out"]).arg(&same).arg("--markdown").arg(&same).output().unwrap();
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("same file"));
     assert!(!dir.path().join("r.json").exists(), "no report from a refused run");
 }

@@ -159,6 +159,9 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let p = preset(&args.preset)?;
+    if args.markdown.as_ref() == Some(&args.out) {
+        bail!("--markdown and --out are the same file ({}): give two paths", args.out.display());
+    }
     let protocol = args.protocol.as_deref().unwrap_or(p.protocol);
     let protocols = Protocol::parse_list(protocol).with_context(|| format!("unknown protocol {protocol:?}: use interpolation, extrapolation, few-shot or all"))?;
     let subjects = args.subjects.unwrap_or(p.subjects);
