@@ -51,7 +51,14 @@ fn reference_rows_score_as_expected() {
     let back: Report = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(back, report);
     let md = report.markdown();
-    assert!(md.contains("| naked body (LBS) | extrapolation |") && md.contains("blazer_tails"), "{md}");
+    assert!(md.contains("**clean capture, extrapolation**") && md.contains("| naked body (LBS) | blazer_tails |"), "{md}");
+    // The naked body lacks the blazer's tails and thickness: surface is missing, more of it in
+    // the clothed region than over the whole body (hands, feet and head are exact).
+    let naked = &report.rows[1];
+    assert!(naked.missing.mean > 0.05 && naked.cloth_missing.mean >= naked.missing.mean, "{naked:?}");
+    assert!(naked.missing.mean > naked.spurious.mean && naked.p99_cm.mean > 2.0, "{naked:?}");
+    let truth = &report.rows[2];
+    assert_eq!((truth.spurious.max, truth.missing.max, truth.cloth_spurious.max), (0.0, 0.0, 0.0), "{truth:?}");
 }
 
 struct Broken;
@@ -88,11 +95,11 @@ fn the_pose_independent_outfit_is_exact_at_rest_and_misses_only_the_pose_depende
     let dir = tempfile::tempdir().unwrap();
     row.fit(&FitData { capture_dir: dir.path(), body, betas: &betas, outfit: Outfit::PoloLoose }).unwrap();
     let template = avatar_core::synth::ClothedTemplate::build(body, &betas, Outfit::PoloLoose);
-    let mask = metrics::clothed_mask(&template.vertex_joint, None).unwrap();
+    let regions = Regions::of_template(&template).unwrap();
     let score = |params: &BodyParams| {
         let p = BodyParams { betas: betas.clone(), ..params.clone() };
         let gt = runner::ground_truth_mesh(body, &template, &p, 1001);
-        metrics::evaluate_frame(&row.predict(&p).unwrap(), &gt, &mask, &metrics::MetricOptions { chamfer_samples: 500, iou_resolution: 32 }, 0).unwrap()
+        metrics::evaluate_frame(&row.predict(&p).unwrap(), &gt, &regions, &metrics::MetricOptions { chamfer_samples: 500, iou_resolution: 32, ..Default::default() }, 0).unwrap()
     };
     // At the rest pose there is no fold, lift or swing: the row is the ground truth.
     let rest = score(&BodyParams::default());
@@ -102,4 +109,68 @@ fn the_pose_independent_outfit_is_exact_at_rest_and_misses_only_the_pose_depende
     let deep = squat.frames[squat.len() / 2].clone();
     let s = score(&deep);
     assert!(s.df_cm > 0.05 && s.df_cm < 1.5 && s.nc < 0.995 && s.nc > 0.8, "{s:?}");
+}
+
+/// Records what each fine-tuning capture holds; predicts the naked body.
+struct Inspect {
+    naked: NakedBody,
+    /// Per fit: the fittings and the depth's roughness (median |second difference| along rows, m).
+    seen: std::sync::Arc<std::sync::Mutex<Vec<(Vec<BodyParams>, f32)>>>,
+}
+impl Predictor for Inspect {
+    fn name(&self) -> String {
+        "inspect".into()
+    }
+    fn fit(&mut self, data: &FitData) -> Result<()> {
+        let manifest = avatar_core::capture::CaptureManifest::load(data.capture_dir)?;
+        let params = manifest.frames.iter().map(|f| f.params()).collect::<Result<Vec<_>>>()?;
+        let mut second = Vec::new();
+        for f in &manifest.frames {
+            let d = avatar_core::capture::read_depth_png(data.capture_dir.join(&f.depth), manifest.depth_scale)?;
+            for row in d.metres.chunks(d.width as usize) {
+                for w in row.windows(3) {
+                    if w.iter().all(|&z| z > 0.0) && (w[2] - w[0]).abs() < 0.05 {
+                        second.push((w[0] - 2.0 * w[1] + w[2]).abs());
+                    }
+                }
+            }
+        }
+        second.sort_by(f32::total_cmp);
+        self.seen.lock().unwrap().push((params, second[second.len() / 2]));
+        self.naked.fit(data)
+    }
+    fn predict(&self, p: &BodyParams) -> Result<TriMesh> {
+        self.naked.predict(p)
+    }
+}
+
+#[test]
+fn user_captures_have_holes_fitting_errors_and_other_turns_and_sheets_are_drawn() {
+    let body = open_body_ref();
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let mut rows: Vec<Box<dyn Predictor>> = vec![Box::new(Inspect { naked: NakedBody::new(body.clone()), seen: seen.clone() })];
+    let mut config = tiny(vec![Protocol::FewShot(Shots::OnePerClip)], "user");
+    config.captures = vec![CaptureConditions::user(), CaptureConditions::clean()];
+    config.ground_truth_row = false;
+    let sheets = tempfile::tempdir().unwrap();
+    config.contact_sheets = Some(sheets.path().to_path_buf());
+    let report = run(body, &config, &mut rows, &|_| {}).unwrap();
+    assert_eq!(report.rows.len(), 2);
+    assert_eq!((report.rows[0].capture.as_str(), report.rows[1].capture.as_str()), ("user", "clean"));
+    assert!(report.captures[0].contains("kinect_v2"), "{:?}", report.captures);
+    let seen = seen.lock().unwrap();
+    let ((user, user_rough), (clean, clean_rough)) = (&seen[0], &seen[1]);
+    assert_eq!(user.len(), 2);
+    // Depth noise (4 mm at 2.4 m): the user capture's depth is much rougher than the exact render.
+    assert!(*user_rough > 3.0 * clean_rough && *user_rough > 0.003, "{user_rough} vs {clean_rough}");
+    // The fittings are off by a few degrees per joint and about a centimetre.
+    let knee = |p: &BodyParams| glam::Quat::from_scaled_axis(p.pose[4]);
+    let knee_error: f32 = user.iter().zip(clean.iter()).map(|(u, c)| knee(u).angle_between(knee(c)).to_degrees()).sum::<f32>() / 2.0;
+    assert!(knee_error > 0.3 && knee_error < 12.0, "{knee_error}");
+    assert!((user[0].trans - clean[0].trans).length() < 0.05);
+    assert!(user.iter().zip(clean.iter()).any(|(u, c)| u.trans != c.trans));
+    assert!(user.iter().zip(clean.iter()).all(|(u, c)| u.betas == c.betas), "the shape is exact");
+    // One sheet per outfit: truth and the row, front and side.
+    let img = image::open(sheets.path().join("eval-blazer_tails.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (2 * 180, 2 * 270));
 }

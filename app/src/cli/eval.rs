@@ -1,61 +1,139 @@
-//! `avatar-studio eval`: run an evaluation protocol on held-out synthetic subjects and write a
-//! JSON report and a Markdown table.
+//! `avatar-studio eval`: score avatars on held-out synthetic subjects and write a JSON report
+//! and a Markdown table. Presets (docs/evaluation.md): `full` (the default table: captures as
+//! users make them and clean ones, every outfit, four subjects), `quick` (a developer's check
+//! after a change, under 15 minutes on 2 cores) and `paper` (MetaAvatar's clean protocols).
+//! Every flag overrides its preset's value.
 
 use anyhow::{bail, Context};
 use avatar_core::eval::dataset::EVAL_SUBJECT_SEEDS;
-use avatar_core::eval::{run as run_eval, EvalConfig, NakedBody, Predictor, Protocol, StaticOutfit};
+use avatar_core::eval::{run as run_eval, CaptureConditions, EvalConfig, NakedBody, Predictor, Protocol, StaticOutfit};
 use avatar_core::synth::Outfit;
 use avatar_neural::eval_rows::{NeuralRow, RowKind};
 use avatar_neural::loss::IgrWeights;
 use avatar_neural::{HyperFitOptions, MetaModel};
 use std::path::PathBuf;
 
+/// The values a preset gives the flags left out.
+struct Preset {
+    protocol: &'static str,
+    captures: &'static str,
+    subjects: usize,
+    outfits: &'static [&'static str],
+    rows: &'static [&'static str],
+    steps: usize,
+    resolution: usize,
+    stride: usize,
+    chamfer_samples: usize,
+    iou_resolution: usize,
+}
+
+const ALL: &[&str] = &["tshirt_shorts", "longsleeve_trousers", "polo_loose", "dress", "blazer_tails"];
+
+fn preset(name: &str) -> anyhow::Result<Preset> {
+    Ok(match name {
+        "full" => Preset {
+            protocol: "few-shot:1/clip",
+            captures: "user,clean",
+            subjects: 4,
+            outfits: ALL,
+            rows: &["meta", "static"],
+            steps: 256,
+            resolution: 128,
+            stride: 5,
+            chamfer_samples: 10_000,
+            iou_resolution: 128,
+        },
+        // One subject, a tight, a loose and the unseen outfit, user captures only, a short fit.
+        "quick" => Preset {
+            protocol: "few-shot:1/clip",
+            captures: "user",
+            subjects: 1,
+            outfits: &["longsleeve_trousers", "dress", "blazer_tails"],
+            rows: &["meta", "static"],
+            steps: 64,
+            resolution: 96,
+            stride: 10,
+            chamfer_samples: 5_000,
+            iou_resolution: 64,
+        },
+        "paper" => Preset {
+            protocol: "all",
+            captures: "clean",
+            subjects: 4,
+            outfits: &["longsleeve_trousers", "blazer_tails"],
+            rows: &[],
+            steps: 256,
+            resolution: 128,
+            stride: 5,
+            chamfer_samples: 10_000,
+            iou_resolution: 128,
+        },
+        other => bail!("unknown --preset {other:?}: use full, quick or paper"),
+    })
+}
+
 #[derive(clap::Args)]
 pub struct Args {
-    /// interpolation, extrapolation, few-shot (all six fractions) or all.
-    #[arg(long, default_value = "all")]
-    protocol: String,
+    /// full (the default table), quick (under 15 minutes on 2 cores) or paper (MetaAvatar's
+    /// clean protocols, reference rows only). Flags override the preset's values.
+    #[arg(long, default_value = "full")]
+    preset: String,
+    /// interpolation, extrapolation, few-shot (all six fractions), all, or a comma-separated
+    /// list (few-shot:50, few-shot:1/clip pick one setting).
+    #[arg(long)]
+    protocol: Option<String>,
+    /// Capture conditions of the fine-tuning captures: user (depth noise and holes, fitting
+    /// errors, 30-60 degree turns), clean (MetaAvatar's protocol), comma-separated.
+    #[arg(long)]
+    captures: Option<String>,
+    /// The depth noise model of user captures: kinect_v1 or kinect_v2 (default).
+    #[arg(long)]
+    noise: Option<String>,
     /// JSON report (written atomically).
     #[arg(long)]
     out: PathBuf,
     /// Also write the Markdown table here.
     #[arg(long)]
     markdown: Option<PathBuf>,
+    /// Write a contact sheet per outfit into this folder (eval-OUTFIT.png: truth and every row
+    /// at a held-out pose, front and side; first subject, first setting).
+    #[arg(long)]
+    contact_sheets: Option<PathBuf>,
     /// Use the first N held-out subjects (at most 4).
-    #[arg(long, default_value_t = 4)]
-    subjects: usize,
-    /// Outfits (default: longsleeve_trousers and the unseen blazer_tails).
+    #[arg(long)]
+    subjects: Option<usize>,
+    /// Outfits, comma-separated (tshirt_shorts, longsleeve_trousers, polo_loose, dress,
+    /// blazer_tails; all = every one).
     #[arg(long, value_delimiter = ',')]
     outfits: Option<Vec<String>>,
     /// Evaluate every n-th frame of the held-out clips.
-    #[arg(long, default_value_t = 5)]
-    stride: usize,
-    /// Points sampled per surface for Chamfer-L2.
-    #[arg(long, default_value_t = 10_000)]
-    chamfer_samples: usize,
+    #[arg(long)]
+    stride: Option<usize>,
+    /// Points sampled per surface for Chamfer-L2 and the spurious/missing shares.
+    #[arg(long)]
+    chamfer_samples: Option<usize>,
     /// Grid points along the longest side for IoU.
-    #[arg(long, default_value_t = 128)]
-    iou_resolution: usize,
+    #[arg(long)]
+    iou_resolution: Option<usize>,
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Rows to add: meta (MetaAvatar), scratch (same networks from scratch), static (the static
-    /// meta-SDF), outfit-static (the ground-truth outfit without its pose-dependent
-    /// deformation: an exact pose-independent avatar), comma-separated.
-    /// Default: none (the naked body and ground-truth rows only).
+    /// Rows besides the naked body and the ground truth: meta (MetaAvatar), scratch (same
+    /// networks from scratch), static (the static meta-SDF), outfit-static (the ground-truth
+    /// outfit without its pose-dependent deformation), comma-separated; none for no row.
     #[arg(long, value_delimiter = ',')]
-    rows: Vec<String>,
+    rows: Option<Vec<String>>,
     /// Meta-learned model file (default: the shipped compact model).
     #[arg(long)]
     model: Option<PathBuf>,
     /// Fine-tuning steps of every neural row (the same budget for each).
-    #[arg(long, default_value_t = 256)]
-    steps: usize,
+    #[arg(long)]
+    steps: Option<usize>,
     /// Fine-tune on at most this many of the protocol's frames.
     #[arg(long, default_value_t = 1000)]
     max_frames: usize,
     /// Marching-cubes resolution of the neural rows' meshes.
-    #[arg(long, default_value_t = 128)]
-    resolution: usize,
+    #[arg(long)]
+    resolution: Option<usize>,
     /// Fine-tuning Adam rate of the hypernetwork's heads (default: `fit`'s).
     #[arg(long)]
     lr_heads: Option<f64>,
@@ -80,32 +158,45 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let p = preset(&args.preset)?;
+    if args.markdown.as_ref() == Some(&args.out) {
+        bail!("--markdown and --out are the same file ({}): give two paths", args.out.display());
+    }
     let inputs = avatar_core::io::Inputs::new().maybe_file(args.model.as_ref());
     inputs.check_file(&args.out, &["json"])?;
     if let Some(md) = &args.markdown {
         inputs.clone().file(&args.out).check_file(md, &["md"])?;
     }
-    let protocols = Protocol::parse_list(&args.protocol)
-        .with_context(|| format!("unknown protocol {:?}: use interpolation, extrapolation, few-shot or all", args.protocol))?;
-    if args.subjects == 0 || args.subjects > EVAL_SUBJECT_SEEDS.len() {
+    let protocol = args.protocol.as_deref().unwrap_or(p.protocol);
+    let protocols = Protocol::parse_list(protocol).with_context(|| format!("unknown protocol {protocol:?}: use interpolation, extrapolation, few-shot or all"))?;
+    let subjects = args.subjects.unwrap_or(p.subjects);
+    if subjects == 0 || subjects > EVAL_SUBJECT_SEEDS.len() {
         bail!("--subjects must be between 1 and {}", EVAL_SUBJECT_SEEDS.len());
     }
     let mut config = EvalConfig::paper(protocols);
-    config.subjects.truncate(args.subjects);
-    if let Some(o) = &args.outfits {
-        config.outfits = o.iter().map(|n| Outfit::from_name(n)).collect::<Result<_, _>>()?;
-    }
-    config.heldout_stride = args.stride.max(1);
-    config.metrics.chamfer_samples = args.chamfer_samples.max(100);
-    config.metrics.iou_resolution = args.iou_resolution.clamp(16, 512);
+    config.captures = CaptureConditions::parse_list(args.captures.as_deref().unwrap_or(p.captures), args.noise.as_deref())?;
+    config.subjects.truncate(subjects);
+    let outfits: Vec<String> = args.outfits.clone().unwrap_or_else(|| p.outfits.iter().map(|o| o.to_string()).collect());
+    let outfits: Vec<String> = if outfits == ["all"] { ALL.iter().map(|o| o.to_string()).collect() } else { outfits };
+    config.outfits = outfits.iter().map(|n| Outfit::from_name(n)).collect::<Result<_, _>>()?;
+    config.heldout_stride = args.stride.unwrap_or(p.stride).max(1);
+    config.metrics.chamfer_samples = args.chamfer_samples.unwrap_or(p.chamfer_samples).max(100);
+    config.metrics.iou_resolution = args.iou_resolution.unwrap_or(p.iou_resolution).clamp(16, 512);
     config.seed = args.seed;
+    config.contact_sheets = args.contact_sheets.clone();
+    let row_names: Vec<String> = match &args.rows {
+        Some(r) if r.len() == 1 && r[0] == "none" => Vec::new(),
+        Some(r) => r.clone(),
+        None => p.rows.iter().map(|r| r.to_string()).collect(),
+    };
+    let (steps, resolution) = (args.steps.unwrap_or(p.steps), args.resolution.unwrap_or(p.resolution));
     let body = avatar_core::body::open_body_ref();
     let mut rows: Vec<Box<dyn Predictor>> = vec![Box::new(NakedBody::new(body.clone()))];
     // Loaded by the first neural row (the reference rows need none).
     let mut model: Option<std::sync::Arc<MetaModel>> = None;
     let defaults = HyperFitOptions::default();
     let options = HyperFitOptions {
-        steps: args.steps.max(1),
+        steps: steps.max(1),
         seed: args.seed,
         lr_heads: args.lr_heads.unwrap_or(defaults.lr_heads),
         lr_encoder: args.lr_encoder.unwrap_or(defaults.lr_encoder),
@@ -117,7 +208,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         weights: IgrWeights { normal: args.normal_weight.unwrap_or(defaults.weights.normal), ..defaults.weights },
         ..defaults
     };
-    for name in &args.rows {
+    for name in &row_names {
         let kind = match name.as_str() {
             "meta" => RowKind::MetaLearned,
             "scratch" => RowKind::FromScratch,
@@ -126,14 +217,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 rows.push(Box::new(StaticOutfit::new(body.clone())));
                 continue;
             }
-            other => bail!("unknown --rows entry {other:?}: use meta, scratch, static or outfit-static"),
+            other => bail!("unknown --rows entry {other:?}: use meta, scratch, static, outfit-static or none"),
         };
         let model = match &model {
             Some(m) => m.clone(),
             None => model.insert(std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?)).clone(),
         };
-        rows.push(Box::new(NeuralRow::new(kind, model, options.clone(), args.max_frames.max(1), args.resolution.clamp(16, 512))));
+        rows.push(Box::new(NeuralRow::new(kind, model, options.clone(), args.max_frames.max(1), resolution.clamp(16, 512))));
     }
+    eprintln!("eval: preset {}, {} setting(s) x {} outfit(s) x {} subject(s), {} row(s)", args.preset, config.captures.len() * config.protocols.len(), config.outfits.len(), subjects, rows.len());
     let t = std::time::Instant::now();
     let report = run_eval(body, &config, &mut rows, &|msg| eprintln!("eval: {msg}"))?;
     report.save_json(&args.out)?;

@@ -17,6 +17,16 @@ pub const EVAL_OUTFITS: [Outfit; 2] = [Outfit::LongsleeveTrousers, Outfit::Blaze
 pub const FINETUNE_CLIPS: [&str; 8] = ["walk", "raise_arms", "squat", "turn", "bend", "arm_swing", "jumping_jacks", "march"];
 /// Held-out clips (never in meta-training or fine-tuning): the library's held-out set.
 pub const EVAL_CLIPS: [&str; 3] = crate::motion::HELDOUT_CLIPS;
+/// The held-out pose of the evaluation's contact sheets: a clip and where in it (0-1). The
+/// kick's raised leg is where loose garments go wrong (a skirt or tails around the leg).
+pub const SHEET_POSE: (&str, f32) = ("kick", 0.45);
+
+/// The contact sheets' pose (`SHEET_POSE`).
+pub fn sheet_pose() -> crate::error::Result<crate::body::BodyParams> {
+    let (name, at) = SHEET_POSE;
+    let clip = crate::motion::clip_by_name(name).ok_or_else(|| crate::error::Error::invalid(format!("unknown motion clip {name:?}")))?;
+    Ok(clip.frames[((clip.len().max(1) - 1) as f32 * at) as usize].clone())
+}
 
 #[cfg(test)]
 mod tests {

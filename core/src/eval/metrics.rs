@@ -13,16 +13,21 @@
 //!   Measuring to the surface rather than to the other sample set removes the sampling
 //!   floor (about half the sample spacing, 0.5 cm at 10k samples on a body).
 //!
+//! - Spurious and missing shares and the 99th-percentile distance, whole surface and clothed
+//!   region, on the Chamfer samples: see `surface_error`.
+//!
 //! Scored vertices: ground-truth vertices whose dominant body joint is one of
 //! `skeleton::CLOTHED_JOINTS` (no hands, wrists, feet, ankles, neck or head), and visible
 //! where the ground truth marks hidden vertices.
 
 use super::occupancy::volumetric_iou;
 use super::sampling::{sample_surface, PointIndex};
+use super::surface_error::{region_errors, SampleDistances, SurfaceErrors};
 use crate::body::skeleton::CLOTHED_JOINTS;
 use crate::error::{Error, Result};
 use crate::mesh::bvh::Bvh;
 use crate::mesh::TriMesh;
+use crate::synth::ClothedTemplate;
 use glam::Vec3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -38,11 +43,18 @@ pub struct MetricOptions {
     pub chamfer_samples: usize,
     /// Grid points along the longest side of the joint bounds for IoU.
     pub iou_resolution: usize,
+    /// Distance beyond which a sample counts as spurious or missing (metres).
+    #[serde(default = "default_far")]
+    pub far_m: f32,
+}
+
+fn default_far() -> f32 {
+    0.02
 }
 
 impl Default for MetricOptions {
     fn default() -> Self {
-        MetricOptions { chamfer_samples: 10_000, iou_resolution: 128 }
+        MetricOptions { chamfer_samples: 10_000, iou_resolution: 128, far_m: default_far() }
     }
 }
 
@@ -54,8 +66,34 @@ pub struct FrameMetrics {
     pub nc: f32,
     pub iou: f32,
     pub chamfer_cm: f32,
+    /// Spurious, missing and p99 over the whole surfaces ...
+    pub surface: SurfaceErrors,
+    /// ... and over the clothed region.
+    pub cloth: SurfaceErrors,
     /// Ground-truth vertices scored by Dp, Df and NC.
     pub scored_vertices: usize,
+}
+
+/// Which ground-truth vertices the metrics look at: `scored` by Dp, Df and NC, `cloth` the
+/// clothed region of the surface-sample metrics.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Regions {
+    pub scored: Vec<bool>,
+    pub cloth: Vec<bool>,
+}
+
+impl Regions {
+    /// Every vertex in both.
+    pub fn all(n: usize) -> Regions {
+        Regions { scored: vec![true; n], cloth: vec![true; n] }
+    }
+
+    /// The generator's ground truth: `scored` by dominant joint (`clothed_mask`); `cloth` the
+    /// vertices a garment covers: `ClothedTemplate::cloth` >= 0.5 (a garment offset of at least
+    /// 2 mm at rest: shirt, sleeves, trousers) and every panel vertex (skirt, tails).
+    pub fn of_template(t: &ClothedTemplate) -> Result<Regions> {
+        Ok(Regions { scored: clothed_mask(&t.vertex_joint, None)?, cloth: t.cloth.iter().map(|&c| c >= 0.5).collect() })
+    }
 }
 
 /// The metric mask: clothed-region vertices (by dominant joint), visible ones only when a
@@ -104,6 +142,13 @@ impl Prepared<'_> {
     pub fn surface_distance(&self, p: Vec3) -> f32 {
         self.surface_distance_below(p, self.vertices.nearest(p).1)
     }
+
+    /// `n` area-uniform samples of this surface measured to `other`; `clothed(p)` says
+    /// whether a sample lies in the clothed region.
+    pub fn sample_distances(&self, other: &Prepared, n: usize, rng: &mut ChaCha8Rng, clothed: impl Fn(Vec3) -> bool) -> Result<SampleDistances> {
+        let points = sample_surface(self.mesh, n.max(1), rng)?;
+        Ok(SampleDistances { distance: points.iter().map(|&p| other.surface_distance(p)).collect(), clothed: points.iter().map(|&p| clothed(p)).collect() })
+    }
 }
 
 /// A mesh must have faces, finite positions and valid indices to be scored.
@@ -144,16 +189,16 @@ pub fn vertex_scores(gt_points: &[Vec3], gt_normals: &[Vec3], pred: &Prepared) -
     s
 }
 
-/// All five metrics of a predicted mesh against a ground-truth mesh; `mask[v]` selects the
-/// ground-truth vertices scored by Dp, Df and NC. `seed` drives IoU and Chamfer sampling.
-pub fn evaluate_frame(pred: &TriMesh, gt: &TriMesh, mask: &[bool], options: &MetricOptions, seed: u64) -> Result<FrameMetrics> {
+/// All metrics of a predicted mesh against a ground-truth mesh; `regions` selects the
+/// ground-truth vertices scored by Dp, Df and NC and the clothed region. `seed` drives IoU and
+/// the surface sampling.
+pub fn evaluate_frame(pred: &TriMesh, gt: &TriMesh, regions: &Regions, options: &MetricOptions, seed: u64) -> Result<FrameMetrics> {
     let gt_prepared = Prepared::new(gt, "ground-truth")?;
-    if mask.len() != gt.positions.len() {
-        return Err(Error::invalid(format!(
-            "metric mask has {} entries for {} ground-truth vertices",
-            mask.len(),
-            gt.positions.len()
-        )));
+    let mask = &regions.scored;
+    for (what, m) in [("metric mask", mask), ("clothed region", &regions.cloth)] {
+        if m.len() != gt.positions.len() {
+            return Err(Error::invalid(format!("{what} has {} entries for {} ground-truth vertices", m.len(), gt.positions.len())));
+        }
     }
     let prepared = Prepared::new(pred, "predicted")?;
     let (points, normals): (Vec<Vec3>, Vec<Vec3>) = gt
@@ -170,13 +215,20 @@ pub fn evaluate_frame(pred: &TriMesh, gt: &TriMesh, mask: &[bool], options: &Met
     let s = vertex_scores(&points, &normals, &prepared);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let iou = volumetric_iou(pred, gt, options.iou_resolution, &mut rng)?;
-    let chamfer = chamfer_l2(&prepared, &gt_prepared, options.chamfer_samples, &mut rng)?;
+    // The same samples as `chamfer_l2` (same order), classified by the nearest true vertex.
+    let clothed = |p: Vec3| regions.cloth[gt_prepared.vertices.nearest(p).0];
+    let to_gt = prepared.sample_distances(&gt_prepared, options.chamfer_samples, &mut rng, clothed)?;
+    let to_pred = gt_prepared.sample_distances(&prepared, options.chamfer_samples, &mut rng, clothed)?;
+    let chamfer = 0.5 * (mean(&to_gt.distance) + mean(&to_pred.distance));
+    let (surface, cloth) = region_errors(&to_gt, &to_pred, options.far_m);
     Ok(FrameMetrics {
         dp_cm: mean(&s.point) * CM,
         df_cm: mean(&s.face) * CM,
         nc: 1.0 - mean(&s.normal_error),
         iou,
         chamfer_cm: chamfer * CM,
+        surface,
+        cloth,
         scored_vertices: points.len(),
     })
 }
@@ -184,12 +236,9 @@ pub fn evaluate_frame(pred: &TriMesh, gt: &TriMesh, mask: &[bool], options: &Met
 /// Symmetric Chamfer-L2 distance (metres): `samples` points on each surface, each measured
 /// to the other surface.
 pub fn chamfer_l2(a: &Prepared, b: &Prepared, samples: usize, rng: &mut ChaCha8Rng) -> Result<f32> {
-    let samples = samples.max(1);
-    let pa = sample_surface(a.mesh, samples, rng)?;
-    let pb = sample_surface(b.mesh, samples, rng)?;
-    let ab: Vec<f32> = pa.iter().map(|&p| b.surface_distance(p)).collect();
-    let ba: Vec<f32> = pb.iter().map(|&p| a.surface_distance(p)).collect();
-    Ok(0.5 * (mean(&ab) + mean(&ba)))
+    let ab = a.sample_distances(b, samples, rng, |_| false)?;
+    let ba = b.sample_distances(a, samples, rng, |_| false)?;
+    Ok(0.5 * (mean(&ab.distance) + mean(&ba.distance)))
 }
 
 fn mean(v: &[f32]) -> f32 {
@@ -230,14 +279,10 @@ mod tests {
         extract(|p: &[Vec3]| p.iter().map(|x| x.distance(center) - r).collect(), &opts).unwrap().mesh
     }
 
-    fn all(mesh: &TriMesh) -> Vec<bool> {
-        vec![true; mesh.positions.len()]
-    }
-
     #[test]
     fn identical_meshes_score_perfectly() {
         let m = sphere_mesh(Vec3::ZERO, 0.3, 40);
-        let r = evaluate_frame(&m, &m, &all(&m), &MetricOptions::default(), 1).unwrap();
+        let r = evaluate_frame(&m, &m, &Regions::all(m.positions.len()), &MetricOptions::default(), 1).unwrap();
         assert_eq!(r.dp_cm, 0.0);
         assert_eq!(r.df_cm, 0.0);
         assert!((r.nc - 1.0).abs() < 1e-6, "{r:?}");
@@ -250,7 +295,7 @@ mod tests {
         let gt = sphere_mesh(Vec3::ZERO, 0.30, 64);
         // Concentric sphere 2 cm larger: every distance is 2 cm, up to tessellation.
         let big = sphere_mesh(Vec3::ZERO, 0.32, 64);
-        let r = evaluate_frame(&big, &gt, &all(&gt), &MetricOptions::default(), 2).unwrap();
+        let r = evaluate_frame(&big, &gt, &Regions::all(gt.positions.len()), &MetricOptions::default(), 2).unwrap();
         assert!((r.df_cm - 2.0).abs() < 0.05, "Df {}", r.df_cm);
         // Nearest vertex is at least the surface distance and within a cell of it.
         let cell_cm = 0.32 * 2.6 / 64.0 * CM;
@@ -263,7 +308,7 @@ mod tests {
         // is | |p - c| - r | (about 1.5 cm on average: the mean |cos| over a sphere is 1/2).
         let c = Vec3::new(0.03, 0.0, 0.0);
         let moved = sphere_mesh(c, 0.30, 64);
-        let r = evaluate_frame(&moved, &gt, &all(&gt), &MetricOptions::default(), 3).unwrap();
+        let r = evaluate_frame(&moved, &gt, &Regions::all(gt.positions.len()), &MetricOptions::default(), 3).unwrap();
         let exact = mean(&gt.positions.iter().map(|p| (p.distance(c) - 0.30).abs()).collect::<Vec<_>>()) * CM;
         assert!((exact - 1.5).abs() < 0.1, "analytic mean {exact}");
         assert!((r.df_cm - exact).abs() < 0.05, "Df {} vs {exact}", r.df_cm);
@@ -274,7 +319,7 @@ mod tests {
         let gt = sphere_mesh(Vec3::ZERO, 0.3, 40);
         let mut flipped = gt.clone();
         flipped.faces.iter_mut().for_each(|f| f.swap(1, 2));
-        let r = evaluate_frame(&flipped, &gt, &all(&gt), &MetricOptions::default(), 4).unwrap();
+        let r = evaluate_frame(&flipped, &gt, &Regions::all(gt.positions.len()), &MetricOptions::default(), 4).unwrap();
         assert!((r.nc + 1.0).abs() < 1e-5, "NC {}", r.nc);
         assert_eq!(r.dp_cm, 0.0);
         assert_eq!(r.iou, 1.0); // volume does not depend on orientation
@@ -288,12 +333,12 @@ mod tests {
         let mut pred = gt.clone();
         pred.positions.iter_mut().filter(|p| p.x > 0.05).for_each(|p| *p *= 1.0 + 0.05 / 0.3);
         let left: Vec<bool> = gt.positions.iter().map(|p| p.x < -0.05).collect();
-        let r = evaluate_frame(&pred, &gt, &left, &MetricOptions::default(), 5).unwrap();
+        let r = evaluate_frame(&pred, &gt, &Regions { scored: left.clone(), cloth: left.clone() }, &MetricOptions::default(), 5).unwrap();
         assert_eq!(r.dp_cm, 0.0);
         assert_eq!(r.scored_vertices, left.iter().filter(|m| **m).count());
-        let r_all = evaluate_frame(&pred, &gt, &all(&gt), &MetricOptions::default(), 5).unwrap();
+        let r_all = evaluate_frame(&pred, &gt, &Regions::all(gt.positions.len()), &MetricOptions::default(), 5).unwrap();
         assert!(r_all.dp_cm > 1.0);
-        let none = vec![false; gt.positions.len()];
+        let none = Regions { scored: vec![false; gt.positions.len()], cloth: vec![true; gt.positions.len()] };
         assert!(evaluate_frame(&pred, &gt, &none, &MetricOptions::default(), 5).is_err());
     }
 
@@ -310,14 +355,16 @@ mod tests {
     fn bad_meshes_are_errors_not_panics() {
         let gt = sphere_mesh(Vec3::ZERO, 0.3, 24);
         let opts = MetricOptions::default();
-        assert!(evaluate_frame(&TriMesh::default(), &gt, &all(&gt), &opts, 0).unwrap_err().to_string().contains("empty"));
+        assert!(evaluate_frame(&TriMesh::default(), &gt, &Regions::all(gt.positions.len()), &opts, 0).unwrap_err().to_string().contains("empty"));
         let mut nan = gt.clone();
         nan.positions[3] = Vec3::NAN;
-        assert!(evaluate_frame(&nan, &gt, &all(&gt), &opts, 0).unwrap_err().to_string().contains("not finite"));
+        assert!(evaluate_frame(&nan, &gt, &Regions::all(gt.positions.len()), &opts, 0).unwrap_err().to_string().contains("not finite"));
         let mut bad = gt.clone();
         bad.faces[0][1] = 1_000_000;
-        assert!(evaluate_frame(&bad, &gt, &all(&gt), &opts, 0).is_err());
-        assert!(evaluate_frame(&gt, &gt, &[true], &opts, 0).is_err());
+        assert!(evaluate_frame(&bad, &gt, &Regions::all(gt.positions.len()), &opts, 0).is_err());
+        assert!(evaluate_frame(&gt, &gt, &Regions::all(1), &opts, 0).is_err());
+        let short_cloth = Regions { cloth: vec![true], ..Regions::all(gt.positions.len()) };
+        assert!(evaluate_frame(&gt, &gt, &short_cloth, &opts, 0).unwrap_err().to_string().contains("clothed region"));
     }
 
     #[test]

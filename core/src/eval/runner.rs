@@ -1,26 +1,33 @@
-//! Running a protocol end to end: held-out synthetic subjects and outfits generated from seeds,
-//! every row fine-tuned on the protocol's frames and scored on its evaluation frames; a JSON
-//! report and a Markdown table like the paper's Tables 1 and 3.
+//! Running the evaluation end to end: held-out synthetic subjects and outfits generated from
+//! seeds; for every setting (capture conditions x protocol) a fine-tuning capture written under
+//! its conditions, every row fine-tuned on it and scored at the protocol's evaluation poses;
+//! optionally a contact sheet per outfit. The report is in `report`.
 
+use super::conditions::{capture_seed, CaptureConditions};
 use super::dataset::*;
-use super::metrics::{clothed_mask, evaluate_frame, FrameMetrics, MetricOptions, Summary};
+use super::metrics::{evaluate_frame, FrameMetrics, MetricOptions, Regions};
 use super::predictor::{FitData, Predictor};
-use super::protocol::{heldout_frames, interpolation_frames, training_selection, Protocol};
+use super::protocol::{heldout_frames, interpolation_frames, training_selection, Protocol, Shots};
+pub use super::report::{Report, RowResult};
+use super::report::RowInput;
 use crate::body::{BodyModel, BodyParams};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::motion::{clip_by_name, MotionClip};
-use crate::synth::{canonical_surface, generate_capture, pose_surface, subject_betas, ClothedTemplate, Outfit, PoseFeatures, SynthJob};
+use crate::synth::contact_sheet::write_view_sheet;
+use crate::synth::{canonical_surface, generate_capture, pose_surface, subject_betas, ClothedTemplate, PoseFeatures, SynthJob, ALL_OUTFITS};
+use glam::Vec3;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(Debug, Clone)]
 pub struct EvalConfig {
     pub protocols: Vec<Protocol>,
+    /// Capture conditions of the fine-tuning captures; each protocol is run under each.
+    pub captures: Vec<CaptureConditions>,
     pub subjects: Vec<u64>,
-    pub outfits: Vec<Outfit>,
+    pub outfits: Vec<crate::synth::Outfit>,
     pub finetune_clips: Vec<String>,
     pub eval_clips: Vec<String>,
     /// Evaluate every n-th frame of the held-out clips.
@@ -31,12 +38,17 @@ pub struct EvalConfig {
     /// Where fine-tuning captures are written (removed afterwards).
     pub workdir: PathBuf,
     pub seed: u64,
+    /// Write `eval-OUTFIT.png` here for every outfit: the truth and every row at
+    /// `dataset::SHEET_POSE`, front and side, for the first subject and the first setting.
+    pub contact_sheets: Option<PathBuf>,
 }
 
 impl EvalConfig {
+    /// MetaAvatar's protocol: clean captures, a seen and the unseen outfit.
     pub fn paper(protocols: Vec<Protocol>) -> Self {
         EvalConfig {
             protocols,
+            captures: vec![CaptureConditions::clean()],
             subjects: EVAL_SUBJECT_SEEDS.to_vec(),
             outfits: EVAL_OUTFITS.to_vec(),
             finetune_clips: FINETUNE_CLIPS.iter().map(|s| s.to_string()).collect(),
@@ -46,33 +58,20 @@ impl EvalConfig {
             ground_truth_row: true,
             workdir: std::env::temp_dir().join(format!("avatar-studio-eval-{}", std::process::id())),
             seed: 0,
+            contact_sheets: None,
         }
     }
-}
 
-/// One cell of the table: a method under a protocol, over all subjects, outfits and frames.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RowResult {
-    pub method: String,
-    pub protocol: String,
-    pub training_frames: usize,
-    pub evaluated_frames: usize,
-    pub dp_cm: Summary,
-    pub df_cm: Summary,
-    pub nc: Summary,
-    pub iou: Summary,
-    pub chamfer_cm: Summary,
-    pub seconds: f64,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Report {
-    pub subjects: Vec<u64>,
-    pub outfits: Vec<String>,
-    pub finetune_clips: Vec<String>,
-    pub eval_clips: Vec<String>,
-    pub seed: u64,
-    pub rows: Vec<RowResult>,
+    /// Captures as users make them (the default table): 8 frames (one per fine-tuning clip),
+    /// scored on the held-out clips, under `user` and then `clean` conditions, every outfit,
+    /// the four held-out subjects.
+    pub fn user_captures() -> Self {
+        EvalConfig {
+            captures: vec![CaptureConditions::user(), CaptureConditions::clean()],
+            outfits: ALL_OUTFITS.to_vec(),
+            ..Self::paper(vec![Protocol::FewShot(Shots::OnePerClip)])
+        }
+    }
 }
 
 fn clip(name: &str) -> Result<MotionClip> {
@@ -96,25 +95,38 @@ pub fn ground_truth_mesh(body: &BodyModel, template: &ClothedTemplate, params: &
     TriMesh::new(pose_surface(template, &canonical, &bones), template.faces.clone())
 }
 
+#[derive(Default)]
 struct Accum {
     training_frames: usize,
     metrics: Vec<FrameMetrics>,
     seconds: f64,
 }
 
+/// Contact-sheet views: front (from +Z, slightly above) and the body's left side.
+const SHEET_VIEWS: [Vec3; 2] = [Vec3::new(0.0, 0.15, 1.0), Vec3::new(1.0, 0.15, 0.0)];
+
 pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Predictor>], progress: &dyn Fn(&str)) -> Result<Report> {
     let finetune: Vec<MotionClip> = config.finetune_clips.iter().map(|c| clip(c)).collect::<Result<_>>()?;
     let heldout: Vec<MotionClip> = config.eval_clips.iter().map(|c| clip(c)).collect::<Result<_>>()?;
     let lengths: Vec<usize> = finetune.iter().map(|c| c.len()).collect();
+    // Settings: every protocol under every capture conditions (conditions outermost).
+    let settings: Vec<(&CaptureConditions, &Protocol)> = config.captures.iter().flat_map(|c| config.protocols.iter().map(move |p| (c, p))).collect();
     let methods = predictors.len() + config.ground_truth_row as usize;
-    let mut acc: Vec<Vec<Accum>> = (0..methods).map(|_| config.protocols.iter().map(|_| Accum { training_frames: 0, metrics: Vec::new(), seconds: 0.0 }).collect()).collect();
-    for &subject in &config.subjects {
+    let mut acc: Vec<Vec<Vec<Accum>>> =
+        (0..methods).map(|_| (0..settings.len()).map(|_| (0..config.outfits.len()).map(|_| Accum::default()).collect()).collect()).collect();
+    let sheet_pose = match &config.contact_sheets {
+        Some(_) => Some(sheet_pose()?),
+        None => None,
+    };
+    for (subject_index, &subject) in config.subjects.iter().enumerate() {
         let betas = subject_betas(body, subject);
-        for &outfit in &config.outfits {
+        for (oi, &outfit) in config.outfits.iter().enumerate() {
             let template = ClothedTemplate::build(body, &betas, outfit);
-            let mask = clothed_mask(&template.vertex_joint, None)?;
-            for (pi, protocol) in config.protocols.iter().enumerate() {
-                progress(&format!("subject {subject}, {}, {}", outfit.name(), protocol.label()));
+            let regions = Regions::of_template(&template)?;
+            // Truth, then every row, at the sheet pose.
+            let mut sheet: Vec<TriMesh> = Vec::new();
+            for (si, (capture, protocol)) in settings.iter().enumerate() {
+                progress(&format!("subject {subject}, {}, {} capture, {}", outfit.name(), capture.name, protocol.label()));
                 let train = training_selection(protocol, &lengths);
                 let eval_poses: Vec<BodyParams> = if protocol.evaluates_heldout() {
                     heldout.iter().flat_map(|c| heldout_frames(c.len(), config.heldout_stride).into_iter().map(move |f| c.frames[f].clone())).collect()
@@ -123,14 +135,20 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
                 };
                 let eval_poses: Vec<BodyParams> = eval_poses.iter().map(|p| query(p, &betas)).collect();
                 let gts: Vec<TriMesh> = eval_poses.par_iter().map(|p| ground_truth_mesh(body, &template, p, subject)).collect();
-                // The fine-tuning capture: the selected frames, rendered with the turn protocol.
-                let capture_dir = config.workdir.join(format!("s{subject}_{}_{pi}", outfit.name()));
+                let sheet_query = sheet_pose.as_ref().filter(|_| subject_index == 0 && si == 0).map(|p| query(p, &betas));
+                if let Some(p) = &sheet_query {
+                    sheet.push(ground_truth_mesh(body, &template, p, subject));
+                }
+                // The fine-tuning capture: the selected frames under the setting's conditions.
+                let capture_dir = config.workdir.join(format!("s{subject}_{}_{si}", outfit.name()));
                 if predictors.iter().any(|p| p.needs_capture()) {
                     let frames: Vec<BodyParams> = train.iter().map(|&(c, f)| finetune[c].frames[f].clone()).collect();
                     let mut job = SynthJob::new(subject, outfit, MotionClip::new("finetune", finetune[0].fps, frames));
-                    job.noise_seed = config.seed;
+                    let seed = capture_seed(config.seed, subject, oi, si);
+                    capture.prepare(&mut job, seed);
                     job.write_ground_truth = false;
                     generate_capture(&capture_dir, body, &job)?;
+                    capture.perturb_fittings(&capture_dir, seed)?;
                 }
                 for (m, predictor) in predictors.iter_mut().enumerate() {
                     let t = Instant::now();
@@ -140,23 +158,29 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
                         .par_iter()
                         .zip(gts.par_iter())
                         .enumerate()
-                        .map(|(k, (p, gt))| evaluate_frame(&predictor.predict(p)?, gt, &mask, &config.metrics, config.seed + k as u64))
+                        .map(|(k, (p, gt))| evaluate_frame(&predictor.predict(p)?, gt, &regions, &config.metrics, config.seed + k as u64))
                         .collect::<Result<_>>()?;
-                    let a = &mut acc[m][pi];
+                    let a = &mut acc[m][si][oi];
                     a.training_frames = train.len();
                     a.metrics.extend(scores);
                     a.seconds += t.elapsed().as_secs_f64();
+                    if let Some(p) = &sheet_query {
+                        sheet.push(predictor.predict(p)?);
+                    }
                 }
                 if config.ground_truth_row {
                     let t = Instant::now();
                     let scores: Vec<FrameMetrics> =
-                        gts.par_iter().enumerate().map(|(k, gt)| evaluate_frame(gt, gt, &mask, &config.metrics, config.seed + k as u64)).collect::<Result<_>>()?;
-                    let a = &mut acc[predictors.len()][pi];
-                    a.training_frames = 0;
+                        gts.par_iter().enumerate().map(|(k, gt)| evaluate_frame(gt, gt, &regions, &config.metrics, config.seed + k as u64)).collect::<Result<_>>()?;
+                    let a = &mut acc[predictors.len()][si][oi];
                     a.metrics.extend(scores);
                     a.seconds += t.elapsed().as_secs_f64();
                 }
                 let _ = std::fs::remove_dir_all(&capture_dir);
+            }
+            if let (Some(dir), false) = (&config.contact_sheets, sheet.is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+                write_view_sheet(&dir.join(format!("eval-{}.png", outfit.name())), &sheet, &SHEET_VIEWS)?;
             }
         }
     }
@@ -166,21 +190,18 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
     }
     let mut rows = Vec::new();
     for (m, name) in names.iter().enumerate() {
-        for (pi, protocol) in config.protocols.iter().enumerate() {
-            let a = &acc[m][pi];
-            let s = |f: fn(&FrameMetrics) -> f32| Summary::of(&a.metrics.iter().map(f).collect::<Vec<_>>()).ok_or_else(|| Error::invalid("no frames evaluated"));
-            rows.push(RowResult {
-                method: name.clone(),
-                protocol: protocol.label(),
-                training_frames: a.training_frames,
-                evaluated_frames: a.metrics.len(),
-                dp_cm: s(|m| m.dp_cm)?,
-                df_cm: s(|m| m.df_cm)?,
-                nc: s(|m| m.nc)?,
-                iou: s(|m| m.iou)?,
-                chamfer_cm: s(|m| m.chamfer_cm)?,
-                seconds: a.seconds,
-            });
+        for (si, (capture, protocol)) in settings.iter().enumerate() {
+            let row = |outfit: String, training_frames: usize, metrics: &[FrameMetrics], seconds: f64| {
+                RowResult::summarise(RowInput { method: name.clone(), protocol: protocol.label(), capture: capture.name.clone(), outfit, training_frames, metrics, seconds })
+            };
+            for (oi, outfit) in config.outfits.iter().enumerate() {
+                let a = &acc[m][si][oi];
+                rows.push(row(outfit.name().to_string(), a.training_frames, &a.metrics, a.seconds)?);
+            }
+            if config.outfits.len() > 1 {
+                let all: Vec<FrameMetrics> = acc[m][si].iter().flat_map(|a| a.metrics.iter().copied()).collect();
+                rows.push(row("all".into(), acc[m][si][0].training_frames, &all, acc[m][si].iter().map(|a| a.seconds).sum())?);
+            }
         }
     }
     let _ = std::fs::remove_dir_all(&config.workdir);
@@ -189,37 +210,10 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
         outfits: config.outfits.iter().map(|o| o.name().to_string()).collect(),
         finetune_clips: config.finetune_clips.clone(),
         eval_clips: config.eval_clips.clone(),
+        captures: config.captures.iter().map(|c| c.describe()).collect(),
         seed: config.seed,
         rows,
     })
-}
-
-impl Report {
-    /// A Markdown table like the paper's: mean over frames (Dp, Df, Chamfer in cm).
-    pub fn markdown(&self) -> String {
-        let mut s = format!(
-            "Subjects {:?}, outfits {}, fine-tuning clips {}, evaluation clips {}, seed {}.\n\n",
-            self.subjects,
-            self.outfits.join(", "),
-            self.finetune_clips.join(", "),
-            self.eval_clips.join(", "),
-            self.seed
-        );
-        s += "| method | protocol | training frames | evaluated frames | Dp (cm) | Df (cm) | NC | IoU | Chamfer-L2 (cm) |\n";
-        s += "|---|---|---|---|---|---|---|---|---|\n";
-        for r in &self.rows {
-            s += &format!(
-                "| {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |\n",
-                r.method, r.protocol, r.training_frames, r.evaluated_frames, r.dp_cm.mean, r.df_cm.mean, r.nc.mean, r.iou.mean, r.chamfer_cm.mean
-            );
-        }
-        s
-    }
-
-    pub fn save_json(&self, path: impl AsRef<std::path::Path>) -> Result<()> {
-        let text = serde_json::to_string_pretty(self).map_err(|e| Error::invalid(e.to_string()))?;
-        crate::io::write_bytes_atomic(path, text.as_bytes())
-    }
 }
 
 /// The bench section: one evaluation of a 250-frame held-out sequence (the held-out clips
@@ -235,7 +229,7 @@ pub fn bench_report() -> String {
         poses.extend(poses.clone());
     }
     poses.truncate(250);
-    let Ok(mask) = clothed_mask(&template.vertex_joint, None) else { return out };
+    let Ok(regions) = Regions::of_template(&template) else { return out };
     let naked = super::predictor::NakedBody::new(body.clone());
     let t = Instant::now();
     let scores: Result<Vec<FrameMetrics>> = poses
@@ -244,7 +238,7 @@ pub fn bench_report() -> String {
         .map(|(k, p)| {
             let q = query(p, &betas);
             let gt = ground_truth_mesh(body, &template, &q, 1);
-            evaluate_frame(&naked.predict(&q)?, &gt, &mask, &MetricOptions::default(), k as u64)
+            evaluate_frame(&naked.predict(&q)?, &gt, &regions, &MetricOptions::default(), k as u64)
         })
         .collect();
     let secs = t.elapsed().as_secs_f64();
@@ -253,7 +247,7 @@ pub fn bench_report() -> String {
             out += &format!(
                 "| evaluate a 250-frame held-out sequence ({} ground-truth vertices, {} scored; Dp, Df, NC, IoU at 128, Chamfer 10k) | {secs:.1} s | target < 60 s on 2 cores; naked-body Df {:.2} cm |\n",
                 template.vertices.len(),
-                mask.iter().filter(|&&m| m).count(),
+                regions.scored.iter().filter(|&&m| m).count(),
                 s.iter().map(|m| m.df_cm).sum::<f32>() / s.len() as f32
             )
         }

@@ -73,3 +73,53 @@ pub fn write_mesh_sheet(path: &Path, rows: &[Vec<TriMesh>]) -> Result<()> {
         .map_err(|e| Error::file(path, format!("cannot encode PNG: {e}")))?;
     crate::io::write_bytes_atomic(path, &bytes)
 }
+
+/// Meshes side by side (columns) seen from each of `views` (rows: directions from the target
+/// to the eye), all framed on the first mesh's bounds so that they compare at one scale.
+/// Writes an 8-bit greyscale PNG (atomic).
+pub fn write_view_sheet(path: &Path, meshes: &[TriMesh], views: &[Vec3]) -> Result<()> {
+    const W: u32 = 180;
+    const H: u32 = 270;
+    let cam = PinholeCamera { fx: 300.0, fy: 300.0, cx: W as f32 / 2.0, cy: H as f32 / 2.0, width: W, height: H, near: 0.5, far: 10.0 };
+    let (lo, hi) = meshes.first().and_then(|m| m.bounds()).unwrap_or((Vec3::ZERO, Vec3::ZERO));
+    let target = (lo + hi) * 0.5;
+    let (w, h) = (W * meshes.len() as u32, H * views.len() as u32);
+    let mut img = vec![255u8; (w * h) as usize];
+    for (r, view) in views.iter().enumerate() {
+        for (c, mesh) in meshes.iter().enumerate() {
+            let eye = target + view.normalize_or(Vec3::Z) * 3.2;
+            let tile = shade(&cam, eye, target, mesh);
+            for y in 0..H {
+                for x in 0..W {
+                    // A thin grey frame separates the tiles.
+                    let edge = x == 0 || y == 0;
+                    img[((r as u32 * H + y) * w + c as u32 * W + x) as usize] = if edge { 180 } else { tile[(y * W + x) as usize] };
+                }
+            }
+        }
+    }
+    let buf: image::GrayImage = image::ImageBuffer::from_raw(w, h, img).expect("sized above");
+    let mut bytes = Vec::new();
+    buf.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .map_err(|e| Error::file(path, format!("cannot encode PNG: {e}")))?;
+    crate::io::write_bytes_atomic(path, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn view_sheet_has_a_tile_per_mesh_and_view_and_shows_the_mesh() {
+        let body = crate::body::open_body_ref();
+        let mesh = body.mesh(body.pose(&BodyParams::default()).vertices);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.png");
+        write_view_sheet(&path, &[mesh.clone(), mesh], &[Vec3::Z, Vec3::X]).unwrap();
+        let img = image::open(&path).unwrap().to_luma8();
+        assert_eq!(img.dimensions(), (360, 540));
+        // The body covers part of each tile, not all of it.
+        let dark = img.pixels().filter(|p| p.0[0] < 250).count() as f32 / (360.0 * 540.0);
+        assert!(dark > 0.05 && dark < 0.6, "{dark}");
+    }
+}

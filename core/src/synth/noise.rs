@@ -132,7 +132,7 @@ impl DepthNoise {
 }
 
 /// Standard normal sample (Box-Muller; deterministic given the generator).
-fn gaussian(rng: &mut ChaCha8Rng) -> f32 {
+pub fn gaussian(rng: &mut ChaCha8Rng) -> f32 {
     let u1: f32 = rng.random::<f32>().max(1e-12);
     let u2: f32 = rng.random();
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f32::consts::PI * u2).cos()

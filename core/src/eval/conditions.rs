@@ -1,0 +1,204 @@
+//! Capture conditions of the fine-tuning captures: how far they are from the clean protocol
+//! camera. `clean` is MetaAvatar's protocol (exact depth, exact fittings, 45 degrees between
+//! frames); `user` is a capture as users make them: Kinect-like depth noise and holes
+//! (`synth::noise`), small seeded errors in the body fittings and turns other than 45 degrees.
+//! The held-out poses the avatar is scored at are always the exact ones (the truth).
+
+use crate::body::BodyParams;
+use crate::capture::CaptureManifest;
+use crate::error::{Error, Result};
+use crate::synth::noise::{gaussian, DepthNoise};
+use crate::synth::SynthJob;
+use glam::{Quat, Vec3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Seeded errors added to every frame's fitting (what the avatar is fine-tuned with), not to
+/// the rendered depth: each joint's rotation (the root included) is pre-multiplied by a
+/// rotation vector with Gaussian components of standard deviation `joint_deg / sqrt(3)` (RMS
+/// angle `joint_deg`), and the translation gets a Gaussian offset of RMS length `trans_m`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FitError {
+    pub joint_deg: f32,
+    pub trans_m: f32,
+}
+
+impl FitError {
+    pub const NONE: FitError = FitError { joint_deg: 0.0, trans_m: 0.0 };
+
+    pub fn is_none(&self) -> bool {
+        self.joint_deg == 0.0 && self.trans_m == 0.0
+    }
+
+    pub fn apply(&self, p: &mut BodyParams, rng: &mut ChaCha8Rng) {
+        let per_axis = self.joint_deg.to_radians() / 3f32.sqrt();
+        for r in p.pose.iter_mut() {
+            let e = Vec3::new(gaussian(rng), gaussian(rng), gaussian(rng)) * per_axis;
+            *r = (Quat::from_scaled_axis(e) * Quat::from_scaled_axis(*r)).to_scaled_axis();
+        }
+        let t = Vec3::new(gaussian(rng), gaussian(rng), gaussian(rng)) * (self.trans_m / 3f32.sqrt());
+        p.trans += t;
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CaptureConditions {
+    /// `clean` or `user` (the table's capture column).
+    pub name: String,
+    /// Depth corruption of the fine-tuning frames (`None` = exact depth).
+    pub noise: Option<DepthNoise>,
+    pub fit_error: FitError,
+    /// The person turns by a constant angle between frames, drawn per capture uniformly from
+    /// this range (degrees); the clean protocol's is (45, 45).
+    pub turn_deg: (f32, f32),
+}
+
+impl CaptureConditions {
+    pub fn clean() -> Self {
+        CaptureConditions { name: "clean".into(), noise: None, fit_error: FitError::NONE, turn_deg: (45.0, 45.0) }
+    }
+
+    /// Kinect v2-like depth, fittings off by 3 degrees per joint and 1 cm (RMS), 30-60 degrees
+    /// between frames (8 frames then cover 210-420 degrees around the person).
+    pub fn user() -> Self {
+        CaptureConditions {
+            name: "user".into(),
+            noise: Some(DepthNoise::kinect_v2()),
+            fit_error: FitError { joint_deg: 3.0, trans_m: 0.01 },
+            turn_deg: (30.0, 60.0),
+        }
+    }
+
+    /// `user`, `clean` or a comma-separated list; `noise` names the depth model of `user`
+    /// (`kinect_v1`, `kinect_v2`).
+    pub fn parse_list(names: &str, noise: Option<&str>) -> Result<Vec<Self>> {
+        let noise = match noise {
+            None => None,
+            Some(n) => Some(DepthNoise::preset(n).ok_or_else(|| Error::invalid(format!("unknown noise model {n:?}: use kinect_v1 or kinect_v2")))?),
+        };
+        names
+            .split(',')
+            .map(|n| match n.trim() {
+                "clean" => Ok(Self::clean()),
+                "user" => Ok(CaptureConditions { noise: noise.or(Self::user().noise), ..Self::user() }),
+                other => Err(Error::invalid(format!("unknown capture conditions {other:?}: use user or clean"))),
+            })
+            .collect()
+    }
+
+    /// One line for the report's header.
+    pub fn describe(&self) -> String {
+        let noise = match &self.noise {
+            None => "exact depth".to_string(),
+            Some(n) if *n == DepthNoise::kinect_v1() => "kinect_v1 depth noise and holes".into(),
+            Some(n) if *n == DepthNoise::kinect_v2() => "kinect_v2 depth noise and holes".into(),
+            Some(_) => "custom depth noise".into(),
+        };
+        let fit = if self.fit_error.is_none() {
+            "exact fittings".to_string()
+        } else {
+            format!("fittings off by {} deg per joint and {} cm (RMS)", self.fit_error.joint_deg, self.fit_error.trans_m * 100.0)
+        };
+        let (a, b) = self.turn_deg;
+        let turn = if a == b { format!("{a} deg between frames") } else { format!("{a}-{b} deg between frames (one draw per capture)") };
+        format!("{}: {noise}, {fit}, {turn}", self.name)
+    }
+
+    /// Set the job's turn and depth noise for the capture with this seed.
+    pub fn prepare(&self, job: &mut SynthJob, seed: u64) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7475_726e);
+        let (a, b) = self.turn_deg;
+        job.turn_per_frame_deg = if b > a { rng.random_range(a..=b) } else { a };
+        job.noise = self.noise;
+        job.noise_seed = seed;
+    }
+
+    /// Add the fitting errors to the capture written in `dir` (its `capture.json`).
+    pub fn perturb_fittings(&self, dir: &Path, seed: u64) -> Result<()> {
+        if self.fit_error.is_none() {
+            return Ok(());
+        }
+        let mut manifest = CaptureManifest::load(dir)?;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6669_7465);
+        for rec in manifest.frames.iter_mut() {
+            let mut p = rec.params().map_err(|e| e.in_file(CaptureManifest::path_in(dir)))?;
+            self.fit_error.apply(&mut p, &mut rng);
+            rec.pose = Some(p.flat_pose());
+            rec.translation = Some(p.trans.to_array());
+        }
+        manifest.save(dir)
+    }
+}
+
+/// The seed of one fine-tuning capture: the run's seed, the subject, the outfit and the
+/// setting, mixed so that neighbouring values give unrelated streams.
+pub fn capture_seed(seed: u64, subject: u64, outfit: usize, setting: usize) -> u64 {
+    let mut h = seed ^ 0x9e37_79b9_7f4a_7c15;
+    for v in [subject, outfit as u64, setting as u64] {
+        h = (h ^ v).wrapping_mul(0x1000_0000_01b3).rotate_left(29);
+    }
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fitting_errors_have_the_stated_size_and_are_seeded() {
+        let e = FitError { joint_deg: 3.0, trans_m: 0.01 };
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let (mut angles, mut shifts) = (Vec::new(), Vec::new());
+        for _ in 0..400 {
+            let mut p = BodyParams::default();
+            e.apply(&mut p, &mut rng);
+            angles.extend(p.pose.iter().map(|r| r.length().to_degrees()));
+            shifts.push(p.trans.length());
+        }
+        let rms = |v: &[f32]| (v.iter().map(|x| x * x).sum::<f32>() / v.len() as f32).sqrt();
+        assert!((rms(&angles) - 3.0).abs() < 0.1, "joint RMS {}", rms(&angles));
+        assert!((rms(&shifts) - 0.01).abs() < 0.001, "translation RMS {}", rms(&shifts));
+        // Composed with an existing rotation, the error is a small extra rotation.
+        let mut p = BodyParams::default();
+        p.pose[4] = Vec3::new(1.2, 0.0, 0.0);
+        let before = Quat::from_scaled_axis(p.pose[4]);
+        e.apply(&mut p, &mut ChaCha8Rng::seed_from_u64(1));
+        assert!(before.angle_between(Quat::from_scaled_axis(p.pose[4])).to_degrees() < 15.0);
+        let again = {
+            let mut q = BodyParams::default();
+            q.pose[4] = Vec3::new(1.2, 0.0, 0.0);
+            e.apply(&mut q, &mut ChaCha8Rng::seed_from_u64(1));
+            q
+        };
+        assert_eq!(again, p);
+        let mut exact = BodyParams::default();
+        FitError::NONE.apply(&mut exact, &mut rng);
+        assert_eq!(exact, BodyParams::default());
+    }
+
+    #[test]
+    fn conditions_parse_and_turns_stay_in_range() {
+        let c = CaptureConditions::parse_list("user,clean", Some("kinect_v1")).unwrap();
+        assert_eq!(c[0].noise, Some(DepthNoise::kinect_v1()));
+        assert_eq!(c[1], CaptureConditions::clean());
+        assert!(CaptureConditions::parse_list("dirty", None).unwrap_err().to_string().contains("dirty"));
+        assert!(CaptureConditions::parse_list("user", Some("kinect_v9")).is_err());
+        let user = CaptureConditions::user();
+        let clip = crate::motion::MotionClip::new("x", 30.0, vec![BodyParams::default()]);
+        let mut turns = Vec::new();
+        for s in 0..50 {
+            let mut job = SynthJob::new(1, crate::synth::Outfit::Dress, clip.clone());
+            user.prepare(&mut job, capture_seed(0, 1001, 0, s));
+            turns.push(job.turn_per_frame_deg);
+            assert!(job.noise.is_some());
+        }
+        assert!(turns.iter().all(|t| (30.0..=60.0).contains(t)));
+        assert!(turns.iter().any(|t| *t < 40.0) && turns.iter().any(|t| *t > 50.0), "{turns:?}");
+        let mut job = SynthJob::new(1, crate::synth::Outfit::Dress, clip);
+        CaptureConditions::clean().prepare(&mut job, 3);
+        assert_eq!((job.turn_per_frame_deg, job.noise), (45.0, None));
+        assert!(user.describe().contains("3 deg per joint"), "{}", user.describe());
+    }
+}
