@@ -181,7 +181,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     config.outfits = outfits.iter().map(|n| Outfit::from_name(n)).collect::<Result<_, _>>()?;
     config.heldout_stride = args.stride.unwrap_or(p.stride).max(1);
     config.metrics.chamfer_samples = args.chamfer_samples.unwrap_or(p.chamfer_samples).max(100);
-    config.metrics.iou_resolution = args.iou_resolution.unwrap_or(p.iou_resolution).clamp(16, 512);
+    let iou_resolution = args.iou_resolution.unwrap_or(p.iou_resolution);
+    if !(16..=512).contains(&iou_resolution) {
+        bail!("--iou-resolution {iou_resolution} is out of range (16 to 512)");
+    }
+    config.metrics.iou_resolution = iou_resolution;
     config.seed = args.seed;
     config.contact_sheets = args.contact_sheets.clone();
     let row_names: Vec<String> = match &args.rows {
@@ -190,6 +194,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => p.rows.iter().map(|r| r.to_string()).collect(),
     };
     let (steps, resolution) = (args.steps.unwrap_or(p.steps), args.resolution.unwrap_or(p.resolution));
+    if !(16..=512).contains(&resolution) {
+        bail!("--resolution {resolution} is out of range (16 to 512)");
+    }
+    if args.max_frames == 0 {
+        bail!("--max-frames must be at least 1");
+    }
     let body = avatar_core::body::open_body_ref();
     let mut rows: Vec<Box<dyn Predictor>> = vec![Box::new(NakedBody::new(body.clone()))];
     // Loaded by the first neural row (the reference rows need none).
@@ -223,7 +233,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Some(m) => m.clone(),
             None => model.insert(std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?)).clone(),
         };
-        rows.push(Box::new(NeuralRow::new(kind, model, options.clone(), args.max_frames.max(1), resolution.clamp(16, 512))));
+        rows.push(Box::new(NeuralRow::new(kind, model, options.clone(), args.max_frames, resolution)));
     }
     eprintln!("eval: preset {}, {} setting(s) x {} outfit(s) x {} subject(s), {} row(s)", args.preset, config.captures.len() * config.protocols.len(), config.outfits.len(), subjects, rows.len());
     let t = std::time::Instant::now();
