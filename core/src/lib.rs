@@ -5,6 +5,7 @@
 //! `body` (the articulated body) and `motion` (pose sequences) feed every stage; `synth`
 //! produces captures with ground truth; `eval` scores meshes against it.
 
+pub mod avatar;
 pub mod body;
 pub mod canonical;
 pub mod capture;

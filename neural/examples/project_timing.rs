@@ -1,5 +1,5 @@
 //! Where an export frame's time goes for a meta avatar: `cargo run -p avatar-neural --example project_timing -- NAME.avatar`.
-use avatar_core::export::AvatarSource;
+use avatar_core::avatar::AvatarSource;
 use std::time::Instant;
 
 fn main() {

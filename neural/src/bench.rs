@@ -6,7 +6,7 @@
 
 use crate::capture_points::CapturePoints;
 use crate::hyper_fit::HyperFitOptions;
-use crate::meta_avatar::{Init, MetaAvatar};
+use crate::avatar::meta_avatar::{Init, MetaAvatar};
 use crate::model_file::MetaModel;
 use avatar_core::body::BodyParams;
 use avatar_core::export::{export_glb, ExportOptions};

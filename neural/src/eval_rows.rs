@@ -4,14 +4,14 @@
 
 use crate::capture_points::CapturePoints;
 use crate::hyper_fit::HyperFitOptions;
-use crate::meta_avatar::{Init, MetaAvatar};
+use crate::avatar::meta_avatar::{Init, MetaAvatar};
 use crate::model_file::MetaModel;
-use crate::static_avatar::StaticAvatar;
+use crate::avatar::static_avatar::StaticAvatar;
 use avatar_core::body::BodyParams;
 use avatar_core::canonical::forward_skin_mesh;
 use avatar_core::error::{Error, Result};
 use avatar_core::eval::{FitData, Predictor};
-use avatar_core::export::AvatarSource;
+use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::TriMesh;
 use std::sync::Arc;
 

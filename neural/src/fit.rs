@@ -63,7 +63,7 @@ pub fn fit_sdf(
     // On the CPU the steps run on the training path (`crate::train`), on a GPU through burn.
     let mut flat = crate::compute::flat_training().then(|| {
         let shape = SirenShape::of(&model.config());
-        let params = crate::params::flatten(&model);
+        let params = crate::flat_params::flatten(&model);
         (SirenGradient::new(shape), Adam::default(), vec![0f32; params.len()], params)
     });
     for step in 0..options.steps {
@@ -100,7 +100,7 @@ pub fn fit_sdf(
         model = optim.step(options.learning_rate, model, grads);
     }
     match flat {
-        Some((_, _, _, params)) => crate::params::load_flat(model, &params).expect("the flat parameters come from this model"),
+        Some((_, _, _, params)) => crate::flat_params::load_flat(model, &params).expect("the flat parameters come from this model"),
         None => model,
     }
 }

@@ -278,7 +278,7 @@ pub fn fit_hyper(
         }
     }
     match flat {
-        Some(fit) => crate::params::load_flat(model, &fit.params).expect("the flat parameters come from this model"),
+        Some(fit) => crate::flat_params::load_flat(model, &fit.params).expect("the flat parameters come from this model"),
         None => model,
     }
 }
@@ -295,7 +295,7 @@ impl FlatFit {
         if optimisers.flat.as_ref().is_none_or(|(g, _)| g.layout().config != config) {
             optimisers.flat = Some((HyperGradient::new(&config), Adam::default()));
         }
-        let params = crate::params::flatten(model);
+        let params = crate::flat_params::flatten(model);
         FlatFit { grad: vec![0f32; params.len()], params }
     }
 

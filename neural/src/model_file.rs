@@ -4,7 +4,7 @@
 //! fresh machine with no downloads.
 
 use crate::hyper::{HyperConfig, HyperNet};
-use crate::params::flatten;
+use crate::flat_params::flatten;
 use crate::siren::Siren;
 use crate::weights_file;
 use avatar_core::error::{Error, Result};
@@ -106,11 +106,11 @@ impl MetaModel {
 
     /// The trainable hypernetwork.
     pub fn hyper_net(&self) -> HyperNet {
-        crate::meta::trainable_hyper(&self.header.config, &self.hyper, 0).expect("counts checked on load")
+        crate::meta_training::trainable_hyper(&self.header.config, &self.hyper, 0).expect("counts checked on load")
     }
 
     /// The trainable static meta-SDF.
     pub fn static_siren(&self) -> Siren {
-        crate::meta::trainable_siren(&self.header.config.siren, &self.static_sdf, 0).expect("counts checked on load")
+        crate::meta_training::trainable_siren(&self.header.config.siren, &self.static_sdf, 0).expect("counts checked on load")
     }
 }

@@ -1,7 +1,7 @@
 //! The static SDF avatar: fitted to the demo capture, saved and reloaded it gives identical SDF
 //! values; a file of another version or a truncated file is refused with a clear error.
 
-use avatar_core::export::AvatarSource;
+use avatar_core::avatar::AvatarSource;
 use avatar_neural::*;
 use glam::Vec3;
 use std::path::Path;

@@ -7,7 +7,7 @@ use avatar_core::body::{BodyParams, NUM_JOINTS};
 use avatar_core::canonical::Normalisation;
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::hyper_fit::batch_loss;
-use avatar_neural::params::{flatten, load_flat};
+use avatar_neural::flat_params::{flatten, load_flat};
 use avatar_neural::*;
 use burn::module::Module;
 use burn::tensor::{Tensor, TensorData};
@@ -146,7 +146,7 @@ fn a_short_fine_tune_lowers_the_loss_on_the_demo_capture() {
     let mut logged = Vec::new();
     let (avatar, report) = MetaAvatar::fit_points(&capture, &init, &options, None, &mut |_, l, _| logged.push(l));
     assert_eq!(report.frames, 3);
-    let trained = avatar_neural::meta::trainable_hyper(&config, &flatten(&avatar.model), 0).unwrap();
+    let trained = avatar_neural::meta_training::trainable_hyper(&config, &flatten(&avatar.model), 0).unwrap();
     let after = score(&trained);
     assert!(after < 0.6 * before, "loss {before} -> {after}");
     assert!(logged.iter().all(|l| l.is_finite()));
@@ -162,7 +162,7 @@ fn a_saved_and_reloaded_meta_avatar_gives_identical_sdf_values_and_bad_files_are
     let path = dir.path().join("me.avatar");
     avatar.save(&path).unwrap();
     let back = MetaAvatar::load(&path).unwrap();
-    use avatar_core::export::AvatarSource;
+    use avatar_core::avatar::AvatarSource;
     let x: Vec<Vec3> = probe(100).into_iter().map(|p| p * 0.8).collect();
     for p in poses() {
         assert_eq!(avatar.sdf(&p, &x).unwrap(), back.sdf(&p, &x).unwrap());

@@ -9,7 +9,7 @@ use avatar_core::body::{BodyParams, NUM_JOINTS};
 use avatar_core::canonical::Normalisation;
 use avatar_neural::hyper_fit::{batch_loss_of, sample_batch, SampledBatch};
 use avatar_neural::loss::{igr_loss, scalar, IgrWeights};
-use avatar_neural::params::{flat_gradients, flatten, load_flat};
+use avatar_neural::flat_params::{flat_gradients, flatten, load_flat};
 use avatar_neural::train::{HyperBatch, HyperGradient, IgrPoints, SirenGradient, SirenShape};
 use avatar_neural::siren::W0;
 use avatar_neural::*;

@@ -81,7 +81,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let t = std::time::Instant::now();
     let loaded;
     let synthetic;
-    let avatar: &dyn avatar_core::export::AvatarSource = match &args.avatar {
+    let avatar: &dyn avatar_core::avatar::AvatarSource = match &args.avatar {
         Some(path) => {
             loaded = avatar_neural::AnyAvatar::load(path)?;
             if let Some(p) = loaded.partial() {

@@ -2,7 +2,7 @@
 //! training subjects. Resumable: run the same command again after a kill.
 
 use anyhow::{bail, Context};
-use avatar_neural::meta::{meta_train, start_from_static, MetaOptions};
+use avatar_neural::meta_training::{meta_train, start_from_static, MetaOptions};
 use avatar_neural::MetaModel;
 use avatar_neural::meta_data::{MetaData, MetaDataConfig};
 use avatar_neural::HyperConfig;

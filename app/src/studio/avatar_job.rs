@@ -7,7 +7,7 @@
 //! [`AvatarKind`] with its fit in [`run_fit`], and a branch in [`load_avatar`].
 
 use avatar_core::body::{BodyModel, Weights};
-use avatar_core::export::AvatarSource;
+use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
 use avatar_neural::capture_points::CapturePoints;

@@ -6,7 +6,7 @@
 use crate::studio::avatar_job::{CanonicalMesh, StudioAvatar};
 use crate::studio::tasks::{take_done, Task, TaskError, Wake};
 use avatar_core::body::{blend_transform, BodyModel, BodyParams, NUM_JOINTS};
-use avatar_core::export::AvatarSource;
+use avatar_core::avatar::AvatarSource;
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
 use std::sync::Arc;

@@ -6,11 +6,11 @@ use avatar_core::body::{open_body_lowpoly_ref, open_body_ref, SMPL_PARENTS};
 use avatar_core::canonical::Normalisation;
 use avatar_core::motion::MotionClip;
 use avatar_neural::encoder::PoseEncoding;
-use avatar_neural::meta::MetaOptions;
-use avatar_neural::meta_avatar::{MetaAvatarHeader, META_AVATAR_KIND};
+use avatar_neural::meta_training::MetaOptions;
+use avatar_neural::avatar::meta_avatar::{MetaAvatarHeader, META_AVATAR_KIND};
 use avatar_neural::meta_data::{Group, Manifest, MetaDataConfig, DATA_FORMAT, DATA_VERSION};
-use avatar_neural::params::flatten;
-use avatar_neural::static_avatar::{AvatarHeader, AVATAR_FORMAT};
+use avatar_neural::flat_params::flatten;
+use avatar_neural::avatar::static_avatar::{AvatarHeader, AVATAR_FORMAT};
 use avatar_neural::{weights_file, HyperConfig, MetaModel, SirenConfig};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -46,7 +46,7 @@ fn normalisation() -> Normalisation {
 pub fn static_header() -> AvatarHeader {
     AvatarHeader {
         format: AVATAR_FORMAT.into(),
-        version: avatar_neural::avatar_body::VERSION_OPEN_BODY,
+        version: avatar_neural::avatar::body::VERSION_OPEN_BODY,
         kind: "static-sdf".into(),
         siren: small_config().siren,
         normalisation: normalisation(),
@@ -61,7 +61,7 @@ pub fn static_header() -> AvatarHeader {
 pub fn meta_header() -> MetaAvatarHeader {
     MetaAvatarHeader {
         format: AVATAR_FORMAT.into(),
-        version: avatar_neural::avatar_body::VERSION_OPEN_BODY,
+        version: avatar_neural::avatar::body::VERSION_OPEN_BODY,
         kind: META_AVATAR_KIND.into(),
         config: small_config(),
         normalisation: normalisation(),

@@ -5,7 +5,7 @@
 
 use super::glb::{GlbBuilder, ARRAY_BUFFER};
 use super::morph::{compress, MorphTargets};
-use super::source::AvatarSource;
+use crate::avatar::AvatarSource;
 use crate::body::{blend_transform, BodyParams, Weights, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;

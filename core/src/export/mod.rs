@@ -9,4 +9,5 @@ pub mod source;
 
 pub use animated::{export_glb, top4, write_mesh_sequence, ExportOptions, Exported, DEFAULT_COLOR};
 pub use morph::{compress, MorphTargets};
-pub use source::{AvatarSource, SyntheticAvatar};
+pub use crate::avatar::AvatarSource;
+pub use source::SyntheticAvatar;

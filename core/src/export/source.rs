@@ -1,52 +1,15 @@
-//! What the exporter needs from an avatar, as a trait: the neural avatar implements it in the
-//! neural crate; [`SyntheticAvatar`] (a synthetic clothed subject with its pose-dependent
-//! clothing, skinned with the diffused field) implements it here for tests, benchmarks and the
-//! command line until a neural avatar is given.
+//! [`SyntheticAvatar`]: a synthetic clothed subject with its pose-dependent clothing, skinned
+//! with the diffused field, as an avatar (`crate::avatar::AvatarSource`) for tests, benchmarks
+//! and the command line until a neural avatar is given.
 
 use crate::body::{BodyModel, BodyParams, Weights};
 use crate::canonical::{Canonicalizer, FieldOptions};
+use crate::avatar::AvatarSource;
 use crate::error::Result;
 use crate::mesh::bvh::Bvh;
 use crate::mesh::TriMesh;
 use crate::synth::{canonical_surface, ClothedTemplate, Outfit, PoseFeatures};
 use glam::Vec3;
-
-pub trait AvatarSource: Sync {
-    fn body(&self) -> &BodyModel;
-    fn betas(&self) -> &[f32];
-    /// The clothed surface at a pose, in canonical (unposed) body space.
-    fn canonical_mesh(&self, params: &BodyParams) -> Result<TriMesh>;
-    /// Signed distance (metres, negative inside) of canonical points to the surface at a pose.
-    fn sdf(&self, params: &BodyParams, points: &[Vec3]) -> Result<Vec<f32>>;
-    /// Skinning weights at canonical points.
-    fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights>;
-
-    /// Project canonical points onto the zero level set at a pose: Newton steps along the SDF
-    /// gradient (central differences here; an avatar with analytic gradients overrides it).
-    fn project(&self, params: &BodyParams, points: &[Vec3], steps: usize) -> Result<Vec<Vec3>> {
-        const H: f32 = 5e-4;
-        let mut x = points.to_vec();
-        for _ in 0..steps {
-            let mut probe = Vec::with_capacity(x.len() * 7);
-            for &p in &x {
-                probe.push(p);
-                for a in [Vec3::X, Vec3::Y, Vec3::Z] {
-                    probe.push(p + a * H);
-                    probe.push(p - a * H);
-                }
-            }
-            let f = self.sdf(params, &probe)?;
-            for (i, p) in x.iter_mut().enumerate() {
-                let v = &f[i * 7..i * 7 + 7];
-                let g = Vec3::new(v[1] - v[2], v[3] - v[4], v[5] - v[6]) / (2.0 * H);
-                if g.length_squared() > 1e-8 && v[0].is_finite() {
-                    *p -= g * (v[0] / g.length_squared());
-                }
-            }
-        }
-        Ok(x)
-    }
-}
 
 /// A synthetic subject in an outfit: the exact pose-dependent canonical clothing of the
 /// generator, with the diffused skinning field of its body.

@@ -3,21 +3,21 @@
 //! bone encoding -> hypernetwork -> SIREN -> coarse-to-fine marching cubes -> largest component
 //! -> forward skinning.
 
-use crate::avatar_body::{self, BodySection};
-use crate::avatar_header::{check_subject, PartialFit};
+use crate::avatar::body::{self as avatar_body, BodySection};
+use crate::avatar::header::{check_subject, PartialFit};
 use crate::capture_points::CapturePoints;
 use crate::fit::Progress;
 use crate::hyper::{HyperConfig, HyperNet};
 use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
 use crate::model_file::MetaModel;
-use crate::params::{flatten, load_flat};
+use crate::flat_params::{flatten, load_flat};
 use crate::siren_eval::{MetricSdf, SirenEval};
-use crate::static_avatar::{avatar_field, check_avatar_header, FitReport, AVATAR_FORMAT};
+use crate::avatar::static_avatar::{avatar_field, check_avatar_header, FitReport, AVATAR_FORMAT};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
 use avatar_core::canonical::{forward_skin_mesh, Normalisation, SkinningField};
 use avatar_core::error::{Error, Result};
-use avatar_core::export::AvatarSource;
+use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
 use burn::module::Module;

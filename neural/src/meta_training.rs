@@ -11,7 +11,7 @@ use crate::hyper_fit::{fit_hyper, GroupRates, HyperFitOptions, HyperOptimisers, 
 use crate::loss::IgrWeights;
 use crate::meta_data::MetaData;
 use crate::model_file::MetaModel;
-use crate::params::{flatten, load_flat, reptile_gradients};
+use crate::flat_params::{flatten, load_flat, reptile_gradients};
 use crate::siren::Siren;
 use crate::weights_file;
 use avatar_core::error::{Error, Result};

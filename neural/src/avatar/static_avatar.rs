@@ -3,18 +3,18 @@
 //! avatar the studio can fit, pose and export. The meta-learned hypernetwork avatar replaces
 //! the static SDF with a pose-conditioned one (issue 6).
 
-use crate::avatar_body::{self, BodySection};
-use crate::avatar_header::{check_subject, PartialFit};
+use crate::avatar::body::{self as avatar_body, BodySection};
+use crate::avatar::header::{check_subject, PartialFit};
 use crate::capture_points::CapturePoints;
 use crate::fit::{fit_sdf, FitOptions, Progress};
 use crate::siren_eval::MetricSdf;
-use crate::params::{flatten, load_flat};
+use crate::flat_params::{flatten, load_flat};
 use crate::siren::{Siren, SirenConfig};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights};
 use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
 use avatar_core::error::{Error, Result};
-use avatar_core::export::AvatarSource;
+use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
 use burn::module::Module;
@@ -22,6 +22,9 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+/// The header kind of a static-SDF avatar file.
+pub const STATIC_AVATAR_KIND: &str = "static-sdf";
 
 pub const AVATAR_FORMAT: &str = "avatar-studio-avatar";
 /// The newest avatar version this build writes and reads: 1 (open body, no body stored) and 2
@@ -104,7 +107,7 @@ impl StaticAvatar {
         let header = AvatarHeader {
             format: AVATAR_FORMAT.into(),
             version,
-            kind: "static-sdf".into(),
+            kind: STATIC_AVATAR_KIND.into(),
             siren,
             normalisation: capture.normalisation,
             betas: capture.betas.clone(),
@@ -138,7 +141,7 @@ impl StaticAvatar {
 
     pub fn load(path: impl AsRef<Path>) -> Result<StaticAvatar> {
         let path = path.as_ref();
-        check_avatar_header(path, "static-sdf")?;
+        check_avatar_header(path, STATIC_AVATAR_KIND)?;
         let (header, values): (AvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &AvatarHeader| {
             h.siren.check()?;
             check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;

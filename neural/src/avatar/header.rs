@@ -30,7 +30,7 @@ impl PartialFit {
 
 /// Check the subject fields of an avatar header (errors name no file: the loader adds it).
 pub fn check_subject(normalisation: &Normalisation, betas: &[f32], body_model: &str, field_cells: usize, partial: Option<PartialFit>) -> Result<()> {
-    use crate::avatar_body::{OPEN_BODY, SMPL};
+    use crate::avatar::body::{OPEN_BODY, SMPL};
     // The embedded open body, or an SMPL-family body stored in the file (avatar_body checks
     // that the two agree).
     if body_model != OPEN_BODY && body_model != SMPL {
