@@ -160,6 +160,25 @@ pub struct SampledBatch {
     pub offs: Vec<Vec3>,
 }
 
+impl SampledBatch {
+    /// Points and normals as plain arrays (the training path's layout).
+    pub fn arrays(&self) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+        (self.points.iter().map(|p| p.to_array()).collect(), self.normals.iter().map(|p| p.to_array()).collect())
+    }
+
+    /// The step's data for the training path, over `arrays()`' buffers; `signs`: the prior's sign
+    /// of each off-surface point.
+    pub fn flat_batch<'a>(&'a self, points: &'a [[f32; 3]], normals: &'a [[f32; 3]], signs: Option<&'a [f32]>, options: &HyperFitOptions) -> HyperBatch<'a> {
+        let rows = options.surface_per_pose + options.off_per_pose;
+        HyperBatch {
+            inputs: &self.inputs,
+            points: points.chunks(rows).collect(),
+            loss: IgrPoints { weights: options.weights, prior_weight: options.prior_weight, groups: self.poses, surface: options.surface_per_pose, off: options.off_per_pose, normals, signs },
+            residual_weight: options.residual_weight,
+        }
+    }
+}
+
 /// Draw a step's points: per pose, surface points with their normals, then off-surface points
 /// (half uniform in the cube, half near the surface).
 pub fn sample_batch(samples: &[&PoseSample], options: &HyperFitOptions, rng: &mut ChaCha8Rng) -> SampledBatch {
@@ -301,15 +320,8 @@ impl FlatFit {
 
     fn step(&mut self, drawn: &SampledBatch, signs: Option<&[f32]>, options: &HyperFitOptions, rates: GroupRates, optimisers: &mut HyperOptimisers) -> StepLoss {
         let (gradient, adam) = optimisers.flat.as_mut().expect("set up by FlatFit::new");
-        let points: Vec<[f32; 3]> = drawn.points.iter().map(|p| p.to_array()).collect();
-        let normals: Vec<[f32; 3]> = drawn.normals.iter().map(|p| p.to_array()).collect();
-        let rows = options.surface_per_pose + options.off_per_pose;
-        let batch = HyperBatch {
-            inputs: &drawn.inputs,
-            points: points.chunks(rows).collect(),
-            loss: IgrPoints { weights: options.weights, prior_weight: options.prior_weight, groups: drawn.poses, surface: options.surface_per_pose, off: options.off_per_pose, normals: &normals, signs },
-            residual_weight: options.residual_weight,
-        };
+        let (points, normals) = drawn.arrays();
+        let batch = drawn.flat_batch(&points, &normals, signs, options);
         let loss = gradient.compute(&self.params, &batch, rates.encoder > 0.0, &mut self.grad);
         let lay = gradient.layout();
         let groups = [(lay.encoder_range.clone(), rates.encoder), (lay.heads_range.clone(), rates.heads), (lay.bases_range.clone(), rates.heads), (lay.sdf_range.clone(), rates.sdf)];

@@ -10,7 +10,7 @@ use avatar_core::canonical::Normalisation;
 use avatar_neural::hyper_fit::{batch_loss_of, sample_batch, SampledBatch};
 use avatar_neural::loss::{igr_loss, scalar, IgrWeights};
 use avatar_neural::flat_params::{flat_gradients, flatten, load_flat};
-use avatar_neural::train::{HyperBatch, HyperGradient, IgrPoints, SirenGradient, SirenShape};
+use avatar_neural::train::{HyperGradient, IgrPoints, SirenGradient, SirenShape};
 use avatar_neural::siren::W0;
 use avatar_neural::*;
 use burn::module::Module;
@@ -121,15 +121,8 @@ fn check_hyper(config: HyperConfig, poses: usize, options: &HyperFitOptions, wit
     let burn_loss = scalar(&loss);
     let burn_grad = flat_gradients(&net, &GradientsParams::from_grads(loss.backward(), &net));
 
-    let points: Vec<[f32; 3]> = drawn.points.iter().map(|p| p.to_array()).collect();
-    let normals: Vec<[f32; 3]> = drawn.normals.iter().map(|p| p.to_array()).collect();
-    let rows = options.surface_per_pose + options.off_per_pose;
-    let batch = HyperBatch {
-        inputs: &drawn.inputs,
-        points: points.chunks(rows).collect(),
-        loss: IgrPoints { weights: options.weights, prior_weight: options.prior_weight, groups: poses, surface: options.surface_per_pose, off: options.off_per_pose, normals: &normals, signs: signs.as_deref() },
-        residual_weight: options.residual_weight,
-    };
+    let (points, normals) = drawn.arrays();
+    let batch = drawn.flat_batch(&points, &normals, signs.as_deref(), options);
     let mut gradient = HyperGradient::new(&config);
     let mut ours = vec![0f32; config.num_params()];
     let l = gradient.compute(&flatten(&net), &batch, train_encoder, &mut ours);

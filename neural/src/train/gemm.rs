@@ -66,6 +66,16 @@ pub fn gemm(a: Mat, b: Mat, beta: f32, c: &mut [f32]) {
     }
 }
 
+/// sums[j] += the sum over rows of m[row, j] (a bias's gradient), m row-major with
+/// `sums.len()` columns.
+pub fn add_column_sums(m: &[f32], sums: &mut [f32]) {
+    for row in m.chunks_exact(sums.len()) {
+        for (s, v) in sums.iter_mut().zip(row) {
+            *s += v;
+        }
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
     use std::arch::x86_64::*;

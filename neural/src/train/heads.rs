@@ -2,7 +2,7 @@
 //! encoder (pose -> condition) and the heads (condition -> per-layer residuals), for a batch
 //! of poses. Shapes are tiny next to the SIREN's (a few poses), so plain products suffice.
 
-use super::gemm::{gemm, Mat};
+use super::gemm::{add_column_sums, gemm, Mat};
 use super::layout::{Block, EncoderLayout, HeadLayout};
 use crate::encoder::{BONE_FEATURES, BONE_INPUTS};
 use avatar_core::body::skeleton::{NUM_JOINTS, SMPL_PARENTS};
@@ -29,12 +29,7 @@ fn linear(x: &[f32], rows: usize, p: &[f32], w: &Block, bias: &Block, out: &mut 
 fn linear_back(x: &[f32], rows: usize, p: &[f32], w: &Block, bias: &Block, d_out: &[f32], grad: &mut [f32], d_x: Option<&mut [f32]>) {
     let cols = w.cols;
     gemm(Mat::new(x, rows, w.rows).t(), Mat::new(d_out, rows, cols), 1.0, &mut grad[w.range()]);
-    let gb = &mut grad[bias.range()];
-    for row in d_out[..rows * cols].chunks_exact(cols) {
-        for (g, d) in gb.iter_mut().zip(row) {
-            *g += d;
-        }
-    }
+    add_column_sums(&d_out[..rows * cols], &mut grad[bias.range()]);
     if let Some(d_x) = d_x {
         gemm(Mat::new(d_out, rows, cols), Mat::new(slice(p, w), w.rows, cols).t(), 0.0, &mut d_x[..rows * w.rows]);
     }

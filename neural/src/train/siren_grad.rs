@@ -12,7 +12,7 @@
 //! The adjoints follow the two chains backwards; the sine's second derivative enters through
 //! c_k: d c_k / d z_k = -W0^2 h_k.
 
-use super::gemm::{gemm, Mat};
+use super::gemm::{add_column_sums, gemm, Mat};
 use crate::siren::W0;
 use crate::siren_eval::sin_cos;
 
@@ -222,14 +222,7 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], points: &[[f32; 3]], l
         }
     }
     // v_{last-1} is W_last broadcast over the points: its adjoint sums into W_last.
-    {
-        let g_top = &mut grad[shape.w_range(last)];
-        for row in s.t1[..n * top].chunks_exact(top) {
-            for (g, a) in g_top.iter_mut().zip(row) {
-                *g += a;
-            }
-        }
-    }
+    add_column_sums(&s.t1[..n * top], &mut grad[shape.w_range(last)]);
 
     // Reverse of the forward chain: adj z_last = dL/df; adj h_{last-1} = adj z_last W_last^T.
     gemm(Mat::new(&s.h[last - 1][..n * top], n, top).t(), Mat::new(&s.d_f[..n], n, 1), 1.0, &mut grad[shape.w_range(last)]);
@@ -247,12 +240,7 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], points: &[[f32; 3]], l
         }
         let input = if k == 0 { &s.x[..n * 3] } else { &s.h[k - 1][..n * fan_in] };
         gemm(Mat::new(input, n, fan_in).t(), Mat::new(&s.v[k][..n * fan_out], n, fan_out), 1.0, &mut grad[shape.w_range(k)]);
-        let gb = &mut grad[shape.b_range(k)];
-        for row in s.v[k][..n * fan_out].chunks_exact(fan_out) {
-            for (g, a) in gb.iter_mut().zip(row) {
-                *g += a;
-            }
-        }
+        add_column_sums(&s.v[k][..n * fan_out], &mut grad[shape.b_range(k)]);
         if k > 0 {
             gemm(Mat::new(&s.v[k][..n * fan_out], n, fan_out), Mat::new(&s.wt[k], fan_out, fan_in), 0.0, &mut s.t1[..n * fan_in]);
         }
