@@ -15,19 +15,7 @@ impl BodyModel {
     pub fn frozen(&self, betas: &[f32]) -> BodyModel {
         let rest = self.shaped_vertices(betas);
         let joints = self.regress_joints(&rest);
-        BodyModel {
-            label: self.label.clone(),
-            v_template: rest,
-            shapedirs: Vec::new(),
-            num_betas: 0,
-            posedirs: None,
-            j_regressor: Vec::new(),
-            frozen_joints: Some(joints),
-            weights: self.weights.clone(),
-            faces: self.faces.clone(),
-            shape_names: Vec::new(),
-            shape_limits: Vec::new(),
-        }
+        frozen_body(self.label.clone(), rest, self.faces.clone(), self.weights.clone(), joints)
     }
 
     /// Whether this is a frozen body (one shape, stored joints).
@@ -53,19 +41,25 @@ impl BodyModel {
         if joints.iter().any(|j| !j.is_finite()) {
             return Err(Error::invalid("frozen body: a rest joint is not finite"));
         }
-        Ok(BodyModel {
-            label: label.to_string(),
-            v_template: rest,
-            shapedirs: Vec::new(),
-            num_betas: 0,
-            posedirs: None,
-            j_regressor: Vec::new(),
-            frozen_joints: Some(joints),
-            weights,
-            faces,
-            shape_names: Vec::new(),
-            shape_limits: Vec::new(),
-        })
+        Ok(frozen_body(label.to_string(), rest, faces, weights, joints))
+    }
+}
+
+/// A body of one shape: rest vertices and joints stored, no shape directions, correctives or
+/// regressor.
+fn frozen_body(label: String, rest: Vec<Vec3>, faces: Vec<[u32; 3]>, weights: Vec<Weights>, joints: [Vec3; NUM_JOINTS]) -> BodyModel {
+    BodyModel {
+        label,
+        v_template: rest,
+        shapedirs: Vec::new(),
+        num_betas: 0,
+        posedirs: None,
+        j_regressor: Vec::new(),
+        frozen_joints: Some(joints),
+        weights,
+        faces,
+        shape_names: Vec::new(),
+        shape_limits: Vec::new(),
     }
 }
 
