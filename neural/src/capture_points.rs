@@ -7,7 +7,7 @@ use crate::encoder::PoseEncoding;
 use crate::hyper_fit::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS};
 use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
-use avatar_core::capture::{Capture, CaptureOptions};
+use avatar_core::capture::{free_space_samples, Capture, CaptureOptions, FreeSpaceOptions};
 use avatar_core::error::{Error, Result};
 use avatar_core::mesh::bvh::Bvh;
 use glam::Vec3;
@@ -18,6 +18,9 @@ pub struct FramePoints {
     pub params: BodyParams,
     pub points: Vec<Vec3>,
     pub normals: Vec<Vec3>,
+    /// Free-space evidence (normalised canonical space): points on the camera rays in front
+    /// of the measured depth, which must be outside the avatar.
+    pub free_space: Vec<Vec3>,
 }
 
 pub struct CapturePoints {
@@ -78,7 +81,9 @@ impl CapturePoints {
                 continue;
             }
             used.push(f.index);
-            out.push(FramePoints { params: f.params.clone(), points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals });
+            let free = free_space_samples(&f.points, f.camera_center(), &FreeSpaceOptions { seed: FreeSpaceOptions::default().seed ^ f.index as u64, ..FreeSpaceOptions::default() });
+            let free_space = canon.free_space(f, &free).iter().map(|p| norm.to_unit(*p)).collect();
+            out.push(FramePoints { params: f.params.clone(), points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals, free_space });
         }
         // Fewer usable frames than asked (and than the capture has) is an error naming them.
         avatar_core::capture::plausibility::require_usable_frames(&capture, frames.max(1), &used, &skipped)?;
@@ -86,7 +91,7 @@ impl CapturePoints {
         if total < 100 {
             return Err(Error::invalid(format!("{}: only {total} canonical points survived; cannot fit an avatar", dir.display())));
         }
-        Ok(CapturePoints {
+        let mut capture = CapturePoints {
             body: capture.body.as_ref().clone(),
             body_file: capture.body_file.clone(),
             betas,
@@ -97,7 +102,22 @@ impl CapturePoints {
             frames: out,
             dropped,
             warnings,
-        })
+        };
+        capture.drop_free_space_inside_body();
+        Ok(capture)
+    }
+
+    /// Free-space samples whose canonical position the sign prior calls inside the body are
+    /// wrong roots of the inverse skinning (near joints the map folds): they are dropped.
+    fn drop_free_space_inside_body(&mut self) {
+        let signs: Vec<Vec<f32>> = {
+            let prior = self.sign_prior();
+            self.frames.iter().map(|f| prior(&f.free_space)).collect()
+        };
+        for (frame, signs) in self.frames.iter_mut().zip(signs) {
+            let kept = frame.free_space.iter().zip(&signs).filter(|(_, s)| **s >= 0.0).map(|(p, _)| *p).collect();
+            frame.free_space = kept;
+        }
     }
 
     /// The subject's rest joints (metres).
@@ -110,7 +130,7 @@ impl CapturePoints {
         let joints = self.rest_joints();
         self.frames
             .iter()
-            .map(|f| PoseSample { pose_input: encoding.input(&f.params, &joints, &self.normalisation), points: f.points.clone(), normals: f.normals.clone() })
+            .map(|f| PoseSample { pose_input: encoding.input(&f.params, &joints, &self.normalisation), points: f.points.clone(), normals: f.normals.clone(), free_space: f.free_space.clone() })
             .collect()
     }
 

@@ -17,8 +17,11 @@ pub struct FitOptions {
     pub learning_rate: f64,
     /// Surface points per step (sampled from the given points).
     pub batch: usize,
-    /// Off-surface points per step: half uniform in [-1, 1]^3, half near the surface.
+    /// Off-surface points per step: half uniform in [-1, 1]^3, half near the surface ...
     pub off_surface: usize,
+    /// ... less this many drawn from the free-space samples (when there are any), which
+    /// must be outside.
+    pub free_space: usize,
     /// Standard deviation of the near-surface samples (normalised units).
     pub near_sigma: f32,
     pub weights: IgrWeights,
@@ -29,7 +32,7 @@ pub struct FitOptions {
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { steps: 500, learning_rate: 1e-4, batch: 2000, off_surface: 2000, near_sigma: 0.02, weights: IgrWeights::default(), prior_weight: 1000.0, seed: 0 }
+        FitOptions { steps: 500, learning_rate: 1e-4, batch: 2000, off_surface: 2000, free_space: 0, near_sigma: 0.02, weights: IgrWeights::default(), prior_weight: 1000.0, seed: 0 }
     }
 }
 
@@ -44,13 +47,15 @@ fn to_tensor(v: &[Vec3], device: &Device) -> Tensor<2> {
     Tensor::from_data(TensorData::new(flat, [v.len(), 3]), device)
 }
 
-/// Fit `model` to points (normalised space) with normals. Stops early when `cancel` is set and
+/// Fit `model` to points (normalised space) with normals, and free-space samples `outside`
+/// (constrained to be outside; may be empty). Stops early when `cancel` is set and
 /// returns the model as it is then (the partial result stays usable).
 #[allow(clippy::too_many_arguments)]
 pub fn fit_sdf(
     mut model: Siren,
     points: &[Vec3],
     normals: &[Vec3],
+    outside: &[Vec3],
     options: &FitOptions,
     device: &Device,
     prior: Option<SignPrior>,
@@ -70,8 +75,14 @@ pub fn fit_sdf(
         if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             break;
         }
-        let (surface, surface_n, off) = sample_step(points, normals, options, &mut rng);
-        let signs = prior.map(|p| p(&off));
+        let (surface, surface_n, off, free) = sample_step(points, normals, outside, options, &mut rng);
+        let mut signs = prior.map(|p| p(&off));
+        if free > 0 {
+            // The free-space samples are the last `free` off-surface points.
+            let signs = signs.get_or_insert_with(|| vec![0.0; off.len()]);
+            let n = signs.len();
+            signs[n - free..].fill(1.0);
+        }
         let log = step % log_every == 0 || step + 1 == options.steps;
         if let Some((gradient, adam, grad, params)) = flat.as_mut() {
             let mut all: Vec<[f32; 3]> = surface.iter().map(|p| p.to_array()).collect();
@@ -106,14 +117,18 @@ pub fn fit_sdf(
 }
 
 /// A step's points: surface points with their normals, and off-surface points (half uniform
-/// in [-1, 1]^3, half near the surface).
-pub fn sample_step(points: &[Vec3], normals: &[Vec3], options: &FitOptions, rng: &mut ChaCha8Rng) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>) {
+/// in [-1, 1]^3, half near the surface, then `free_space` from `outside`), with the count of
+/// free-space points at the end of the off-surface points.
+pub fn sample_step(points: &[Vec3], normals: &[Vec3], outside: &[Vec3], options: &FitOptions, rng: &mut ChaCha8Rng) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, usize) {
     let idx: Vec<usize> = (0..options.batch.min(points.len())).map(|_| rng.random_range(0..points.len())).collect();
     let surface: Vec<Vec3> = idx.iter().map(|&i| points[i]).collect();
     let surface_n: Vec<Vec3> = idx.iter().map(|&i| normals[i]).collect();
     let mut off = Vec::with_capacity(options.off_surface);
+    let free = if outside.is_empty() { 0 } else { options.free_space.min(options.off_surface) };
     for k in 0..options.off_surface {
-        if k % 2 == 0 {
+        if k >= options.off_surface - free {
+            off.push(outside[rng.random_range(0..outside.len())]);
+        } else if k % 2 == 0 {
             off.push(Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)));
         } else {
             let p = points[rng.random_range(0..points.len())];
@@ -121,7 +136,7 @@ pub fn sample_step(points: &[Vec3], normals: &[Vec3], options: &FitOptions, rng:
             off.push(p + g * options.near_sigma);
         }
     }
-    (surface, surface_n, off)
+    (surface, surface_n, off, free)
 }
 
 pub(crate) fn gauss(rng: &mut ChaCha8Rng) -> f32 {

@@ -22,6 +22,8 @@ pub struct PoseSample {
     pub pose_input: Vec<f32>,
     pub points: Vec<Vec3>,
     pub normals: Vec<Vec3>,
+    /// Free-space samples of the pose's frame (outside constraints; empty in meta-training).
+    pub free_space: Vec<Vec3>,
 }
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -36,6 +38,10 @@ pub struct HyperFitOptions {
     /// Surface and off-surface points per pose and step.
     pub surface_per_pose: usize,
     pub off_per_pose: usize,
+    /// Of the off-surface points, how many come from the pose's free-space samples (when it
+    /// has any): the rays in front of the measured depth, constrained to be outside.
+    #[serde(default)]
+    pub free_space_per_pose: usize,
     /// Standard deviation of the near-surface off-surface samples (normalised units).
     pub near_sigma: f32,
     pub weights: IgrWeights,
@@ -66,6 +72,7 @@ impl Default for HyperFitOptions {
             poses_per_step: 8,
             surface_per_pose: 500,
             off_per_pose: 500,
+            free_space_per_pose: 150,
             near_sigma: 0.02,
             weights: IgrWeights::depth(),
             prior_weight: 1000.0,
@@ -85,6 +92,7 @@ impl HyperFitOptions {
             learning_rate: self.lr_sdf,
             batch: self.surface_per_pose * self.poses_per_step,
             off_surface: self.off_per_pose * self.poses_per_step,
+            free_space: self.free_space_per_pose * self.poses_per_step,
             near_sigma: self.near_sigma,
             weights: self.weights,
             prior_weight: self.prior_weight,
@@ -158,9 +166,23 @@ pub struct SampledBatch {
     pub points: Vec<Vec3>,
     pub normals: Vec<Vec3>,
     pub offs: Vec<Vec3>,
+    /// Indices into `offs` of the free-space samples (known to be outside).
+    pub outside: Vec<usize>,
 }
 
 impl SampledBatch {
+    /// The sign constraint of every off-surface point: the prior's, and +1 on free space.
+    pub fn signs(&self, prior: Option<SignPrior>) -> Option<Vec<f32>> {
+        let mut signs = prior.map(|p| p(&self.offs));
+        if !self.outside.is_empty() {
+            let signs = signs.get_or_insert_with(|| vec![0.0; self.offs.len()]);
+            for &i in &self.outside {
+                signs[i] = 1.0;
+            }
+        }
+        signs
+    }
+
     /// Points and normals as plain arrays (the training path's layout).
     pub fn arrays(&self) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
         (self.points.iter().map(|p| p.to_array()).collect(), self.normals.iter().map(|p| p.to_array()).collect())
@@ -180,13 +202,15 @@ impl SampledBatch {
 }
 
 /// Draw a step's points: per pose, surface points with their normals, then off-surface points
-/// (half uniform in the cube, half near the surface).
+/// (half uniform in the cube, half near the surface; `free_space_per_pose` of them from the
+/// pose's free-space samples when it has any).
 pub fn sample_batch(samples: &[&PoseSample], options: &HyperFitOptions, rng: &mut ChaCha8Rng) -> SampledBatch {
     let b = samples.len();
     let (s, o) = (options.surface_per_pose, options.off_per_pose);
     let mut points = Vec::with_capacity(b * (s + o));
     let mut normals = Vec::with_capacity(b * s);
     let mut offs = Vec::with_capacity(b * o);
+    let mut outside = Vec::new();
     let mut inputs = Vec::new();
     for sample in samples {
         inputs.extend_from_slice(&sample.pose_input);
@@ -196,8 +220,12 @@ pub fn sample_batch(samples: &[&PoseSample], options: &HyperFitOptions, rng: &mu
             points.push(sample.points[i]);
             normals.push(sample.normals[i]);
         }
+        let free = if sample.free_space.is_empty() { 0 } else { options.free_space_per_pose.min(o) };
         for k in 0..o {
-            let p = if k % 2 == 0 {
+            let p = if k >= o - free {
+                outside.push(offs.len());
+                sample.free_space[rng.random_range(0..sample.free_space.len())]
+            } else if k % 2 == 0 {
                 Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0))
             } else {
                 let p = sample.points[rng.random_range(0..n)];
@@ -207,7 +235,7 @@ pub fn sample_batch(samples: &[&PoseSample], options: &HyperFitOptions, rng: &mu
             offs.push(p);
         }
     }
-    SampledBatch { poses: b, inputs, points, normals, offs }
+    SampledBatch { poses: b, inputs, points, normals, offs, outside }
 }
 
 /// The loss of one minibatch of poses through burn's autodiff (the reference of the training
@@ -222,7 +250,7 @@ pub fn batch_loss(
     log: bool,
 ) -> (Tensor<1>, [f32; 4]) {
     let batch = sample_batch(samples, options, rng);
-    let signs = prior.map(|p| p(&batch.offs));
+    let signs = batch.signs(prior);
     batch_loss_of(model, &batch, options, signs, device, log)
 }
 
@@ -281,7 +309,7 @@ pub fn fit_hyper(
         match flat.as_mut() {
             Some(fit) => {
                 let drawn = sample_batch(&batch, options, &mut rng);
-                let signs = prior.map(|p| p(&drawn.offs));
+                let signs = drawn.signs(prior);
                 let loss = fit.step(&drawn, signs.as_deref(), options, rates, optimisers);
                 if log {
                     progress(step, loss.total, loss.terms);

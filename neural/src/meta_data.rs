@@ -257,6 +257,6 @@ impl MetaData {
     pub fn sample(&self, i: usize, encoding: PoseEncoding) -> PoseSample {
         let g = self.manifest.groups.iter().find(|g| (g.first_sample..g.first_sample + g.samples).contains(&i)).expect("sample in a group");
         let joints: [Vec3; 24] = std::array::from_fn(|j| Vec3::from_array(g.rest_joints[j]));
-        PoseSample { pose_input: encoding.input(&self.poses[i], &joints, &g.normalisation), points: self.points[i].clone(), normals: self.normals[i].clone() }
+        PoseSample { pose_input: encoding.input(&self.poses[i], &joints, &g.normalisation), points: self.points[i].clone(), normals: self.normals[i].clone(), free_space: Vec::new() }
     }
 }

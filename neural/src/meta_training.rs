@@ -73,6 +73,8 @@ impl Default for MetaOptions {
                 poses_per_step: 4,
                 surface_per_pose: 500,
                 off_per_pose: 500,
+                // Meta-training data has no free-space samples; 0 keeps older checkpoints' config.
+                free_space_per_pose: 0,
                 lr_heads: 1e-5,
                 lr_encoder: 1e-4,
                 weights: IgrWeights::default(),
@@ -201,7 +203,7 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
                 ..FitOptions::default()
             };
             let mut last = 0.0;
-            let adapted = fit_sdf(meta_sdf.clone(), &data.points[i], &data.normals[i], &inner, &train_device, None, None, &mut |_, l, _| last = l);
+            let adapted = fit_sdf(meta_sdf.clone(), &data.points[i], &data.normals[i], &[], &inner, &train_device, None, None, &mut |_, l, _| last = l);
             loss_sum += last;
             for (m, v) in mean.iter_mut().zip(flatten(&adapted)) {
                 *m += v / options.sdf_meta_batch as f32;

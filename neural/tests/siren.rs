@@ -47,7 +47,7 @@ fn short_fit_learns_a_sphere() {
     let model = SirenConfig { hidden: 64, layers: 3 }.init(3, &device);
     let mut losses = Vec::new();
     let options = FitOptions { steps: 300, learning_rate: 1e-4, batch: 1000, off_surface: 1000, seed: 1, ..FitOptions::default() };
-    let model = fit_sdf(model, &surface, &dirs, &options, &device, None, None, &mut |_, loss, _| losses.push(loss));
+    let model = fit_sdf(model, &surface, &dirs, &[], &options, &device, None, None, &mut |_, loss, _| losses.push(loss));
     assert!(losses.len() >= 10);
     let (first, last) = (losses[0], *losses.last().unwrap());
     assert!(last < 0.3 * first, "loss {first} -> {last}");

@@ -40,7 +40,7 @@ fn pose_samples(count: usize, encoding: PoseEncoding, points: usize) -> Vec<Pose
                     (d * (0.5 + 0.05 * (d.x * 5.0).sin()), d)
                 })
                 .unzip();
-            PoseSample { pose_input: encoding.input(&p, &joints, &norm), points: pts, normals: nrm }
+            PoseSample { pose_input: encoding.input(&p, &joints, &norm), points: pts, normals: nrm, free_space: Vec::new() }
         })
         .collect()
 }
@@ -171,7 +171,7 @@ fn static_siren_step_gradients_match_burn() {
         let samples = pose_samples(1, PoseEncoding::Quaternion, 2000);
         let options = FitOptions { batch: 700, off_surface: 500, weights: IgrWeights { normal: normal_weight, ..IgrWeights::default() }, ..FitOptions::default() };
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let (surface, surface_n, off) = avatar_neural::fit::sample_step(&samples[0].points, &samples[0].normals, &options, &mut rng);
+        let (surface, surface_n, off, _) = avatar_neural::fit::sample_step(&samples[0].points, &samples[0].normals, &[], &options, &mut rng);
         let signs: Option<Vec<f32>> = prior.then(|| off.iter().map(|p| if p.length() > 0.55 { 1.0 } else { -1.0 }).collect());
         let mut all = surface.clone();
         all.extend(&off);

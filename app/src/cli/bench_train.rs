@@ -92,7 +92,7 @@ pub fn bench_report() -> String {
         let t = Instant::now();
         for _ in 0..meta.sdf_meta_batch {
             let siren = shipped.static_siren();
-            fit_sdf(siren, &frame.points, &frame.normals, &alg1, &avatar_neural::compute::training_device(), None, None, &mut |_, _, _| {});
+            fit_sdf(siren, &frame.points, &frame.normals, &[], &alg1, &avatar_neural::compute::training_device(), None, None, &mut |_, _, _| {});
         }
         select(Compute::Cpu);
         t.elapsed().as_secs_f64()

@@ -82,7 +82,8 @@ pub struct Args {
     /// list (few-shot:50, few-shot:1/clip pick one setting).
     #[arg(long)]
     protocol: Option<String>,
-    /// Capture conditions of the fine-tuning captures: user (depth noise and holes, fitting
+    /// Capture conditions of the fine-tuning captures (diagnostics: noisy = depth noise only,
+    /// misfit = fitting errors only): user (depth noise and holes, fitting
     /// errors, 30-60 degree turns), clean (MetaAvatar's protocol), comma-separated.
     #[arg(long)]
     captures: Option<String>,
@@ -155,6 +156,14 @@ pub struct Args {
     /// Weight of the residual regulariser in fine-tuning (default: `fit`'s).
     #[arg(long)]
     residual_weight: Option<f32>,
+    /// Write the fine-tuning captures into this folder and keep them (named
+    /// s<subject>_<outfit>_<setting>), to inspect or fit them by hand.
+    #[arg(long)]
+    keep_captures: Option<PathBuf>,
+    /// Free-space samples (outside constraints on the camera rays) among each pose's
+    /// off-surface points, 0 to turn them off (default: `fit`'s).
+    #[arg(long)]
+    free_space: Option<usize>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -188,6 +197,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     config.metrics.iou_resolution = iou_resolution;
     config.seed = args.seed;
     config.contact_sheets = args.contact_sheets.clone();
+    if let Some(dir) = &args.keep_captures {
+        config.workdir = dir.clone();
+        config.keep_captures = true;
+    }
     let row_names: Vec<String> = match &args.rows {
         Some(r) if r.len() == 1 && r[0] == "none" => Vec::new(),
         Some(r) => r.clone(),
@@ -215,6 +228,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         poses_per_step: args.poses_per_step.unwrap_or(defaults.poses_per_step).max(1),
         surface_per_pose: args.points_per_pose.unwrap_or(defaults.surface_per_pose).max(1),
         off_per_pose: args.points_per_pose.unwrap_or(defaults.off_per_pose).max(1),
+        free_space_per_pose: args.free_space.unwrap_or(defaults.free_space_per_pose),
         weights: IgrWeights { normal: args.normal_weight.unwrap_or(defaults.weights.normal), ..defaults.weights },
         ..defaults
     };

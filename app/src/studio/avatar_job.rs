@@ -322,6 +322,7 @@ fn fit_static(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Re
     let norm = capture.normalisation;
     let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
     let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
+    let outside: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.free_space.iter().copied()).collect();
     send(JobEvent::Started { points: points.len(), frames: capture.frames.len() });
     let prior = capture.sign_prior();
     let siren = SirenConfig { hidden: cfg.hidden, layers: cfg.layers };
@@ -341,6 +342,7 @@ fn fit_static(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Re
             learning_rate: cfg.learning_rate,
             batch: cfg.batch,
             off_surface: cfg.off_surface,
+            free_space: HyperFitOptions::default().static_equivalent().free_space,
             seed: cfg.seed.wrapping_add(done as u64),
             ..FitOptions::default()
         };
@@ -353,7 +355,7 @@ fn fit_static(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, gate: Option<&Re
             steps_run.fetch_add(1, Ordering::Relaxed);
             prior(p)
         };
-        model = fit_sdf(model, &points, &normals, &options, &device, Some(&counted), Some(cancel), &mut progress);
+        model = fit_sdf(model, &points, &normals, &outside, &options, &device, Some(&counted), Some(cancel), &mut progress);
         done += n;
         if cfg.preview_every > 0 && done < cfg.steps && !cancel.load(Ordering::Relaxed) {
             let sdf = MetricSdf::of(&model, norm);

@@ -18,6 +18,7 @@ pub use root_finding::{find_roots, forward_point, start_bones, Root, RootOptions
 use crate::body::BodyModel;
 use crate::capture::CaptureFrame;
 use crate::error::Result;
+use crate::mesh::bvh::Bvh;
 use glam::Vec3;
 use std::path::Path;
 
@@ -32,6 +33,8 @@ pub struct Canonicalizer<'a> {
     pub options: RootOptions,
     /// Set when a cache file was bad and rebuilt.
     pub cache_warning: Option<String>,
+    /// The rest body's surface, to choose among several roots.
+    rest_surface: Bvh,
 }
 
 impl<'a> Canonicalizer<'a> {
@@ -41,12 +44,32 @@ impl<'a> Canonicalizer<'a> {
         let rest = body.shaped_vertices(betas);
         let (field, cache_warning) = cached_field(body, &rest, field_options, cache_dir)?;
         let normalisation = Normalisation::from_body(&rest);
-        Ok(Canonicalizer { body, betas: betas.to_vec(), rest, field, normalisation, options: RootOptions::default(), cache_warning })
+        let rest_surface = Bvh::build(&body.mesh(rest.clone()));
+        Ok(Canonicalizer { body, betas: betas.to_vec(), rest, field, normalisation, options: RootOptions::default(), cache_warning, rest_surface })
     }
 
     /// Canonicalize one capture frame's points and normals.
     pub fn frame(&self, frame: &CaptureFrame) -> CanonicalFrame {
         let posed = self.body.pose(&frame.params);
-        canonicalize_points(&self.field, &posed.bones, &posed.vertices, &self.body.weights, &frame.points, &frame.normals, &self.options, None)
+        let chooser = |roots: &[Root]| self.nearest_to_body(roots);
+        canonicalize_points(&self.field, &posed.bones, &posed.vertices, &self.body.weights, &frame.points, &frame.normals, &self.options, Some(&chooser))
+    }
+
+    /// Of several roots, the one nearest the rest body's surface (PINA keeps the root of
+    /// smallest SDF; before the avatar exists, the body's is the SDF there is). Where a
+    /// squat or a bend presses the thigh to the belly, the other roots lie tens of
+    /// centimetres off the body, and a fit grows sheets through them.
+    fn nearest_to_body(&self, roots: &[Root]) -> usize {
+        let distance = |r: &Root| self.rest_surface.closest_point(r.canonical).map_or(f32::INFINITY, |h| h.distance);
+        (0..roots.len()).min_by(|&a, &b| distance(&roots[a]).total_cmp(&distance(&roots[b]))).unwrap_or(0)
+    }
+
+    /// Canonical positions of free-space samples of one frame (posed, world space): the
+    /// samples whose root reprojects within the 2 cm filter.
+    pub fn free_space(&self, frame: &CaptureFrame, samples: &[Vec3]) -> Vec<Vec3> {
+        let posed = self.body.pose(&frame.params);
+        let no_normals = vec![Vec3::Z; samples.len()];
+        let chooser = |roots: &[Root]| self.nearest_to_body(roots);
+        canonicalize_points(&self.field, &posed.bones, &posed.vertices, &self.body.weights, samples, &no_normals, &self.options, Some(&chooser)).points
     }
 }

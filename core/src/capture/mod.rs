@@ -1,10 +1,11 @@
 //! Captures: the `capture.json` folder format, 16-bit depth PNGs, back-projection to oriented
-//! points, cropping to the person, units and plausibility checks, and imports (a depth folder
+//! points, free-space samples on the camera rays, cropping to the person, units and plausibility checks, and imports (a depth folder
 //! with AMASS-style or JSON fittings, TUM depth scale, OBJ scans).
 //! See docs/capture-format.md.
 
 pub mod amass;
 pub mod depth_png;
+pub mod free_space;
 pub mod import;
 pub mod manifest;
 pub mod open;
@@ -12,6 +13,7 @@ pub mod plausibility;
 pub mod points;
 pub mod scan;
 
+pub use free_space::{free_space_samples, FreeSpaceOptions};
 pub use depth_png::{read_depth_png, read_mask_png, write_depth_png, write_mask_png, DepthImage};
 pub use manifest::{BodyModelRef, CaptureManifest, FrameRecord, Intrinsics, DEPTH_SCALE_MM, DEPTH_SCALE_TUM, MANIFEST_FILE};
 pub use open::{Capture, CaptureFrame, CaptureOptions, FrameError, NO_DEPTH_NEAR_BODY};

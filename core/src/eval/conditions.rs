@@ -71,7 +71,7 @@ impl CaptureConditions {
         }
     }
 
-    /// `user`, `clean` or a comma-separated list; `noise` names the depth model of `user`
+    /// `user`, `clean`, `noisy`, `misfit` or a comma-separated list; `noise` names the depth model of `user`
     /// (`kinect_v1`, `kinect_v2`).
     pub fn parse_list(names: &str, noise: Option<&str>) -> Result<Vec<Self>> {
         let noise = match noise {
@@ -83,7 +83,10 @@ impl CaptureConditions {
             .map(|n| match n.trim() {
                 "clean" => Ok(Self::clean()),
                 "user" => Ok(CaptureConditions { noise: noise.or(Self::user().noise), ..Self::user() }),
-                other => Err(Error::invalid(format!("unknown capture conditions {other:?}: use user or clean"))),
+                // Diagnostic settings: one of the user conditions at a time.
+                "noisy" => Ok(CaptureConditions { name: "noisy".into(), noise: noise.or(Self::user().noise), fit_error: FitError::NONE, ..Self::user() }),
+                "misfit" => Ok(CaptureConditions { name: "misfit".into(), noise: None, ..Self::user() }),
+                other => Err(Error::invalid(format!("unknown capture conditions {other:?}: use user, clean, noisy (depth noise only) or misfit (fitting errors only)"))),
             })
             .collect()
     }

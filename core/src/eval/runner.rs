@@ -35,8 +35,10 @@ pub struct EvalConfig {
     pub metrics: MetricOptions,
     /// Add the ground truth scored against itself (a sanity row: Dp = Df = 0, NC = 1).
     pub ground_truth_row: bool,
-    /// Where fine-tuning captures are written (removed afterwards).
+    /// Where fine-tuning captures are written (removed afterwards unless `keep_captures`).
     pub workdir: PathBuf,
+    /// Keep the fine-tuning captures in `workdir` (to inspect or fit them by hand).
+    pub keep_captures: bool,
     pub seed: u64,
     /// Write `eval-OUTFIT.png` here for every outfit: the truth and every row at
     /// `dataset::SHEET_POSE`, front and side, for the first subject and the first setting.
@@ -57,6 +59,7 @@ impl EvalConfig {
             metrics: MetricOptions::default(),
             ground_truth_row: true,
             workdir: std::env::temp_dir().join(format!("avatar-studio-eval-{}", std::process::id())),
+            keep_captures: false,
             seed: 0,
             contact_sheets: None,
         }
@@ -176,7 +179,9 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
                     a.metrics.extend(scores);
                     a.seconds += t.elapsed().as_secs_f64();
                 }
-                let _ = std::fs::remove_dir_all(&capture_dir);
+                if !config.keep_captures {
+                    let _ = std::fs::remove_dir_all(&capture_dir);
+                }
             }
             if let (Some(dir), false) = (&config.contact_sheets, sheet.is_empty()) {
                 std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
@@ -204,7 +209,9 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
             }
         }
     }
-    let _ = std::fs::remove_dir_all(&config.workdir);
+    if !config.keep_captures {
+        let _ = std::fs::remove_dir_all(&config.workdir);
+    }
     Ok(Report {
         subjects: config.subjects.clone(),
         outfits: config.outfits.iter().map(|o| o.name().to_string()).collect(),

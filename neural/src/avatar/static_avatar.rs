@@ -83,6 +83,7 @@ impl StaticAvatar {
     pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
         let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
         let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
+        let outside: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.free_space.iter().copied()).collect();
         let device = crate::compute::training_device();
         let model = init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device);
         let prior = capture.sign_prior();
@@ -93,7 +94,7 @@ impl StaticAvatar {
             steps_run.fetch_add(1, Ordering::Relaxed);
             prior(p)
         };
-        let model = fit_sdf(model, &points, &normals, options, &device, Some(&counted), cancel, progress);
+        let model = fit_sdf(model, &points, &normals, &outside, options, &device, Some(&counted), cancel, progress);
         let report = FitReport { frames: capture.frames.len(), points: points.len(), dropped: capture.dropped, warnings: capture.warnings.clone() };
         let mut avatar = Self::from_fitted(capture, siren, &model);
         avatar.header.partial = PartialFit::of(steps_run.load(Ordering::Relaxed).min(options.steps), options.steps);
