@@ -3,7 +3,7 @@
 //! kept, and it starts when the running one finishes. Every finished pose is handed to the UI
 //! (a result is shown rather than dropped while nothing newer is ready).
 
-use crate::studio::avatar_job::{CanonicalMesh, StudioAvatar};
+use crate::studio::avatar::{CanonicalMesh, StudioAvatar};
 use crate::studio::tasks::{take_done, Task, TaskError, Wake};
 use avatar_core::body::{blend_transform, BodyModel, BodyParams, NUM_JOINTS};
 use avatar_core::avatar::AvatarSource;
@@ -189,7 +189,7 @@ pub fn pose(req: &PoseRequest) -> anyhow::Result<PosedMesh> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::studio::avatar_job::body_canonical;
+    use crate::studio::avatar::body_canonical;
 
     #[test]
     fn queued_requests_are_skipped_and_every_finished_pose_is_shown() {

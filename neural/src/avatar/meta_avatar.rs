@@ -8,7 +8,8 @@ use crate::avatar::header::{check_subject, PartialFit};
 use crate::capture_points::CapturePoints;
 use crate::fit::Progress;
 use crate::hyper::{HyperConfig, HyperNet};
-use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
+use crate::avatar::fitting;
+use crate::hyper_fit::HyperFitOptions;
 use crate::model_file::MetaModel;
 use crate::flat_params::{flatten, load_flat};
 use crate::siren_eval::{MetricSdf, SirenEval};
@@ -25,7 +26,7 @@ use burn::tensor::{Device, Tensor};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::AtomicBool;
 
 pub const META_AVATAR_KIND: &str = "meta-hyper";
 
@@ -45,14 +46,14 @@ impl Init<'_> {
         }
     }
 
-    fn config(&self) -> HyperConfig {
+    pub(crate) fn config(&self) -> HyperConfig {
         match self {
             Init::MetaLearned(m) => m.header.config,
             Init::Scratch { config, .. } => *config,
         }
     }
 
-    fn network(&self) -> HyperNet {
+    pub(crate) fn network(&self) -> HyperNet {
         match self {
             Init::MetaLearned(m) => m.hyper_net(),
             Init::Scratch { config, seed } => {
@@ -108,59 +109,15 @@ impl MetaAvatar {
         Ok(Self::fit_points(&capture, init, options, cancel, progress))
     }
 
-    /// Fine-tune on a canonicalized capture: every frame is one pose sample.
+    /// Fine-tune on a canonicalized capture: every frame is one pose sample (one chunk of
+    /// [`crate::avatar::fitting::fit_avatar`]).
     pub fn fit_points(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
-        Self::fit_points_in_chunks(capture, init, options, None, cancel, progress)
-    }
-
-    /// Like [`MetaAvatar::fit_points`], but with `Some((every, look))` the fit runs in chunks
-    /// of `every` steps (the optimisers' state carried over; each chunk draws its batches from
-    /// seed + steps done) and `look` sees the partial avatar after each chunk but the last:
-    /// the studio's live preview. `look` may block (a test holds the job there).
-    pub fn fit_points_in_chunks(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, mut chunks: Option<(usize, &mut dyn FnMut(usize, &MetaAvatar))>, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
-        let config = init.config();
-        let samples = capture.pose_samples(config.encoding);
-        let device = crate::compute::training_device();
-        let prior = capture.sign_prior();
-        let mut optimisers = HyperOptimisers::default();
-        let mut model = init.network().fork(&device);
-        // A frozen encoder keeps meta-learned pose features; a random one must learn (the
-        // from-scratch baseline trains it at the reference's 1e-4).
-        let options = &match init {
-            Init::Scratch { .. } if options.lr_encoder == 0.0 => HyperFitOptions { lr_encoder: SCRATCH_ENCODER_RATE, ..options.clone() },
-            _ => options.clone(),
-        };
-        let every = chunks.as_ref().map_or(options.steps, |(every, _)| (*every).clamp(1, options.steps.max(1)));
-        // The fit calls the sign prior once a step: its calls are the steps that ran when a
-        // cancel stops it early (neural/tests/partial_fit.rs checks the count).
-        let steps_run = AtomicUsize::new(0);
-        let counted = |p: &[Vec3]| {
-            steps_run.fetch_add(1, Ordering::Relaxed);
-            prior(p)
-        };
-        let mut done = 0;
-        while done < options.steps && !cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-            let n = every.min(options.steps - done);
-            let chunk_options = HyperFitOptions { steps: n, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
-            let base = done;
-            let mut chunk_progress = |step: usize, loss: f32, terms: [f32; 4]| progress(base + step, loss, terms);
-            model = fit_hyper(model, &samples, &chunk_options, &mut optimisers, &device, Some(&counted), cancel, &mut chunk_progress);
-            done = steps_run.load(Ordering::Relaxed).min(base + n);
-            if done < base + n {
-                break;
-            }
-            if let Some((_, look)) = chunks.as_mut()
-                && done < options.steps
-            {
-                look(done, &Self::from_fitted(capture, init, done, options.steps, &model).0);
-            }
-        }
-        Self::from_fitted(capture, init, done, options.steps, &model)
+        fitting::fit_meta(capture, init, options, 0, cancel, &mut fitting::progress_only(progress))
     }
 
     /// The avatar of a fitted hypernetwork (inference copy of its weights) after `done` of
     /// `requested` steps.
-    fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet) -> (MetaAvatar, FitReport) {
+    pub(crate) fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet) -> (MetaAvatar, FitReport) {
         let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = MetaAvatarHeader {
             format: AVATAR_FORMAT.into(),

@@ -1,15 +1,17 @@
 //! The avatar, in one place: what a fitted avatar is (the two kinds: a pose-dependent
 //! MetaAvatar and a static SDF), how its file is laid out and checked (`header`, `body`), how it
-//! is fitted (`MetaAvatar::fit_points_in_chunks`, `StaticAvatar::fit_points`) and loaded
+//! is fitted (`fitting::fit_avatar`, one chunked entry point for both kinds) and loaded
 //! (`AnyAvatar::load`, routed by the header's kind). Posing and export see an avatar through
 //! `avatar_core::avatar::AvatarSource`, which both kinds implement.
 
 pub mod body;
+pub mod fitting;
 pub mod header;
 pub mod meta_avatar;
 pub mod static_avatar;
 
 use crate::weights_file;
+pub use fitting::{fit_avatar, AvatarFit, FitEvent, FitKind};
 pub use header::PartialFit;
 pub use meta_avatar::{Init, MetaAvatar, META_AVATAR_KIND};
 pub use static_avatar::{FitReport, StaticAvatar, STATIC_AVATAR_KIND};
@@ -43,6 +45,13 @@ impl AnyAvatar {
         match self {
             AnyAvatar::Static(a) => a.header.partial,
             AnyAvatar::Meta(a) => a.header.partial,
+        }
+    }
+
+    pub fn save(&self, path: impl AsRef<std::path::Path>) -> avatar_core::error::Result<()> {
+        match self {
+            AnyAvatar::Static(a) => a.save(path),
+            AnyAvatar::Meta(a) => a.save(path),
         }
     }
 

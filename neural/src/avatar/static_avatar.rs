@@ -6,7 +6,7 @@
 use crate::avatar::body::{self as avatar_body, BodySection};
 use crate::avatar::header::{check_subject, PartialFit};
 use crate::capture_points::CapturePoints;
-use crate::fit::{fit_sdf, FitOptions, Progress};
+use crate::fit::{FitOptions, Progress};
 use crate::siren_eval::MetricSdf;
 use crate::flat_params::{flatten, load_flat};
 use crate::siren::{Siren, SirenConfig};
@@ -21,7 +21,7 @@ use burn::module::Module;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::AtomicBool;
 
 /// The header kind of a static-SDF avatar file.
 pub const STATIC_AVATAR_KIND: &str = "static-sdf";
@@ -79,30 +79,15 @@ impl StaticAvatar {
         Ok(Self::fit_points(&capture, siren, init, options, cancel, progress))
     }
 
-    /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose).
+    /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose) with
+    /// these options (one chunk of `fitting::fit_static`; the avatars of `fit_avatar` take
+    /// theirs from `HyperFitOptions::static_equivalent`).
     pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
-        let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
-        let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
-        let device = crate::compute::training_device();
-        let model = init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device);
-        let prior = capture.sign_prior();
-        // The fit calls the sign prior once a step: its calls are the steps that ran when a
-        // cancel stops it early (neural/tests/partial_fit.rs checks the count).
-        let steps_run = AtomicUsize::new(0);
-        let counted = |p: &[Vec3]| {
-            steps_run.fetch_add(1, Ordering::Relaxed);
-            prior(p)
-        };
-        let model = fit_sdf(model, &points, &normals, options, &device, Some(&counted), cancel, progress);
-        let report = FitReport { frames: capture.frames.len(), points: points.len(), dropped: capture.dropped, warnings: capture.warnings.clone() };
-        let mut avatar = Self::from_fitted(capture, siren, &model);
-        avatar.header.partial = PartialFit::of(steps_run.load(Ordering::Relaxed).min(options.steps), options.steps);
-        (avatar, report)
+        crate::avatar::fitting::fit_static(capture, siren, init, options, 0, cancel, &mut crate::avatar::fitting::progress_only(progress))
     }
 
-    /// The avatar of a SIREN fitted to a canonicalized capture (for callers that run the fit
-    /// themselves, like the studio's chunked job).
-    pub fn from_fitted(capture: &CapturePoints, siren: SirenConfig, model: &Siren) -> StaticAvatar {
+    /// The avatar of a SIREN fitted to a canonicalized capture (not marked partial).
+    pub(crate) fn from_fitted(capture: &CapturePoints, siren: SirenConfig, model: &Siren) -> StaticAvatar {
         let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = AvatarHeader {
             format: AVATAR_FORMAT.into(),
