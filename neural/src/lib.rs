@@ -6,7 +6,6 @@
 pub mod avatar;
 pub mod encoder;
 pub mod eval_rows;
-pub mod bench;
 pub mod capture_points;
 pub mod compute;
 pub mod fit;

@@ -1,7 +1,6 @@
 //! Subcommands, one module each. Each module exposes `Args` (clap) and `run`.
 
 mod bench;
-mod bench_train;
 mod body;
 mod canonicalize;
 mod eval;

@@ -183,6 +183,24 @@ impl MetaAvatar {
         MetricSdf { siren: SirenEval::from_tensors(&w, &b), normalisation: self.header.normalisation }
     }
 
+    /// [`MetaAvatar::sdf_at`] through burn's forward (the path before `siren_eval`, kept as its
+    /// reference: the bench compares the two).
+    pub fn burn_sdf_at(&self, params: &BodyParams) -> impl Fn(&[Vec3]) -> Vec<f32> + Sync + use<> {
+        use rayon::prelude::*;
+        let (w, b) = self.siren_at(params);
+        let (n, device) = (self.header.normalisation, self.device.clone());
+        move |points: &[Vec3]| -> Vec<f32> {
+            points
+                .par_chunks(points.len().div_ceil(rayon::current_num_threads().max(1)).clamp(1024, 16_384))
+                .flat_map_iter(|chunk| {
+                    let flat: Vec<f32> = chunk.iter().flat_map(|p| n.to_unit(*p).to_array()).collect();
+                    let f = crate::siren::sdf_only(&w, &b, Tensor::from_data(burn::tensor::TensorData::new(flat, [chunk.len(), 3]), &device));
+                    f.into_data().as_slice::<f32>().expect("f32 tensor").iter().map(|v| v * n.metres_per_unit()).collect::<Vec<f32>>()
+                })
+                .collect()
+        }
+    }
+
     /// The clothed surface at a pose in canonical space (metres).
     pub fn canonical_mesh_at(&self, params: &BodyParams, resolution: usize) -> Result<TriMesh> {
         let sdf = self.sdf_at(params);
