@@ -5,12 +5,14 @@
 
 pub mod amass;
 pub mod depth_png;
+pub mod frame_error;
 pub mod import;
 pub mod manifest;
 pub mod open;
 pub mod plausibility;
 pub mod points;
 pub mod scan;
+pub mod units;
 
 pub use depth_png::{read_depth_png, read_mask_png, write_depth_png, write_mask_png, DepthImage};
 pub use manifest::{BodyModelRef, CaptureManifest, FrameRecord, Intrinsics, DEPTH_SCALE_MM, DEPTH_SCALE_TUM, MANIFEST_FILE};

@@ -33,8 +33,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-/// Metres to centimetres.
-pub const CM: f32 = 100.0;
+pub use super::surface_error::CM;
 
 /// Sampling settings of the metrics that sample (IoU, Chamfer).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -13,7 +13,7 @@ use super::report::RowInput;
 use crate::body::{BodyModel, BodyParams};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use crate::motion::{clip_by_name, MotionClip};
+use crate::motion::MotionClip;
 use crate::synth::contact_sheet::write_view_sheet;
 use crate::synth::{canonical_surface, generate_capture, pose_surface, subject_betas, ClothedTemplate, PoseFeatures, SynthJob, ALL_OUTFITS};
 use glam::Vec3;
@@ -75,7 +75,7 @@ impl EvalConfig {
 }
 
 fn clip(name: &str) -> Result<MotionClip> {
-    clip_by_name(name).ok_or_else(|| Error::invalid(format!("unknown motion clip {name:?}")))
+    crate::motion::library_clip(name)
 }
 
 /// The query pose of a clip frame for a subject: the subject's shape, horizontal drift removed

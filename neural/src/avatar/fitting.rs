@@ -8,14 +8,16 @@
 //! Training runs where `crate::compute::select` chose (`training_device`).
 
 use crate::avatar::meta_avatar::{Init, MetaAvatar, SCRATCH_ENCODER_RATE};
-use crate::avatar::static_avatar::{FitReport, StaticAvatar};
+use crate::avatar::static_avatar::StaticAvatar;
 use crate::avatar::{AnyAvatar, PartialFit};
 use crate::capture_points::CapturePoints;
-use crate::fit::{fit_sdf_resuming, FitOptions, SdfOptimiser};
+use crate::fit::{fit_sdf_resuming, FitOptions, Progress, SdfOptimiser};
 use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
 use crate::siren::{Siren, SirenConfig};
 use burn::module::Module;
 use glam::Vec3;
+use avatar_core::error::Result;
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Which avatar a fit makes, and where its networks start.
@@ -39,6 +41,21 @@ pub struct AvatarFit<'a> {
     pub chunk: usize,
     /// Set to stop at the next step; the avatar of the steps that ran is returned.
     pub cancel: Option<&'a AtomicBool>,
+}
+
+/// What fitting reports.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitReport {
+    pub frames: usize,
+    pub points: usize,
+    pub dropped: usize,
+    pub warnings: Vec<String>,
+}
+
+impl FitReport {
+    fn of(capture: &CapturePoints) -> FitReport {
+        FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() }
+    }
 }
 
 /// What a fit tells its caller while it runs.
@@ -108,10 +125,10 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
             break;
         }
         if chunk > 0 && done < options.steps {
-            on_event(FitEvent::Partial { done, avatar: AnyAvatar::Meta(MetaAvatar::from_fitted(capture, init, done, options.steps, &model).0) });
+            on_event(FitEvent::Partial { done, avatar: AnyAvatar::Meta(MetaAvatar::from_fitted(capture, init, done, options.steps, &model)) });
         }
     }
-    MetaAvatar::from_fitted(capture, init, done, options.steps, &model)
+    (MetaAvatar::from_fitted(capture, init, done, options.steps, &model), FitReport::of(capture))
 }
 
 /// The static SDF's fit: all frames pooled (the SDF ignores the pose), the capture's sign prior.
@@ -144,8 +161,7 @@ pub(crate) fn fit_static(capture: &CapturePoints, siren: SirenConfig, init: Opti
             on_event(FitEvent::Partial { done, avatar: AnyAvatar::Static(static_avatar(capture, siren, &model, done, options.steps)) });
         }
     }
-    let report = FitReport { frames: capture.frames.len(), points: points.len(), dropped: capture.dropped, warnings: capture.warnings.clone() };
-    (static_avatar(capture, siren, &model, done, options.steps), report)
+    (static_avatar(capture, siren, &model, done, options.steps), FitReport::of(capture))
 }
 
 fn static_avatar(capture: &CapturePoints, siren: SirenConfig, model: &Siren, done: usize, requested: usize) -> StaticAvatar {
@@ -160,5 +176,36 @@ pub(crate) fn progress_only(progress: crate::fit::Progress<'_>) -> impl FnMut(Fi
         if let FitEvent::Progress { step, loss, terms, .. } = e {
             progress(step, loss, terms)
         }
+    }
+}
+
+/// One-chunk fits of either kind with a progress callback (tests, examples and benches).
+impl MetaAvatar {
+    /// Fine-tune on the first `frames` usable frames of a capture.
+    pub fn fit_capture(dir: &Path, frames: usize, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(MetaAvatar, FitReport)> {
+        let capture = CapturePoints::open(dir, frames)?;
+        Ok(Self::fit_points(&capture, init, options, cancel, progress))
+    }
+
+    /// Fine-tune on a canonicalized capture: every frame is one pose sample (one chunk of
+    /// [`crate::avatar::fitting::fit_avatar`]).
+    pub fn fit_points(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
+        fit_meta(capture, init, options, 0, cancel, &mut progress_only(progress))
+    }
+}
+
+impl StaticAvatar {
+    /// Fit to the first `frames` usable frames of a capture, from SIREN's random
+    /// initialisation (`init` None) or from given weights (the static meta-SDF).
+    pub fn fit_capture(dir: &Path, frames: usize, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(StaticAvatar, FitReport)> {
+        let capture = CapturePoints::open(dir, frames)?;
+        Ok(Self::fit_points(&capture, siren, init, options, cancel, progress))
+    }
+
+    /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose) with
+    /// these options (one chunk of `fit_static`; the avatars of `fit_avatar` take theirs
+    /// from `HyperFitOptions::static_equivalent`).
+    pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
+        fit_static(capture, siren, init, options, 0, cancel, &mut progress_only(progress))
     }
 }

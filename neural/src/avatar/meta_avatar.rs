@@ -4,16 +4,12 @@
 //! -> forward skinning.
 
 use crate::avatar::body::{self as avatar_body, BodySection};
-use crate::avatar::header::{check_subject, PartialFit};
+use crate::avatar::header::{avatar_field, check_avatar_header, check_subject, PartialFit, AVATAR_FORMAT};
 use crate::capture_points::CapturePoints;
-use crate::fit::Progress;
 use crate::hyper::{HyperConfig, HyperNet};
-use crate::avatar::fitting;
-use crate::hyper_fit::HyperFitOptions;
 use crate::model_file::MetaModel;
 use crate::flat_params::{flatten, load_flat};
 use crate::siren_eval::{MetricSdf, SirenEval};
-use crate::avatar::static_avatar::{avatar_field, check_avatar_header, FitReport, AVATAR_FORMAT};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
 use avatar_core::canonical::{forward_skin_mesh, Normalisation, SkinningField};
@@ -26,7 +22,6 @@ use burn::tensor::{Device, Tensor};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 pub const META_AVATAR_KIND: &str = "meta-hyper";
 
@@ -103,21 +98,9 @@ pub struct MetaAvatar {
 }
 
 impl MetaAvatar {
-    /// Fine-tune on the first `frames` usable frames of a capture.
-    pub fn fit_capture(dir: &Path, frames: usize, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(MetaAvatar, FitReport)> {
-        let capture = CapturePoints::open(dir, frames)?;
-        Ok(Self::fit_points(&capture, init, options, cancel, progress))
-    }
-
-    /// Fine-tune on a canonicalized capture: every frame is one pose sample (one chunk of
-    /// [`crate::avatar::fitting::fit_avatar`]).
-    pub fn fit_points(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
-        fitting::fit_meta(capture, init, options, 0, cancel, &mut fitting::progress_only(progress))
-    }
-
     /// The avatar of a fitted hypernetwork (inference copy of its weights) after `done` of
     /// `requested` steps.
-    pub(crate) fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet) -> (MetaAvatar, FitReport) {
+    pub(crate) fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet) -> MetaAvatar {
         let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = MetaAvatarHeader {
             format: AVATAR_FORMAT.into(),
@@ -134,9 +117,7 @@ impl MetaAvatar {
             partial: PartialFit::of(done, requested),
             body: section,
         };
-        let report = FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() };
-        let avatar = MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 };
-        (avatar, report)
+        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 }
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {

@@ -11,10 +11,10 @@ pub mod meta_avatar;
 pub mod static_avatar;
 
 use crate::weights_file;
-pub use fitting::{fit_avatar, AvatarFit, FitEvent, FitKind};
+pub use fitting::{fit_avatar, AvatarFit, FitEvent, FitKind, FitReport};
 pub use header::PartialFit;
 pub use meta_avatar::{Init, MetaAvatar, META_AVATAR_KIND};
-pub use static_avatar::{FitReport, StaticAvatar, STATIC_AVATAR_KIND};
+pub use static_avatar::{StaticAvatar, STATIC_AVATAR_KIND};
 
 /// An avatar file of either kind, routed by its header.
 pub enum AnyAvatar {

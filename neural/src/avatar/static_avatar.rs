@@ -1,19 +1,18 @@
 //! A static (pose-independent) SDF avatar fitted from scratch to a capture's canonicalized
 //! depth points: the "static SDF" and "from scratch" baselines of the paper, and the first
-//! avatar the studio can fit, pose and export. The meta-learned hypernetwork avatar replaces
-//! the static SDF with a pose-conditioned one (issue 6).
+//! avatar the studio can fit, pose and export. The meta-learned hypernetwork avatar
+//! (`meta_avatar`) replaces the static SDF with a pose-conditioned one.
 
 use crate::avatar::body::{self as avatar_body, BodySection};
-use crate::avatar::header::{check_subject, PartialFit};
+use crate::avatar::header::{avatar_field, check_avatar_header, check_subject, PartialFit};
 use crate::capture_points::CapturePoints;
-use crate::fit::{FitOptions, Progress};
 use crate::siren_eval::MetricSdf;
 use crate::flat_params::{flatten, load_flat};
 use crate::siren::{Siren, SirenConfig};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights};
-use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
-use avatar_core::error::{Error, Result};
+use avatar_core::canonical::{Normalisation, SkinningField};
+use avatar_core::error::Result;
 use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
@@ -21,15 +20,11 @@ use burn::module::Module;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 /// The header kind of a static-SDF avatar file.
 pub const STATIC_AVATAR_KIND: &str = "static-sdf";
 
-pub const AVATAR_FORMAT: &str = "avatar-studio-avatar";
-/// The newest avatar version this build writes and reads: 1 (open body, no body stored) and 2
-/// (the frozen body of a user's SMPL model stored after the weights: avatar_body.rs).
-pub const AVATAR_VERSION: u32 = avatar_body::VERSION_WITH_BODY;
+pub use crate::avatar::header::{AVATAR_FORMAT, AVATAR_VERSION};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AvatarHeader {
@@ -62,30 +57,7 @@ pub struct StaticAvatar {
     pub resolution: usize,
 }
 
-/// What fitting reports.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FitReport {
-    pub frames: usize,
-    pub points: usize,
-    pub dropped: usize,
-    pub warnings: Vec<String>,
-}
-
 impl StaticAvatar {
-    /// Fit to the first `frames` usable frames of a capture, from SIREN's random
-    /// initialisation (`init` None) or from given weights (the static meta-SDF).
-    pub fn fit_capture(dir: &Path, frames: usize, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(StaticAvatar, FitReport)> {
-        let capture = CapturePoints::open(dir, frames)?;
-        Ok(Self::fit_points(&capture, siren, init, options, cancel, progress))
-    }
-
-    /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose) with
-    /// these options (one chunk of `fitting::fit_static`; the avatars of `fit_avatar` take
-    /// theirs from `HyperFitOptions::static_equivalent`).
-    pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
-        crate::avatar::fitting::fit_static(capture, siren, init, options, 0, cancel, &mut crate::avatar::fitting::progress_only(progress))
-    }
-
     /// The avatar of a SIREN fitted to a canonicalized capture (not marked partial).
     pub(crate) fn from_fitted(capture: &CapturePoints, siren: SirenConfig, model: &Siren) -> StaticAvatar {
         let (body, body_model, version, section) = avatar_body::of_capture(capture);
@@ -140,26 +112,6 @@ impl StaticAvatar {
         let sdf = MetricSdf::of(&model, header.normalisation);
         Ok(StaticAvatar { header, model, sdf, body, field, resolution: 128 })
     }
-}
-
-/// The skinning field of an avatar's body shape (from the cache when it is there).
-pub(crate) fn avatar_field(body: &BodyModel, betas: &[f32], cells: usize) -> Result<SkinningField> {
-    let field_options = FieldOptions { cells_along_height: cells, ..FieldOptions::default() };
-    let cache = default_cache_dir();
-    Ok(Canonicalizer::new(body, betas, &field_options, cache.as_deref())?.field)
-}
-
-/// Refuse avatar files of another format, version or kind with a message naming the file
-/// (read from the header alone, before the rest of the file is parsed).
-pub(crate) fn check_avatar_header(path: &Path, expected_kind: &str) -> Result<()> {
-    let weights_file::Identity { format, version, kind } = weights_file::identity(path)?;
-    if format != AVATAR_FORMAT || !(avatar_body::VERSION_OPEN_BODY..=AVATAR_VERSION).contains(&version) {
-        return Err(Error::file(path, format!("avatar format {format:?} version {version} is not supported by this build (it reads {AVATAR_FORMAT:?} versions 1 to {AVATAR_VERSION})")));
-    }
-    if kind != expected_kind {
-        return Err(Error::file(path, format!("avatar kind {kind:?} is not a {expected_kind:?} avatar")));
-    }
-    Ok(())
 }
 
 impl AvatarSource for StaticAvatar {
