@@ -21,7 +21,8 @@
 //! where the ground truth marks hidden vertices.
 
 use super::occupancy::volumetric_iou;
-use super::sampling::{sample_surface, PointIndex};
+use super::sampling::sample_surface;
+use crate::mesh::point_index::PointIndex;
 use super::surface_error::{region_errors, SampleDistances, SurfaceErrors};
 use crate::body::skeleton::CLOTHED_JOINTS;
 use crate::error::{Error, Result};
