@@ -9,7 +9,7 @@ fn main() -> std::process::ExitCode {
     let args = cli::Cli::parse();
     let result = match args.command {
         None => open_studio(args.studio, started),
-        Some(_) => cli::run(args),
+        Some(command) => cli::run(command),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

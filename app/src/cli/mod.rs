@@ -64,30 +64,18 @@ pub enum Command {
     Bench(bench::Args),
 }
 
-pub fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {
-        None => headless_summary(),
-        Some(Command::Body(a)) => body::run(a),
-        Some(Command::Synth(a)) => synth::run(a),
-        Some(Command::Canonicalize(a)) => canonicalize::run(a),
-        Some(Command::Eval(a)) => eval::run(a),
-        Some(Command::MetaTrain(a)) => meta_train::run(a),
-        Some(Command::Fit(a)) => fit::run(a),
-        Some(Command::Import(a)) => import::run(a),
-        Some(Command::Pose(a)) => pose::run(a),
-        Some(Command::Export(a)) => export::run(a),
-        Some(Command::Bench(a)) => bench::run(a),
+/// Run a subcommand (no subcommand opens the studio: main.rs).
+pub fn run(command: Command) -> anyhow::Result<()> {
+    match command {
+        Command::Body(a) => body::run(a),
+        Command::Synth(a) => synth::run(a),
+        Command::Canonicalize(a) => canonicalize::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::MetaTrain(a) => meta_train::run(a),
+        Command::Fit(a) => fit::run(a),
+        Command::Import(a) => import::run(a),
+        Command::Pose(a) => pose::run(a),
+        Command::Export(a) => export::run(a),
+        Command::Bench(a) => bench::run(a),
     }
-}
-
-/// Until the studio window exists, running with no subcommand poses the embedded body and
-/// reports what is available.
-fn headless_summary() -> anyhow::Result<()> {
-    body::summary()
-}
-
-/// Placeholder error for subcommands whose implementation has not landed yet.
-#[allow(dead_code)]
-pub(crate) fn not_yet(name: &str) -> anyhow::Result<()> {
-    anyhow::bail!("`avatar-studio {name}` is not implemented yet in this build")
 }

@@ -1,5 +1,5 @@
-//! The body an avatar file carries. Part of the avatar file format (static_avatar.rs,
-//! meta_avatar.rs); it moves with that format into neural/src/avatar/ (issue 21).
+//! The body an avatar file carries: part of the avatar file format (with `header`; both kinds,
+//! static_avatar.rs and meta_avatar.rs, store it the same way).
 //!
 //! An avatar fitted on the embedded open body stores only the shape coefficients (version 1
 //! files, unchanged): loading rebuilds the body from the embedded model. An avatar fitted on a
