@@ -11,7 +11,8 @@ use crate::avatar::meta_avatar::{Init, MetaAvatar, SCRATCH_ENCODER_RATE};
 use crate::avatar::static_avatar::StaticAvatar;
 use crate::avatar::{AnyAvatar, PartialFit};
 use crate::capture_points::CapturePoints;
-use crate::fit::{fit_sdf_resuming, FitOptions, Progress, SdfOptimiser};
+use crate::fit::{fit_sdf_resuming, FitOptions, Progress, SdfOptimiser, SignPrior};
+use crate::hyper::HyperNet;
 use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
 use crate::siren::{Siren, SirenConfig};
 use burn::module::Module;
@@ -91,44 +92,64 @@ fn chunk_len(chunk: usize, steps: usize) -> usize {
     if chunk == 0 { steps.max(1) } else { chunk.clamp(1, steps.max(1)) }
 }
 
-/// The hypernetwork's fine-tuning: every frame of the capture is one pose sample.
-pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, chunk: usize, cancel: Option<&AtomicBool>, on_event: &mut dyn FnMut(FitEvent)) -> (MetaAvatar, FitReport) {
-    let config = init.config();
-    let samples = capture.pose_samples(config.encoding);
-    let device = crate::compute::training_device();
-    let prior = capture.sign_prior();
-    let mut optimisers = HyperOptimisers::default();
-    let mut model = init.network().fork(&device);
-    // A frozen encoder keeps meta-learned pose features; a random one must learn (the
-    // from-scratch baseline trains it at the reference's 1e-4).
-    let options = &match init {
-        Init::Scratch { .. } if options.lr_encoder == 0.0 => HyperFitOptions { lr_encoder: SCRATCH_ENCODER_RATE, ..options.clone() },
-        _ => options.clone(),
-    };
-    let every = chunk_len(chunk, options.steps);
-    // The fit calls the sign prior once a step: its calls are the steps that ran when a
-    // cancel stops it early (neural/tests/partial_fit.rs checks the count).
+/// What the chunk loop asks of a kind's fit: run `steps` more steps (after `done`) with the
+/// counting prior and the progress callback, or make the partial avatar after `done` steps.
+enum Chunk<'a> {
+    Run { steps: usize, done: usize, prior: SignPrior<'a>, progress: Progress<'a> },
+    Partial(usize),
+}
+
+/// The chunk loop both kinds share; returns the steps that ran. The fit calls the sign prior
+/// once a step: its calls are the steps that ran when a cancel stops it early
+/// (neural/tests/partial_fit.rs checks the count).
+fn in_chunks(steps: usize, chunk: usize, cancel: Option<&AtomicBool>, prior: SignPrior, on_event: &mut dyn FnMut(FitEvent), fit: &mut dyn FnMut(Chunk) -> Option<AnyAvatar>) -> usize {
+    let every = chunk_len(chunk, steps);
     let steps_run = AtomicUsize::new(0);
     let counted = |p: &[Vec3]| {
         steps_run.fetch_add(1, Ordering::Relaxed);
         prior(p)
     };
     let mut done = 0;
-    while done < options.steps && !cancelled(cancel) {
-        let n = every.min(options.steps - done);
-        let chunk_options = HyperFitOptions { steps: n, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
-        let base = done;
-        let mut progress = |step: usize, loss: f32, terms: [f32; 4]| on_event(FitEvent::Progress { step: base + step, steps: options.steps, loss, terms });
-        model = fit_hyper(model, &samples, &chunk_options, &mut optimisers, &device, Some(&counted), cancel, &mut progress);
+    while done < steps && !cancelled(cancel) {
+        let (n, base) = (every.min(steps - done), done);
+        let mut progress = |step: usize, loss: f32, terms: [f32; 4]| on_event(FitEvent::Progress { step: base + step, steps, loss, terms });
+        fit(Chunk::Run { steps: n, done: base, prior: &counted, progress: &mut progress });
         done = steps_run.load(Ordering::Relaxed).min(base + n);
         if done < base + n {
             break;
         }
-        if chunk > 0 && done < options.steps {
-            on_event(FitEvent::Partial { done, avatar: AnyAvatar::Meta(MetaAvatar::from_fitted(capture, init, done, options.steps, &model)) });
+        if chunk > 0
+            && done < steps
+            && let Some(avatar) = fit(Chunk::Partial(done))
+        {
+            on_event(FitEvent::Partial { done, avatar });
         }
     }
-    (MetaAvatar::from_fitted(capture, init, done, options.steps, &model), FitReport::of(capture))
+    done
+}
+
+/// The hypernetwork's fine-tuning: every frame of the capture is one pose sample.
+pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, chunk: usize, cancel: Option<&AtomicBool>, on_event: &mut dyn FnMut(FitEvent)) -> (MetaAvatar, FitReport) {
+    let samples = capture.pose_samples(init.config().encoding);
+    let device = crate::compute::training_device();
+    let mut optimisers = HyperOptimisers::default();
+    let mut model = Some(init.network().fork(&device));
+    // A frozen encoder keeps meta-learned pose features; a random one must learn (the
+    // from-scratch baseline trains it at the reference's 1e-4).
+    let options = &match init {
+        Init::Scratch { .. } if options.lr_encoder == 0.0 => HyperFitOptions { lr_encoder: SCRATCH_ENCODER_RATE, ..options.clone() },
+        _ => options.clone(),
+    };
+    let avatar = |model: &HyperNet, done: usize| MetaAvatar::from_fitted(capture, init, done, options.steps, model);
+    let done = in_chunks(options.steps, chunk, cancel, &capture.sign_prior(), on_event, &mut |c| match c {
+        Chunk::Run { steps, done, prior, progress } => {
+            let chunk_options = HyperFitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
+            model = model.take().map(|m| fit_hyper(m, &samples, &chunk_options, &mut optimisers, &device, Some(prior), cancel, progress));
+            None
+        }
+        Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Meta(avatar(m, done))),
+    });
+    (avatar(&model.expect("the fit returns its network"), done), FitReport::of(capture))
 }
 
 /// The static SDF's fit: all frames pooled (the SDF ignores the pose), the capture's sign prior.
@@ -136,32 +157,17 @@ pub(crate) fn fit_static(capture: &CapturePoints, siren: SirenConfig, init: Opti
     let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
     let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
     let device = crate::compute::training_device();
-    let mut model = init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device);
-    let prior = capture.sign_prior();
+    let mut model = Some(init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device));
     let mut optimiser = SdfOptimiser::default();
-    let every = chunk_len(chunk, options.steps);
-    // As in `fit_meta`: the prior's calls count the steps that ran.
-    let steps_run = AtomicUsize::new(0);
-    let counted = |p: &[Vec3]| {
-        steps_run.fetch_add(1, Ordering::Relaxed);
-        prior(p)
-    };
-    let mut done = 0;
-    while done < options.steps && !cancelled(cancel) {
-        let n = every.min(options.steps - done);
-        let chunk_options = FitOptions { steps: n, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
-        let base = done;
-        let mut progress = |step: usize, loss: f32, terms: [f32; 4]| on_event(FitEvent::Progress { step: base + step, steps: options.steps, loss, terms });
-        model = fit_sdf_resuming(model, &points, &normals, &chunk_options, &mut optimiser, &device, Some(&counted), cancel, &mut progress);
-        done = steps_run.load(Ordering::Relaxed).min(base + n);
-        if done < base + n {
-            break;
+    let done = in_chunks(options.steps, chunk, cancel, &capture.sign_prior(), on_event, &mut |c| match c {
+        Chunk::Run { steps, done, prior, progress } => {
+            let chunk_options = FitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
+            model = model.take().map(|m| fit_sdf_resuming(m, &points, &normals, &chunk_options, &mut optimiser, &device, Some(prior), cancel, progress));
+            None
         }
-        if chunk > 0 && done < options.steps {
-            on_event(FitEvent::Partial { done, avatar: AnyAvatar::Static(static_avatar(capture, siren, &model, done, options.steps)) });
-        }
-    }
-    (static_avatar(capture, siren, &model, done, options.steps), FitReport::of(capture))
+        Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Static(static_avatar(capture, siren, m, done, options.steps))),
+    });
+    (static_avatar(capture, siren, &model.expect("the fit returns its network"), done, options.steps), FitReport::of(capture))
 }
 
 fn static_avatar(capture: &CapturePoints, siren: SirenConfig, model: &Siren, done: usize, requested: usize) -> StaticAvatar {
