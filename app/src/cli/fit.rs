@@ -42,16 +42,14 @@ pub struct Args {
     /// Network preset for --from-scratch: compact or paper.
     #[arg(long, default_value = "compact")]
     preset: String,
-    /// cpu (the training path), gpu in a build with the `gpu` feature (`cargo build --release --features gpu`), or
-    /// cpu-burn (burn's autodiff on the CPU: the reference, about 5x slower).
-    #[arg(long, default_value = "cpu")]
-    device: String,
+    #[command(flatten)]
+    device: super::DeviceArg,
     #[arg(long, default_value_t = 0)]
     seed: u64,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&args.device)?);
+    args.device.select()?;
     if args.steps == 0 || args.frames == 0 {
         bail!("--steps and --frames must be at least 1");
     }

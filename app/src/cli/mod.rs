@@ -79,3 +79,20 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(a),
     }
 }
+
+/// Where training runs (`fit`, `meta-train`).
+#[derive(clap::Args)]
+pub struct DeviceArg {
+    /// cpu (the training path), gpu in a build with the `gpu` feature (`cargo build --release --features gpu`), or
+    /// cpu-burn (burn's autodiff on the CPU: the reference, about 5x slower).
+    #[arg(long, default_value = "cpu")]
+    device: String,
+}
+
+impl DeviceArg {
+    /// Select it for the fits of this process (`avatar_neural::compute`).
+    pub fn select(&self) -> anyhow::Result<()> {
+        avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&self.device)?);
+        Ok(())
+    }
+}
