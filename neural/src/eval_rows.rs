@@ -77,7 +77,7 @@ impl Predictor for NeuralRow {
 
     fn predict(&self, params: &BodyParams) -> Result<TriMesh> {
         match &self.fitted {
-            Some(Fitted::Hyper(a)) => a.posed_mesh(params),
+            Some(Fitted::Hyper(a)) => Ok(a.posed_mesh(params)?),
             Some(Fitted::Static(a, canonical)) => {
                 let mut p = params.clone();
                 p.betas = a.betas().to_vec();

@@ -13,7 +13,7 @@ use crate::meta_data::MetaData;
 use crate::model_file::MetaModel;
 use crate::flat_params::{flatten, load_flat, reptile_gradients};
 use crate::weights_file;
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use burn::optim::AdamConfig;
 use rand::seq::index::sample as sample_indices;
 use rand::{Rng, SeedableRng};

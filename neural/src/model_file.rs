@@ -7,7 +7,7 @@ use crate::hyper::{HyperConfig, HyperNet};
 use crate::flat_params::flatten;
 use crate::siren::Siren;
 use crate::weights_file;
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

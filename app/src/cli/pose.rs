@@ -66,7 +66,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             std::fs::create_dir_all(&args.out).map_err(|e| anyhow::anyhow!("{}: {e}", args.out.display()))?;
             let mut vertices = 0;
             for (i, params) in clip.frames.iter().enumerate() {
-                let mesh = a.posed_mesh(params).map_err(in_avatar)?;
+                let mesh = a.posed_mesh(params).map_err(avatar_core::Error::from).map_err(in_avatar)?;
                 vertices += mesh.positions.len();
                 write_mesh(name(i), &mesh)?;
             }

@@ -18,7 +18,7 @@
 
 use crate::capture_points::CapturePoints;
 use avatar_core::body::{open_body_ref, BodyModel, Weights, NUM_JOINTS};
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -145,5 +145,5 @@ fn decode(s: &BodySection, data: &[f32]) -> Result<BodyModel> {
         return Err(bad("more skinning weights than counted"));
     }
     let joints: [Vec3; NUM_JOINTS] = vec3s(joints).try_into().expect("24 joints");
-    BodyModel::from_frozen_parts(&format!("{} (frozen in the avatar)", s.label), vec3s(rest), faces, weights, joints)
+    Ok(BodyModel::from_frozen_parts(&format!("{} (frozen in the avatar)", s.label), vec3s(rest), faces, weights, joints)?)
 }

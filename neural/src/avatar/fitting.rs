@@ -17,7 +17,7 @@ use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
 use crate::siren::{Siren, SirenConfig};
 use burn::module::Module;
 use glam::Vec3;
-use avatar_core::error::Result;
+use crate::error::Result;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 

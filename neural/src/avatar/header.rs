@@ -7,7 +7,7 @@ use crate::avatar::body as avatar_body;
 use crate::weights_file;
 use avatar_core::body::{check_betas, BodyModel};
 use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField, FIELD_CELLS};
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

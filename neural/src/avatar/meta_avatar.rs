@@ -13,7 +13,7 @@ use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
 use avatar_core::canonical::{forward_skin_mesh, Normalisation, SkinningField};
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
@@ -217,14 +217,14 @@ impl AvatarSource for MetaAvatar {
     fn betas(&self) -> &[f32] {
         &self.header.betas
     }
-    fn canonical_mesh(&self, params: &BodyParams) -> Result<TriMesh> {
-        self.canonical_mesh_at(params, self.resolution)
+    fn canonical_mesh(&self, params: &BodyParams) -> avatar_core::Result<TriMesh> {
+        Ok(self.canonical_mesh_at(params, self.resolution)?)
     }
-    fn sdf(&self, params: &BodyParams, points: &[Vec3]) -> Result<Vec<f32>> {
+    fn sdf(&self, params: &BodyParams, points: &[Vec3]) -> avatar_core::Result<Vec<f32>> {
         Ok(self.sdf_at(params).sdf(points))
     }
     /// Newton steps with the analytic gradient (reverse mode, `siren_eval`).
-    fn project(&self, params: &BodyParams, points: &[Vec3], steps: usize) -> Result<Vec<Vec3>> {
+    fn project(&self, params: &BodyParams, points: &[Vec3], steps: usize) -> avatar_core::Result<Vec<Vec3>> {
         Ok(self.sdf_at(params).project(points, steps))
     }
     fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights> {

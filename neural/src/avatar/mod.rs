@@ -33,13 +33,13 @@ pub enum AnyAvatar {
 }
 
 impl AnyAvatar {
-    pub fn load(path: impl AsRef<std::path::Path>) -> avatar_core::error::Result<AnyAvatar> {
+    pub fn load(path: impl AsRef<std::path::Path>) -> crate::error::Result<AnyAvatar> {
         let path = path.as_ref();
         let id = weights_file::identity(path)?;
         match id.kind.as_str() {
             STATIC_AVATAR_KIND => Ok(AnyAvatar::Static(StaticAvatar::load(path)?)),
             META_AVATAR_KIND => Ok(AnyAvatar::Meta(MetaAvatar::load(path)?)),
-            other => Err(avatar_core::error::Error::file(path, format!("{other:?} is not an avatar this build can load ({STATIC_AVATAR_KIND} or {META_AVATAR_KIND})"))),
+            other => Err(crate::error::Error::AvatarKind { path: path.into(), kind: other.into(), known: format!("{STATIC_AVATAR_KIND} or {META_AVATAR_KIND}") }),
         }
     }
 
@@ -58,7 +58,7 @@ impl AnyAvatar {
         }
     }
 
-    pub fn save(&self, path: impl AsRef<std::path::Path>) -> avatar_core::error::Result<()> {
+    pub fn save(&self, path: impl AsRef<std::path::Path>) -> crate::error::Result<()> {
         match self {
             AnyAvatar::Static(a) => a.save(path),
             AnyAvatar::Meta(a) => a.save(path),

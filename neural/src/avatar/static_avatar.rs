@@ -12,7 +12,7 @@ use crate::siren::{Siren, SirenConfig};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights};
 use avatar_core::canonical::{Normalisation, SkinningField};
-use avatar_core::error::Result;
+use crate::error::Result;
 use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
@@ -123,7 +123,7 @@ impl AvatarSource for StaticAvatar {
     }
     /// Pose-independent: the same canonical surface for every pose (coarse-to-fine marching
     /// cubes over the normalised cube, largest component).
-    fn canonical_mesh(&self, _params: &BodyParams) -> Result<TriMesh> {
+    fn canonical_mesh(&self, _params: &BodyParams) -> avatar_core::Result<TriMesh> {
         let n = self.header.normalisation;
         let (lo, hi) = (n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)));
         // The quarter-diagonal refinement margin of the meta avatar (see its canonical_mesh_at).
@@ -131,14 +131,14 @@ impl AvatarSource for StaticAvatar {
         options.margin = 0.25;
         Ok(extract(|p: &[Vec3]| self.sdf_metres(p), &options)?.mesh)
     }
-    fn sdf(&self, _params: &BodyParams, points: &[Vec3]) -> Result<Vec<f32>> {
+    fn sdf(&self, _params: &BodyParams, points: &[Vec3]) -> avatar_core::Result<Vec<f32>> {
         Ok(self.sdf_metres(points))
     }
     fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights> {
         points.iter().map(|&p| self.field.weights_at(p)).collect()
     }
     /// The surface does not change with the pose: reference vertices already lie on it.
-    fn project(&self, _params: &BodyParams, points: &[Vec3], _steps: usize) -> Result<Vec<Vec3>> {
+    fn project(&self, _params: &BodyParams, points: &[Vec3], _steps: usize) -> avatar_core::Result<Vec<Vec3>> {
         Ok(points.to_vec())
     }
 }
