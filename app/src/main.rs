@@ -9,7 +9,7 @@ fn main() -> std::process::ExitCode {
     let args = cli::Cli::parse();
     let result = match args.command {
         None => open_studio(args.studio, started),
-        Some(_) => cli::run(args),
+        Some(command) => cli::run(command),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -36,6 +36,6 @@ fn open_studio(args: cli::StudioArgs, started: std::time::Instant) -> anyhow::Re
         screenshot,
         started: Some(started),
         timing: args.timing || std::env::var_os("AVATAR_STUDIO_TIMING").is_some(),
-        auto_fit: args.quick_fit.then(avatar_studio::studio::avatar_job::FitConfig::tiny),
+        auto_fit: args.quick_fit.then(avatar_studio::studio::fit_config::FitConfig::tiny),
     })
 }

@@ -20,7 +20,7 @@ fn fits_the_demo_from_the_shipped_meta_model_and_writes_a_loadable_avatar() {
     assert_eq!(avatar.header.config, avatar_neural::HyperConfig::compact());
     assert_eq!((avatar.header.init.as_str(), avatar.header.frames, avatar.header.steps), ("meta-learned", 2, 3));
     // The studio opens it as a pose-dependent avatar.
-    let studio_avatar = avatar_studio::studio::avatar_job::load_avatar(&out, 32).unwrap();
+    let studio_avatar = avatar_studio::studio::avatar::load_avatar(&out, 32).unwrap();
     assert!(studio_avatar.pose_dependent() && studio_avatar.describe().contains("meta-learned"), "{}", studio_avatar.describe());
 
     // The static SDF from the static meta-SDF, and `pose` over the meta avatar.

@@ -2,7 +2,7 @@
 //! scripts/test.sh sets WGPU_BACKEND=vulkan). Snapshots live in tests/snapshots/ and are
 //! (re)written with UPDATE_SNAPSHOTS=1.
 
-use avatar_studio::studio::avatar_job::FitConfig;
+use avatar_studio::studio::fit_config::FitConfig;
 use avatar_studio::studio::camera::Preset;
 use avatar_studio::studio::project::ViewMode;
 use avatar_studio::studio::settings::ScriptedDialogs;
@@ -81,10 +81,10 @@ fn demo_fit_and_pose_snapshots() {
     snap(&mut h, "demo_loaded", &tolerant(200));
 
     // A fine-tuning job held after its first chunk: progress, plot and the partial result.
-    let (gate_tx, gate_rx) = crossbeam_channel::bounded::<()>(0);
     let dir = h.state().capture.as_ref().unwrap().dir.clone();
     let ctx = h.ctx.clone();
-    let job = avatar_studio::studio::avatar_job::FitJob::start_gated(dir, test_fit(), move || ctx.request_repaint(), Some(gate_rx));
+    let job = avatar_studio::studio::avatar_job::FitJob::start(dir, test_fit(), move || ctx.request_repaint());
+    job.pause();
     h.state_mut().apply(Command::WatchFit(job));
     h.state_mut().set_mode(ViewMode::Canonical);
     let t = Instant::now();
@@ -104,7 +104,7 @@ fn demo_fit_and_pose_snapshots() {
     snap(&mut h, "fit_in_progress", &tolerant(3000));
 
     // Let it finish: the avatar replaces the partial result.
-    drop(gate_tx);
+    h.state().job.as_ref().unwrap().resume();
     settle(&mut h, "finishing the fit");
     assert!(h.state().avatar.is_some(), "the fit produced an avatar: {:?}", h.state().status);
     h.state_mut().set_mode(ViewMode::Posed);
@@ -282,7 +282,7 @@ fn frames_with_problems_are_flagged_with_the_reason() {
 #[test]
 fn pose_dependent_avatars_are_projected_per_pose() {
     use avatar_core::export::{AvatarSource, SyntheticAvatar};
-    use avatar_studio::studio::avatar_job::{canonical_of, StudioAvatar};
+    use avatar_studio::studio::avatar::{canonical_of, StudioAvatar};
     use avatar_studio::studio::posing::{Posable, PoseWorker};
     use avatar_studio::studio::timeline::Timeline;
     use std::sync::Arc;

@@ -3,10 +3,37 @@
 //! neural avatars (crate avatar-neural) and the synthetic subjects of `export::source`
 //! implement it; the exporter and the studio's poser only ever talk to this trait.
 
-use crate::body::{BodyModel, BodyParams, Weights};
+use crate::body::{blend_transform, BodyModel, BodyParams, Weights, NUM_JOINTS};
 use crate::error::Result;
 use crate::mesh::TriMesh;
-use glam::Vec3;
+use glam::{Mat4, Vec3};
+use rayon::prelude::*;
+
+/// Newton steps projecting a reference mesh onto a pose's surface (`PoseSurface::project`):
+/// the exporter's default and the studio poser's, so the viewport shows what the glTF holds.
+pub const PROJECTION_STEPS: usize = 4;
+
+/// An avatar's canonical surface at a pose on a fixed topology: the vertices of a reference
+/// mesh (extracted once at the rest pose) projected onto the pose's surface, with the skinning
+/// weights at the projected points. The exporter's recipe (its morph targets are these surfaces
+/// skinned) and the studio poser's for a pose-dependent avatar.
+pub struct PoseSurface {
+    pub points: Vec<Vec3>,
+    pub weights: Vec<Weights>,
+}
+
+impl PoseSurface {
+    pub fn project(source: &dyn AvatarSource, params: &BodyParams, reference: &[Vec3], steps: usize) -> Result<PoseSurface> {
+        let points = source.project(params, reference, steps)?;
+        let weights = source.skinning_weights(&points);
+        Ok(PoseSurface { points, weights })
+    }
+
+    /// Linear blend skinning by the pose's bone transforms: the posed points.
+    pub fn skin(&self, bones: &[Mat4; NUM_JOINTS]) -> Vec<Vec3> {
+        self.points.par_iter().zip(&self.weights).map(|(v, w)| blend_transform(bones, w).transform_point3(*v)).collect()
+    }
+}
 
 pub trait AvatarSource: Sync {
     fn body(&self) -> &BodyModel;

@@ -8,7 +8,7 @@ use crate::hyper_fit::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS};
 use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
 use avatar_core::capture::{free_space_samples, Capture, CaptureOptions, FreeSpaceOptions};
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use avatar_core::mesh::bvh::Bvh;
 use glam::Vec3;
 use std::path::{Path, PathBuf};

@@ -5,7 +5,7 @@
 //! The choice is process-wide: the command line sets it once from `--device` before any fit
 //! starts, and every fitting entry point asks [`training_device`].
 
-use avatar_core::error::Error;
+use crate::error::Error;
 use burn::tensor::Device;
 use std::sync::atomic::{AtomicU8, Ordering};
 
@@ -24,13 +24,13 @@ static SELECTED: AtomicU8 = AtomicU8::new(0);
 
 impl Compute {
     /// `cpu` or `gpu`; `gpu` in a build without the `gpu` feature is refused with the reason.
-    pub fn parse(name: &str) -> avatar_core::error::Result<Compute> {
+    pub fn parse(name: &str) -> crate::error::Result<Compute> {
         match name {
             "cpu" => Ok(Compute::Cpu),
             "cpu-burn" => Ok(Compute::CpuBurn),
             "gpu" if cfg!(feature = "gpu") => Ok(Compute::Gpu),
-            "gpu" => Err(Error::invalid("--device gpu: this build has no GPU support (rebuild with `cargo build --release --features gpu`)")),
-            other => Err(Error::invalid(format!("--device {other:?}: expected cpu, gpu or cpu-burn"))),
+            "gpu" => Err(Error::Device { name: name.into(), reason: "this build has no GPU support (rebuild with `cargo build --release --features gpu`)".into() }),
+            other => Err(Error::Device { name: other.into(), reason: "expected cpu, gpu or cpu-burn".into() }),
         }
     }
 

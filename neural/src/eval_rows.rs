@@ -4,9 +4,8 @@
 
 use crate::capture_points::CapturePoints;
 use crate::hyper_fit::HyperFitOptions;
-use crate::avatar::meta_avatar::{Init, MetaAvatar};
+use crate::avatar::{fit_avatar, AnyAvatar, AvatarFit, FitKind, Init, MetaAvatar, StaticAvatar};
 use crate::model_file::MetaModel;
-use crate::avatar::static_avatar::StaticAvatar;
 use avatar_core::body::BodyParams;
 use avatar_core::canonical::forward_skin_mesh;
 use avatar_core::error::{Error, Result};
@@ -56,16 +55,15 @@ impl Predictor for NeuralRow {
 
     fn fit(&mut self, data: &FitData) -> Result<()> {
         let capture = CapturePoints::open(data.capture_dir, self.max_frames)?;
-        let mut progress = |_: usize, _: f32, _: [f32; 4]| {};
-        self.fitted = Some(match self.kind {
-            RowKind::MetaLearned => Fitted::Hyper(MetaAvatar::fit_points(&capture, &Init::MetaLearned(&self.model), &self.options, None, &mut progress).0),
-            RowKind::FromScratch => {
-                let init = Init::Scratch { config: self.model.header.config, seed: self.options.seed };
-                Fitted::Hyper(MetaAvatar::fit_points(&capture, &init, &self.options, None, &mut progress).0)
-            }
-            RowKind::StaticMetaSdf => {
-                let options = self.options.static_equivalent();
-                let (mut avatar, _) = StaticAvatar::fit_points(&capture, self.model.header.config.siren, Some(self.model.static_siren()), &options, None, &mut progress);
+        let kind = match self.kind {
+            RowKind::MetaLearned => FitKind::Meta(Init::MetaLearned(&self.model)),
+            RowKind::FromScratch => FitKind::Meta(Init::Scratch { config: self.model.header.config, seed: self.options.seed }),
+            RowKind::StaticMetaSdf => FitKind::Static { siren: self.model.header.config.siren, init: Some(self.model.static_siren()) },
+        };
+        let fit = AvatarFit { kind, options: self.options.clone(), chunk: 0, cancel: None };
+        self.fitted = Some(match fit_avatar(&capture, &fit, &mut |_| {}).0 {
+            AnyAvatar::Meta(a) => Fitted::Hyper(a),
+            AnyAvatar::Static(mut avatar) => {
                 avatar.resolution = self.resolution;
                 let canonical = avatar.canonical_mesh(&BodyParams::default())?;
                 Fitted::Static(avatar, canonical)
@@ -79,7 +77,7 @@ impl Predictor for NeuralRow {
 
     fn predict(&self, params: &BodyParams) -> Result<TriMesh> {
         match &self.fitted {
-            Some(Fitted::Hyper(a)) => a.posed_mesh(params),
+            Some(Fitted::Hyper(a)) => Ok(a.posed_mesh(params)?),
             Some(Fitted::Static(a, canonical)) => {
                 let mut p = params.clone();
                 p.betas = a.betas().to_vec();

@@ -4,7 +4,7 @@
 use crate::loss::{igr_loss, IgrWeights};
 use crate::siren::Siren;
 use crate::train::{Adam, IgrPoints, SirenGradient, SirenShape};
-use burn::optim::{AdamConfig, GradientsParams};
+use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
@@ -47,29 +47,44 @@ fn to_tensor(v: &[Vec3], device: &Device) -> Tensor<2> {
     Tensor::from_data(TensorData::new(flat, [v.len(), 3]), device)
 }
 
+/// Adam's state of a SIREN fit, kept across calls so that a fit can run in chunks
+/// (`crate::avatar::fitting`); a fresh one starts a new fit.
+#[derive(Default)]
+pub struct SdfOptimiser {
+    burn: Option<ModuleOptimizer>,
+    flat: Option<(SirenGradient, Adam)>,
+}
+
 /// Fit `model` to points (normalised space) with normals, and free-space samples `outside`
 /// (constrained to be outside; may be empty). Stops early when `cancel` is set and
 /// returns the model as it is then (the partial result stays usable).
 #[allow(clippy::too_many_arguments)]
-pub fn fit_sdf(
+pub fn fit_sdf(model: Siren, points: &[Vec3], normals: &[Vec3], outside: &[Vec3], options: &FitOptions, device: &Device, prior: Option<SignPrior>, cancel: Option<&AtomicBool>, progress: Progress) -> Siren {
+    fit_sdf_resuming(model, points, normals, outside, options, &mut SdfOptimiser::default(), device, prior, cancel, progress)
+}
+
+/// [`fit_sdf`] continuing from `optimiser`'s state (Adam's moments and step count).
+#[allow(clippy::too_many_arguments)]
+pub fn fit_sdf_resuming(
     mut model: Siren,
     points: &[Vec3],
     normals: &[Vec3],
     outside: &[Vec3],
     options: &FitOptions,
+    optimiser: &mut SdfOptimiser,
     device: &Device,
     prior: Option<SignPrior>,
     cancel: Option<&AtomicBool>,
     progress: Progress,
 ) -> Siren {
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
-    let mut optim = AdamConfig::new().init();
+    let optim = optimiser.burn.get_or_insert_with(|| AdamConfig::new().init());
     let log_every = (options.steps / 50).max(1);
     // On the CPU the steps run on the training path (`crate::train`), on a GPU through burn.
     let mut flat = crate::compute::flat_training().then(|| {
-        let shape = SirenShape::of(&model.config());
+        let (gradient, adam) = optimiser.flat.get_or_insert_with(|| (SirenGradient::new(SirenShape::of(&model.config())), Adam::default()));
         let params = crate::flat_params::flatten(&model);
-        (SirenGradient::new(shape), Adam::default(), vec![0f32; params.len()], params)
+        (gradient, adam, vec![0f32; params.len()], params)
     });
     for step in 0..options.steps {
         if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {

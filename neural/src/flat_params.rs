@@ -45,10 +45,10 @@ impl ModuleMapper for Load<'_> {
 
 /// Replace every float parameter by the next values of `flat` (same order as [`flatten`]),
 /// keeping parameter ids, devices and trainability. `flat` must have exactly `num_params`.
-pub fn load_flat<M: Module>(module: M, flat: &[f32]) -> avatar_core::error::Result<M> {
+pub fn load_flat<M: Module>(module: M, flat: &[f32]) -> crate::error::Result<M> {
     let expected = module.num_params();
     if flat.len() != expected {
-        return Err(avatar_core::error::Error::invalid(format!("{} weights given, the network has {expected}", flat.len())));
+        return Err(crate::error::Error::invalid(format!("{} weights given, the network has {expected}", flat.len())));
     }
     let mut loader = Load { flat, offset: 0 };
     Ok(module.map(&mut loader))

@@ -67,10 +67,10 @@ impl HyperConfig {
 
     /// Refuse sizes no network of this build has (a corrupt or hostile file header): checked
     /// before any size arithmetic, which then cannot overflow.
-    pub fn check(&self) -> avatar_core::error::Result<()> {
+    pub fn check(&self) -> crate::error::Result<()> {
         self.siren.check()?;
         if !(1..=4096).contains(&self.head_hidden) || self.rank.is_some_and(|r| !(1..=4096).contains(&r)) {
-            return Err(avatar_core::error::Error::invalid(format!("hypernetwork head width {} or rank {:?} out of range (1-4096)", self.head_hidden, self.rank)));
+            return Err(crate::error::Error::invalid(format!("hypernetwork head width {} or rank {:?} out of range (1-4096)", self.head_hidden, self.rank)));
         }
         Ok(())
     }

@@ -72,7 +72,7 @@ impl Default for HyperFitOptions {
             poses_per_step: 8,
             surface_per_pose: 500,
             off_per_pose: 500,
-            free_space_per_pose: 150,
+            free_space_per_pose: 300,
             near_sigma: 0.02,
             weights: IgrWeights::depth(),
             prior_weight: 1000.0,

@@ -5,8 +5,8 @@
 
 pub mod avatar;
 pub mod encoder;
+pub mod error;
 pub mod eval_rows;
-pub mod bench;
 pub mod capture_points;
 pub mod compute;
 pub mod fit;
@@ -30,6 +30,7 @@ pub use hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers, PoseSample};
 pub use siren::{batched_sdf_and_gradient, sdf_and_gradient, Siren, SirenConfig};
 pub use avatar::{AnyAvatar, FitReport, Init, MetaAvatar, PartialFit, StaticAvatar};
 pub use model_file::MetaModel;
+pub use error::{Error, Result};
 
 /// The CPU device with autodiff (gradients for training).
 pub fn cpu_training_device() -> burn::tensor::Device {

@@ -10,7 +10,7 @@ use crate::encoder::PoseEncoding;
 use crate::hyper_fit::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams};
 use avatar_core::canonical::Normalisation;
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use avatar_core::eval::dataset::{TRAIN_OUTFITS, TRAIN_SUBJECT_SEEDS};
 use avatar_core::eval::sampling::sample_surface_with_normals;
 use avatar_core::mesh::TriMesh;
@@ -119,7 +119,7 @@ pub struct MetaData {
 impl MetaData {
     /// Generate the data set (deterministic for a config).
     pub fn generate(body: &BodyModel, config: &MetaDataConfig) -> Result<MetaData> {
-        let outfits: Vec<Outfit> = config.outfits.iter().map(|n| Outfit::from_name(n)).collect::<Result<_>>()?;
+        let outfits: Vec<Outfit> = config.outfits.iter().map(|n| Outfit::from_name(n)).collect::<avatar_core::Result<_>>()?;
         if let Some(o) = outfits.iter().find(|o| !TRAIN_OUTFITS.contains(o)) {
             return Err(Error::invalid(format!("outfit {} is reserved for evaluation; meta-training uses {:?}", o.name(), TRAIN_OUTFITS.map(|o| o.name()))));
         }
@@ -197,7 +197,7 @@ impl MetaData {
         }
         avatar_core::io::write_bytes_atomic(dir.join("samples.bin"), &bytes)?;
         let manifest = serde_json::to_vec_pretty(&self.manifest).map_err(|e| Error::invalid(e.to_string()))?;
-        avatar_core::io::write_bytes_atomic(dir.join("meta-data.json"), &manifest)
+        Ok(avatar_core::io::write_bytes_atomic(dir.join("meta-data.json"), &manifest)?)
     }
 
     pub fn load(dir: &Path) -> Result<MetaData> {

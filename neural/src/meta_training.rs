@@ -6,15 +6,14 @@
 //! resumed run sees the same tasks as an uninterrupted one (Adam's moments restart at zero).
 
 use crate::fit::{fit_sdf, FitOptions};
-use crate::hyper::{HyperConfig, HyperNet};
+use crate::hyper::HyperConfig;
 use crate::hyper_fit::{fit_hyper, GroupRates, HyperFitOptions, HyperOptimisers, PoseSample};
 use crate::loss::IgrWeights;
 use crate::meta_data::MetaData;
 use crate::model_file::MetaModel;
 use crate::flat_params::{flatten, load_flat, reptile_gradients};
-use crate::siren::Siren;
 use crate::weights_file;
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use burn::optim::AdamConfig;
 use rand::seq::index::sample as sample_indices;
 use rand::{Rng, SeedableRng};
@@ -284,13 +283,4 @@ pub fn start_from_static(out: &Path, options: &MetaOptions, model: &MetaModel, m
     weights_file::write(&ckpt_path, &ck, &model.static_sdf)
 }
 
-/// The meta-SDF as a trainable SIREN on the training device.
-pub fn trainable_siren(config: &crate::siren::SirenConfig, flat: &[f32], seed: u64) -> Result<Siren> {
-    load_flat(config.init(seed, &crate::compute::training_device()), flat)
-}
-
-/// The hypernetwork (its base SDF included) as a trainable module on the training device.
-pub fn trainable_hyper(config: &HyperConfig, flat: &[f32], seed: u64) -> Result<HyperNet> {
-    let device = crate::compute::training_device();
-    load_flat(config.init(config.siren.init(seed, &device), seed, &device), flat)
-}
+pub use crate::model_file::{trainable_hyper, trainable_siren};

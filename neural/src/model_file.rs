@@ -7,7 +7,7 @@ use crate::hyper::{HyperConfig, HyperNet};
 use crate::flat_params::flatten;
 use crate::siren::Siren;
 use crate::weights_file;
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -106,11 +106,22 @@ impl MetaModel {
 
     /// The trainable hypernetwork.
     pub fn hyper_net(&self) -> HyperNet {
-        crate::meta_training::trainable_hyper(&self.header.config, &self.hyper, 0).expect("counts checked on load")
+        trainable_hyper(&self.header.config, &self.hyper, 0).expect("counts checked on load")
     }
 
     /// The trainable static meta-SDF.
     pub fn static_siren(&self) -> Siren {
-        crate::meta_training::trainable_siren(&self.header.config.siren, &self.static_sdf, 0).expect("counts checked on load")
+        trainable_siren(&self.header.config.siren, &self.static_sdf, 0).expect("counts checked on load")
     }
+}
+
+/// The meta-SDF as a trainable SIREN on the training device.
+pub fn trainable_siren(config: &crate::siren::SirenConfig, flat: &[f32], seed: u64) -> Result<Siren> {
+    crate::flat_params::load_flat(config.init(seed, &crate::compute::training_device()), flat)
+}
+
+/// The hypernetwork (its base SDF included) as a trainable module on the training device.
+pub fn trainable_hyper(config: &HyperConfig, flat: &[f32], seed: u64) -> Result<HyperNet> {
+    let device = crate::compute::training_device();
+    crate::flat_params::load_flat(config.init(config.siren.init(seed, &device), seed, &device), flat)
 }

@@ -46,9 +46,9 @@ impl SirenConfig {
     }
 
     /// Refuse sizes no network of this build has (checked before any size arithmetic).
-    pub fn check(&self) -> avatar_core::error::Result<()> {
+    pub fn check(&self) -> crate::error::Result<()> {
         if !(1..=4096).contains(&self.hidden) || !(1..=64).contains(&self.layers) {
-            return Err(avatar_core::error::Error::invalid(format!("SDF network {} x {} out of range (1-64 layers of 1-4096)", self.layers, self.hidden)));
+            return Err(crate::error::Error::invalid(format!("SDF network {} x {} out of range (1-64 layers of 1-4096)", self.layers, self.hidden)));
         }
         Ok(())
     }

@@ -3,7 +3,7 @@
 //! then float32 little-endian weights. Written atomically; truncation, NaN and foreign files
 //! are refused with a message naming the file.
 
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use std::path::Path;
@@ -28,7 +28,7 @@ pub fn write<H: Serialize>(path: &Path, header: &H, weights: &[f32]) -> Result<(
     for v in weights {
         out.extend_from_slice(&v.to_le_bytes());
     }
-    avatar_core::io::write_bytes_atomic(path, &out)
+    Ok(avatar_core::io::write_bytes_atomic(path, &out)?)
 }
 
 /// Read a file written by [`write`] from disk.

@@ -60,20 +60,3 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     Ok(())
 }
-
-pub fn summary() -> anyhow::Result<()> {
-    let model = avatar_core::body::open_body_ref();
-    let rest = model.pose(&BodyParams::default());
-    let (lo, hi) = avatar_core::mesh::bounds(&rest.vertices).unwrap_or_default();
-    println!("Avatar Studio {}", env!("CARGO_PKG_VERSION"));
-    println!(
-        "embedded body: {} ({} vertices, {} faces, {} shape directions, height {:.2} m)",
-        model.label,
-        model.num_vertices(),
-        model.faces.len(),
-        model.num_betas,
-        hi.y - lo.y
-    );
-    println!("run `avatar-studio --help` for the commands");
-    Ok(())
-}

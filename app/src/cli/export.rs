@@ -4,10 +4,10 @@
 use anyhow::{bail, Context};
 use avatar_core::canonical::FieldOptions;
 use avatar_core::export::{export_glb, write_mesh_sequence, ExportOptions, SyntheticAvatar};
-use avatar_core::motion::{clip_by_name, clip_names, MotionClip};
+use avatar_core::motion::{clip_file, open_clip};
 use avatar_core::synth::Outfit;
 use avatar_core::io::Inputs;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -37,25 +37,6 @@ pub struct Args {
     synthetic_subject: u64,
 }
 
-/// The clip file a --motion argument names (None for a library clip).
-pub fn clip_file(name: &str) -> Option<&Path> {
-    (clip_by_name(name).is_none()).then_some(Path::new(name))
-}
-
-pub fn load_clip(name: &str) -> anyhow::Result<MotionClip> {
-    if let Some(c) = clip_by_name(name) {
-        return Ok(c);
-    }
-    let path = Path::new(name);
-    if !path.exists() {
-        bail!("unknown motion {name:?}: not a file, and the library has {}", clip_names().join(", "));
-    }
-    Ok(match path.extension().and_then(|e| e.to_str()) {
-        Some("npz") => avatar_core::motion::amass::load_amass_clip(path)?,
-        _ => MotionClip::load(path)?,
-    })
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     if !(1..=256).contains(&args.targets) {
         bail!("--targets must be between 1 and 256");
@@ -66,7 +47,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "obj" | "ply" => inputs.check_folder(&args.out)?,
         other => bail!("unknown --format {other:?}: use glb, obj or ply"),
     }
-    let mut clip = load_clip(&args.motion)?;
+    let mut clip = open_clip(&args.motion)?;
     if let Some(n) = args.frames {
         if n == 0 {
             bail!("--frames must be at least 1");

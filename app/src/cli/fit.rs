@@ -4,7 +4,8 @@
 
 use anyhow::bail;
 use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaAvatar, MetaModel, StaticAvatar};
+use avatar_neural::avatar::{fit_avatar, AnyAvatar, AvatarFit, FitEvent, FitKind};
+use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaModel};
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -41,16 +42,14 @@ pub struct Args {
     /// Network preset for --from-scratch: compact or paper.
     #[arg(long, default_value = "compact")]
     preset: String,
-    /// cpu (the training path), gpu in a build with the `gpu` feature (`cargo build --release --features gpu`), or
-    /// cpu-burn (burn's autodiff on the CPU: the reference, about 5x slower).
-    #[arg(long, default_value = "cpu")]
-    device: String,
+    #[command(flatten)]
+    device: super::DeviceArg,
     #[arg(long, default_value_t = 0)]
     seed: u64,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&args.device)?);
+    args.device.select()?;
     if args.steps == 0 || args.frames == 0 {
         bail!("--steps and --frames must be at least 1");
     }
@@ -70,9 +69,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         });
     }
     let t = Instant::now();
-    let open_capture = || CapturePoints::open_with(&args.capture, args.frames, args.body_model.as_deref());
     let steps = args.steps;
-    let mut progress = |step: usize, loss: f32, terms: [f32; 4]| {
+    let progress = |step: usize, loss: f32, terms: [f32; 4]| {
         let done = (step + 1) as f64 / steps as f64;
         let left = t.elapsed().as_secs_f64() * (1.0 - done) / done.max(1e-9);
         let bar: String = (0..20).map(|i| if (i as f64) < done * 20.0 { '#' } else { '.' }).collect();
@@ -87,28 +85,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         let _ = std::io::stderr().flush();
     };
-    let (report, what, partial) = if args.static_sdf {
-        let model = MetaModel::load_or_shipped(args.model.as_deref())?;
-        let init = if args.from_scratch { None } else { Some(model.static_siren()) };
-        let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() }.static_equivalent();
-        let capture = open_capture()?;
-        let (avatar, report) = StaticAvatar::fit_points(&capture, model.header.config.siren, init, &options, Some(&cancel), &mut progress);
-        avatar.save(&args.out)?;
-        (report, format!("static SDF ({})", if args.from_scratch { "from scratch" } else { "static meta-SDF" }), avatar.header.partial)
-    } else {
-        let model;
-        let init = if args.from_scratch {
-            Init::Scratch { config: preset, seed: args.seed }
-        } else {
-            model = MetaModel::load_or_shipped(args.model.as_deref())?;
-            Init::MetaLearned(&model)
-        };
-        let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
-        let capture = open_capture()?;
-        let (avatar, report) = MetaAvatar::fit_points(&capture, &init, &options, Some(&cancel), &mut progress);
-        avatar.save(&args.out)?;
-        (report, format!("pose-dependent avatar ({}, {} parameters)", init.label(), avatar.num_params()), avatar.header.partial)
+    // The hypernetwork from scratch needs no meta-model (its networks come from --preset).
+    let model = if args.from_scratch && !args.static_sdf { None } else { Some(MetaModel::load_or_shipped(args.model.as_deref())?) };
+    let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
+    let (kind, what) = match (&model, args.static_sdf) {
+        (None, _) => (FitKind::Meta(Init::Scratch { config: preset, seed: args.seed }), String::new()),
+        (Some(m), false) => (FitKind::Meta(Init::MetaLearned(m)), String::new()),
+        (Some(m), true) if args.from_scratch => (FitKind::Static { siren: m.header.config.siren, init: None }, "static SDF (from scratch)".to_string()),
+        (Some(m), true) => (FitKind::Static { siren: m.header.config.siren, init: Some(m.static_siren()) }, "static SDF (static meta-SDF)".to_string()),
     };
+    let capture = CapturePoints::open_with(&args.capture, args.frames, args.body_model.as_deref())?;
+    let fit = AvatarFit { kind, options, chunk: 0, cancel: Some(&cancel) };
+    let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| {
+        if let FitEvent::Progress { step, loss, terms, .. } = e {
+            progress(step, loss, terms)
+        }
+    });
+    avatar.save(&args.out)?;
+    let what = match (&avatar, &fit.kind) {
+        (AnyAvatar::Meta(a), FitKind::Meta(init)) => format!("pose-dependent avatar ({}, {} parameters)", init.label(), a.num_params()),
+        _ => what,
+    };
+    let partial = avatar.partial();
     eprintln!();
     for w in &report.warnings {
         eprintln!("warning: {w}");

@@ -52,16 +52,14 @@ pub struct Args {
     hyper_outer_lr_encoder: Option<f64>,
     #[arg(long)]
     hyper_outer_lr_sdf: Option<f64>,
-    /// cpu (the training path), gpu in a build with the `gpu` feature (`cargo build --release --features gpu`), or
-    /// cpu-burn (burn's autodiff on the CPU: the reference, about 5x slower).
-    #[arg(long, default_value = "cpu")]
-    device: String,
+    #[command(flatten)]
+    device: super::DeviceArg,
     #[arg(long, default_value_t = 0)]
     seed: u64,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&args.device)?);
+    args.device.select()?;
     let config = HyperConfig::preset(&args.preset).with_context(|| format!("unknown --preset {:?}: use compact or paper", args.preset))?;
     if args.subjects == 0 || args.poses == 0 {
         bail!("--subjects and --poses must be at least 1");

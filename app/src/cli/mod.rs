@@ -1,7 +1,6 @@
 //! Subcommands, one module each. Each module exposes `Args` (clap) and `run`.
 
 mod bench;
-mod bench_train;
 mod body;
 mod canonicalize;
 mod eval;
@@ -65,30 +64,35 @@ pub enum Command {
     Bench(bench::Args),
 }
 
-pub fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {
-        None => headless_summary(),
-        Some(Command::Body(a)) => body::run(a),
-        Some(Command::Synth(a)) => synth::run(a),
-        Some(Command::Canonicalize(a)) => canonicalize::run(a),
-        Some(Command::Eval(a)) => eval::run(a),
-        Some(Command::MetaTrain(a)) => meta_train::run(a),
-        Some(Command::Fit(a)) => fit::run(a),
-        Some(Command::Import(a)) => import::run(a),
-        Some(Command::Pose(a)) => pose::run(a),
-        Some(Command::Export(a)) => export::run(a),
-        Some(Command::Bench(a)) => bench::run(a),
+/// Run a subcommand (no subcommand opens the studio: main.rs).
+pub fn run(command: Command) -> anyhow::Result<()> {
+    match command {
+        Command::Body(a) => body::run(a),
+        Command::Synth(a) => synth::run(a),
+        Command::Canonicalize(a) => canonicalize::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::MetaTrain(a) => meta_train::run(a),
+        Command::Fit(a) => fit::run(a),
+        Command::Import(a) => import::run(a),
+        Command::Pose(a) => pose::run(a),
+        Command::Export(a) => export::run(a),
+        Command::Bench(a) => bench::run(a),
     }
 }
 
-/// Until the studio window exists, running with no subcommand poses the embedded body and
-/// reports what is available.
-fn headless_summary() -> anyhow::Result<()> {
-    body::summary()
+/// Where training runs (`fit`, `meta-train`).
+#[derive(clap::Args)]
+pub struct DeviceArg {
+    /// cpu (the training path), gpu in a build with the `gpu` feature (`cargo build --release --features gpu`), or
+    /// cpu-burn (burn's autodiff on the CPU: the reference, about 5x slower).
+    #[arg(long, default_value = "cpu")]
+    device: String,
 }
 
-/// Placeholder error for subcommands whose implementation has not landed yet.
-#[allow(dead_code)]
-pub(crate) fn not_yet(name: &str) -> anyhow::Result<()> {
-    anyhow::bail!("`avatar-studio {name}` is not implemented yet in this build")
+impl DeviceArg {
+    /// Select it for the fits of this process (`avatar_neural::compute`).
+    pub fn select(&self) -> anyhow::Result<()> {
+        avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&self.device)?);
+        Ok(())
+    }
 }

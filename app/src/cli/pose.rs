@@ -40,14 +40,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.frames == Some(0) {
         anyhow::bail!("--frames must be at least 1");
     }
-    let inputs = Inputs::new().file(&args.avatar).maybe_file(super::export::clip_file(&args.motion));
+    let inputs = Inputs::new().file(&args.avatar).maybe_file(avatar_core::motion::clip_file(&args.motion));
     inputs.check_folder(&args.out)?;
     let mut avatar = AnyAvatar::load(&args.avatar)?;
     avatar.set_resolution(args.resolution);
     if let Some(p) = avatar.partial() {
         eprintln!("note: {} is a partial avatar ({p}): its fit was cancelled", args.avatar.display());
     }
-    let mut clip = super::export::load_clip(&args.motion)?;
+    let mut clip = avatar_core::motion::open_clip(&args.motion)?;
     if let Some(n) = args.frames {
         clip.frames.truncate(n);
     }
@@ -66,7 +66,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             std::fs::create_dir_all(&args.out).map_err(|e| anyhow::anyhow!("{}: {e}", args.out.display()))?;
             let mut vertices = 0;
             for (i, params) in clip.frames.iter().enumerate() {
-                let mesh = a.posed_mesh(params).map_err(in_avatar)?;
+                let mesh = a.posed_mesh(params).map_err(avatar_core::Error::from).map_err(in_avatar)?;
                 vertices += mesh.positions.len();
                 write_mesh(name(i), &mesh)?;
             }

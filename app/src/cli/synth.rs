@@ -2,7 +2,7 @@
 
 use anyhow::{bail, Context};
 use avatar_core::body::open_body_ref;
-use avatar_core::motion::{clip_by_name, clip_names, MotionClip};
+use avatar_core::motion::{clip_file, open_clip, MotionClip};
 use avatar_core::synth::{contact_sheet::write_contact_sheet, generate_capture, subject_betas, DepthNoise, Outfit, SynthJob, ALL_OUTFITS};
 use std::path::PathBuf;
 
@@ -41,22 +41,8 @@ pub struct Args {
     contact_sheet: Option<PathBuf>,
 }
 
-fn load_clip(name: &str) -> anyhow::Result<MotionClip> {
-    if let Some(c) = clip_by_name(name) {
-        return Ok(c);
-    }
-    let path = std::path::Path::new(name);
-    if path.exists() {
-        return Ok(match path.extension().and_then(|e| e.to_str()) {
-            Some("npz") => avatar_core::motion::amass::load_amass_clip(path)?,
-            _ => MotionClip::load(path)?,
-        });
-    }
-    bail!("unknown motion clip {name:?}: not a file, and the library has {}", clip_names().join(", "))
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let inputs = args.clips.iter().filter(|c| clip_by_name(c).is_none()).fold(avatar_core::io::Inputs::new(), |i, c| i.file(c));
+    let inputs = args.clips.iter().filter_map(|c| clip_file(c)).fold(avatar_core::io::Inputs::new(), |i, c| i.file(c));
     inputs.check_folder(&args.out)?;
     if !(args.turn.is_finite() && args.turn.abs() <= 360.0) {
         bail!("--turn {} is not an angle in degrees (-360 to 360)", args.turn);
@@ -69,7 +55,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let body = open_body_ref();
     let outfits: Vec<Outfit> = args.outfits.iter().map(|o| Outfit::from_name(o)).collect::<Result<_, _>>()?;
-    let clips: Vec<MotionClip> = args.clips.iter().map(|c| load_clip(c)).collect::<anyhow::Result<_>>()?;
+    let clips: Vec<MotionClip> = args.clips.iter().map(|c| open_clip(c)).collect::<avatar_core::Result<_>>()?;
     let noise = match &args.noise {
         None => None,
         Some(n) => Some(DepthNoise::preset(n).with_context(|| format!("unknown noise preset {n:?}: use kinect_v1 or kinect_v2"))?),

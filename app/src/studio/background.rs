@@ -1,7 +1,8 @@
 //! The one place where the studio takes the results of its background work (capture loading,
 //! avatar meshing, export, fine-tuning, posing and playback bakes), once per frame.
 
-use crate::studio::avatar_job::{body_canonical, JobEvent};
+use crate::studio::avatar::body_canonical;
+use crate::studio::avatar_job::JobEvent;
 use crate::studio::capture_view::LoadedCapture;
 use crate::studio::project::DEMO;
 use crate::studio::settings::Settings;

@@ -2,7 +2,9 @@
 //! meshing an avatar, and the pose slider's round trip (request to posed mesh) through the pose
 //! worker. Start-to-first-frame needs a window: `avatar-studio --timing` prints it.
 
-use crate::studio::avatar_job::{body_canonical, canonical_of, run_fit, FitConfig};
+use crate::studio::avatar::{body_canonical, canonical_of};
+use crate::studio::avatar_job::run_fit;
+use crate::studio::fit_config::FitConfig;
 use crate::studio::posing::{Posable, PoseWorker};
 use crate::studio::capture_view::load_capture;
 use crate::studio::timeline::Timeline;
@@ -50,7 +52,7 @@ pub fn bench_report() -> String {
     out += &format!("| pose slider to posed mesh: the capture's body ({} vertices) | {:.1} ms | target: under 0.5 s on 2 cores |\n", body.num_vertices(), s * 1e3);
     let t = Instant::now();
     let cfg = FitConfig::tiny();
-    let fitted = run_fit(&dir, &cfg, &AtomicBool::new(false), None, &|_| {});
+    let fitted = run_fit(&dir, &cfg, &AtomicBool::new(false), &|| {}, &|_| {});
     let fit_s = t.elapsed().as_secs_f64();
     match fitted {
         Ok((avatar, _)) => {
@@ -60,7 +62,7 @@ pub fn bench_report() -> String {
                 return out + &format!("| save the avatar | | {e:#} |\n");
             }
             for res in [96usize, 128] {
-                let a = match crate::studio::avatar_job::load_avatar(&file, res) {
+                let a = match crate::studio::avatar::load_avatar(&file, res) {
                     Ok(a) => a,
                     Err(e) => return out + &format!("| load the avatar | | {e:#} |\n"),
                 };

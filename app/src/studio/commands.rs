@@ -2,7 +2,9 @@
 //! done ([`StudioApp::apply`]). Work that takes time starts a background task here; its result
 //! is taken in `background.rs`.
 
-use crate::studio::avatar_job::{canonical_of, load_avatar, FitConfig, FitJob, StudioAvatar};
+use crate::studio::avatar::{canonical_of, load_avatar, StudioAvatar};
+use crate::studio::avatar_job::FitJob;
+use crate::studio::fit_config::FitConfig;
 use crate::studio::camera::Preset;
 use crate::studio::capture_view::{load_capture, LoadedCapture};
 use crate::studio::path_dialog::PathDialog;

@@ -4,12 +4,14 @@
 //! panels return); background work (`tasks`) is polled in one place (`background`); the
 //! viewport's scene is built from the state (`scene`). Modules: `app` (start-up and the
 //! frame), `panels` (the UI), `viewport` (the wgpu renderer: scene + camera in, pixels out),
-//! `camera`, `avatar_job` (the avatar trait and the fine-tuning job), `posing` (the pose
+//! `camera`, `avatar` (what the studio needs from an avatar), `fit_config` (the fit settings),
+//! `avatar_job` (the fine-tuning job), `posing` (the pose
 //! worker), `playback` (baked clips), `timeline`, `capture_view` (a capture as the studio shows
 //! it), `project` (the project file), `settings` (and the native dialogs), `path_dialog` (the
 //! in-app one), `screenshot`, `style`, `demo`.
 
 pub mod app;
+pub mod avatar;
 pub mod avatar_job;
 mod background;
 pub mod bench;
@@ -17,6 +19,7 @@ pub mod camera;
 pub mod capture_view;
 pub mod commands;
 pub mod demo;
+pub mod fit_config;
 pub mod panels;
 pub mod path_dialog;
 pub mod playback;

@@ -3,10 +3,10 @@
 //! kept, and it starts when the running one finishes. Every finished pose is handed to the UI
 //! (a result is shown rather than dropped while nothing newer is ready).
 
-use crate::studio::avatar_job::{CanonicalMesh, StudioAvatar};
+use crate::studio::avatar::{CanonicalMesh, StudioAvatar};
 use crate::studio::tasks::{take_done, Task, TaskError, Wake};
 use avatar_core::body::{blend_transform, BodyModel, BodyParams, NUM_JOINTS};
-use avatar_core::avatar::AvatarSource;
+use avatar_core::avatar::{AvatarSource, PoseSurface, PROJECTION_STEPS};
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -147,18 +147,16 @@ pub fn pose(req: &PoseRequest) -> anyhow::Result<PosedMesh> {
         Posable::Mesh(m) => (m, None),
         Posable::Smooth { mesh, normals } => (mesh, Some(std::borrow::Cow::Borrowed(&normals[..]))),
         Posable::PoseDependent { avatar, reference, rest_normals } => {
-            // The exporter's Newton steps, so the studio shows what the export holds.
-            let steps = avatar_core::export::ExportOptions::default().newton_steps;
-            let projected = avatar.source().project(&req.params, &reference.mesh.positions, steps)?;
+            // The exporter's recipe and Newton steps, so the studio shows what the export holds.
+            let surface = PoseSurface::project(avatar.source(), &req.params, &reference.mesh.positions, PROJECTION_STEPS)?;
             let n = match rest_normals {
                 Some(n) => std::borrow::Cow::Borrowed(&n[..]),
                 None => {
-                    let fallback = avatar_core::mesh::vertex_normals(&projected, &reference.mesh.faces);
-                    std::borrow::Cow::Owned(sdf_normals(avatar.source(), &req.params, &projected, &fallback)?)
+                    let fallback = avatar_core::mesh::vertex_normals(&surface.points, &reference.mesh.faces);
+                    std::borrow::Cow::Owned(sdf_normals(avatar.source(), &req.params, &surface.points, &fallback)?)
                 }
             };
-            let weights = avatar.source().skinning_weights(&projected);
-            owned = CanonicalMesh { mesh: avatar_core::mesh::TriMesh::new(projected, reference.mesh.faces.clone()), weights };
+            owned = CanonicalMesh { mesh: avatar_core::mesh::TriMesh::new(surface.points, reference.mesh.faces.clone()), weights: surface.weights };
             (&owned, Some(n))
         }
     };
@@ -189,7 +187,7 @@ pub fn pose(req: &PoseRequest) -> anyhow::Result<PosedMesh> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::studio::avatar_job::body_canonical;
+    use crate::studio::avatar::body_canonical;
 
     #[test]
     fn queued_requests_are_skipped_and_every_finished_pose_is_shown() {

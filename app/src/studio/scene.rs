@@ -1,7 +1,7 @@
 //! From the studio's state to the viewport's scene: which mesh is shown (the one rule for
 //! preview, avatar or body), what the poser skins, and the scene of each view mode.
 
-use crate::studio::avatar_job::CanonicalMesh;
+use crate::studio::avatar::CanonicalMesh;
 use crate::studio::posing::Posable;
 use crate::studio::project::ViewMode;
 use crate::studio::state::StudioApp;

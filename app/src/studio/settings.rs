@@ -1,7 +1,7 @@
 //! Settings kept between runs (eframe storage) and the native file dialogs (rfd, replaceable
 //! in tests; the in-app dialog in `path_dialog.rs` stands in where they are missing).
 
-use crate::studio::avatar_job::FitConfig;
+use crate::studio::fit_config::FitConfig;
 use crate::studio::viewport::Shading;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;

@@ -3,7 +3,9 @@
 //! `commands.rs` changes it, `app.rs` polls the background work once per frame, `scene.rs`
 //! turns it into the viewport's scene.
 
-use crate::studio::avatar_job::{CanonicalMesh, FitConfig, FitJob, StudioAvatar};
+use crate::studio::avatar::{CanonicalMesh, StudioAvatar};
+use crate::studio::avatar_job::FitJob;
+use crate::studio::fit_config::FitConfig;
 use crate::studio::capture_view::LoadedCapture;
 use crate::studio::path_dialog::PathDialog;
 use crate::studio::playback::Bakes;

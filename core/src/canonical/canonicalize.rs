@@ -5,7 +5,7 @@ use super::field::SkinningField;
 use super::root_finding::{find_roots, forward_point, start_bones, Root, RootOptions};
 use crate::body::{blend_transform, Bones, NUM_JOINTS};
 use crate::mesh::TriMesh;
-use crate::eval::sampling::PointIndex;
+use crate::mesh::point_index::PointIndex;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 

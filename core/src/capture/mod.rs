@@ -6,12 +6,14 @@
 pub mod amass;
 pub mod depth_png;
 pub mod free_space;
+pub mod frame_error;
 pub mod import;
 pub mod manifest;
 pub mod open;
 pub mod plausibility;
 pub mod points;
 pub mod scan;
+pub mod units;
 
 pub use free_space::{free_space_samples, FreeSpaceOptions};
 pub use depth_png::{read_depth_png, read_mask_png, write_depth_png, write_mask_png, DepthImage};

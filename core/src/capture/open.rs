@@ -4,6 +4,7 @@
 
 use super::depth_png::{read_depth_png_sized, read_mask_png_sized};
 use super::manifest::{BodyModelRef, CaptureManifest, FrameRecord, MANIFEST_FILE};
+pub use super::frame_error::{FrameError, NO_DEPTH_NEAR_BODY};
 use super::points::{backproject, crop_to_body, estimate_normals, CropOptions, CropReport};
 use crate::body::{open_body_ref, BodyModel, BodyParams};
 use crate::error::{Error, Result};
@@ -20,9 +21,6 @@ pub const MAX_PLAUSIBLE_DEPTH: f32 = 10.0;
 pub const MIN_PLAUSIBLE_DEPTH: f32 = 0.2;
 /// Fewer valid pixels than this fraction: the image is "mostly zero".
 pub const MIN_VALID_FRACTION: f32 = 0.005;
-/// How the warning of a frame whose depth misses the fitted body begins
-/// (`plausibility::diagnose` looks for it).
-pub const NO_DEPTH_NEAR_BODY: &str = "no depth point lies within";
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct CaptureOptions {
@@ -60,20 +58,6 @@ pub struct CaptureFrame {
 impl CaptureFrame {
     pub fn camera_center(&self) -> Vec3 {
         self.camera_to_world.w_axis.truncate()
-    }
-}
-
-/// Why a frame was skipped.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FrameError {
-    pub index: usize,
-    pub file: PathBuf,
-    pub reason: String,
-}
-
-impl fmt::Display for FrameError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "frame {} ({}): {}", self.index, self.file.display(), self.reason)
     }
 }
 
@@ -141,7 +125,7 @@ impl Capture {
         }
         if frames.is_empty() {
             let reasons: Vec<String> = warnings.iter().take(5).map(|w| w.to_string()).collect();
-            let why = super::plausibility::diagnose(dir, &manifest, &body, &warnings, warnings.len())
+            let why = super::units::diagnose(dir, &manifest, &body, &warnings, warnings.len())
                 .map(|d| format!(": {d}"))
                 .unwrap_or_default();
             return Err(Error::file(

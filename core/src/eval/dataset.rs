@@ -24,7 +24,7 @@ pub const SHEET_POSE: (&str, f32) = ("kick", 0.45);
 /// The contact sheets' pose (`SHEET_POSE`).
 pub fn sheet_pose() -> crate::error::Result<crate::body::BodyParams> {
     let (name, at) = SHEET_POSE;
-    let clip = crate::motion::clip_by_name(name).ok_or_else(|| crate::error::Error::invalid(format!("unknown motion clip {name:?}")))?;
+    let clip = crate::motion::library_clip(name)?;
     Ok(clip.frames[((clip.len().max(1) - 1) as f32 * at) as usize].clone())
 }
 

@@ -21,7 +21,8 @@
 //! where the ground truth marks hidden vertices.
 
 use super::occupancy::volumetric_iou;
-use super::sampling::{sample_surface, PointIndex};
+use super::sampling::sample_surface;
+use crate::mesh::point_index::PointIndex;
 use super::surface_error::{region_errors, SampleDistances, SurfaceErrors};
 use crate::body::skeleton::CLOTHED_JOINTS;
 use crate::error::{Error, Result};
@@ -33,8 +34,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-/// Metres to centimetres.
-pub const CM: f32 = 100.0;
+pub use super::surface_error::CM;
 
 /// Sampling settings of the metrics that sample (IoU, Chamfer).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -13,7 +13,7 @@ use super::report::RowInput;
 use crate::body::{BodyModel, BodyParams};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use crate::motion::{clip_by_name, MotionClip};
+use crate::motion::MotionClip;
 use crate::synth::contact_sheet::write_view_sheet;
 use crate::synth::{canonical_surface, generate_capture, pose_surface, subject_betas, ClothedTemplate, PoseFeatures, SynthJob, ALL_OUTFITS};
 use glam::Vec3;
@@ -78,12 +78,13 @@ impl EvalConfig {
 }
 
 fn clip(name: &str) -> Result<MotionClip> {
-    clip_by_name(name).ok_or_else(|| Error::invalid(format!("unknown motion clip {name:?}")))
+    crate::motion::library_clip(name)
 }
 
 /// The query pose of a clip frame for a subject: the subject's shape, horizontal drift removed
 /// (as in the synthetic captures), facing the camera.
-fn query(p: &BodyParams, betas: &[f32]) -> BodyParams {
+/// An evaluation pose of a subject: its shape, the root over the origin (x and z).
+pub fn query(p: &BodyParams, betas: &[f32]) -> BodyParams {
     let mut q = p.clone();
     q.betas = betas.to_vec();
     q.trans.x = 0.0;
@@ -223,42 +224,3 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
     })
 }
 
-/// The bench section: one evaluation of a 250-frame held-out sequence (the held-out clips
-/// back to back), the naked body scored against the clothed ground truth with the default
-/// metric settings.
-pub fn bench_report() -> String {
-    let body = crate::body::open_body_ref();
-    let mut out = String::from("## eval\n\n| what | time | note |\n|---|---|---|\n");
-    let betas = subject_betas(body, EVAL_SUBJECT_SEEDS[0]);
-    let template = ClothedTemplate::build(body, &betas, UNSEEN_OUTFIT);
-    let mut poses: Vec<BodyParams> = EVAL_CLIPS.iter().filter_map(|c| clip_by_name(c)).flat_map(|c| c.frames).collect();
-    while poses.len() < 250 {
-        poses.extend(poses.clone());
-    }
-    poses.truncate(250);
-    let Ok(regions) = Regions::of_template(&template) else { return out };
-    let naked = super::predictor::NakedBody::new(body.clone());
-    let t = Instant::now();
-    let scores: Result<Vec<FrameMetrics>> = poses
-        .par_iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let q = query(p, &betas);
-            let gt = ground_truth_mesh(body, &template, &q, 1);
-            evaluate_frame(&naked.predict(&q)?, &gt, &regions, &MetricOptions::default(), k as u64)
-        })
-        .collect();
-    let secs = t.elapsed().as_secs_f64();
-    match scores {
-        Ok(s) => {
-            out += &format!(
-                "| evaluate a 250-frame held-out sequence ({} ground-truth vertices, {} scored; Dp, Df, NC, IoU at 128, Chamfer 10k) | {secs:.1} s | target < 60 s on 2 cores; naked-body Df {:.2} cm |\n",
-                template.vertices.len(),
-                regions.scored.iter().filter(|&&m| m).count(),
-                s.iter().map(|m| m.df_cm).sum::<f32>() / s.len() as f32
-            )
-        }
-        Err(e) => out += &format!("| evaluation failed | | {e} |\n"),
-    }
-    out
-}

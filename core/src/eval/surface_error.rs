@@ -9,8 +9,10 @@
 //! Each is reported for the whole surface and for the clothed region: the samples whose nearest
 //! ground-truth vertex a garment covers (`Regions::cloth`), on either side.
 
-use super::metrics::CM;
 use serde::{Deserialize, Serialize};
+
+/// Metres to centimetres.
+pub const CM: f32 = 100.0;
 
 /// The distance (metres) of each sample of one surface to the other surface, and whether the
 /// sample lies in the clothed region.

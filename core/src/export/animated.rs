@@ -5,8 +5,8 @@
 
 use super::glb::{GlbBuilder, ARRAY_BUFFER};
 use super::morph::{compress, MorphTargets};
-use crate::avatar::AvatarSource;
-use crate::body::{blend_transform, BodyParams, Weights, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS};
+use crate::avatar::{AvatarSource, PoseSurface, PROJECTION_STEPS};
+use crate::body::{BodyParams, Weights, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::motion::MotionClip;
@@ -31,7 +31,7 @@ pub const DEFAULT_COLOR: [f32; 3] = [0.80, 0.58, 0.47];
 
 impl Default for ExportOptions {
     fn default() -> Self {
-        ExportOptions { max_targets: 64, newton_steps: 4, min_target_effect: 1e-4, color: DEFAULT_COLOR }
+        ExportOptions { max_targets: 64, newton_steps: PROJECTION_STEPS, min_target_effect: 1e-4, color: DEFAULT_COLOR }
     }
 }
 
@@ -98,17 +98,9 @@ pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &Export
     let full_weights = source.skinning_weights(&rest.positions);
     let (joints, weights): (Vec<[u8; 4]>, Vec<[f32; 4]>) = full_weights.iter().map(top4).unzip();
     let params: Vec<BodyParams> = clip.frames.iter().map(|p| BodyParams { betas: betas.clone(), ..p.clone() }).collect();
-    // Each frame: project the reference vertices onto that pose's surface.
-    let projected: Vec<Vec<Vec3>> = params.par_iter().map(|p| source.project(p, &rest.positions, options.newton_steps)).collect::<Result<_>>()?;
-    let posed: Vec<Vec<Vec3>> = params
-        .par_iter()
-        .zip(&projected)
-        .map(|(p, x)| {
-            let bones = body.pose(p).bones;
-            let w = source.skinning_weights(x);
-            x.iter().zip(&w).map(|(v, w)| blend_transform(&bones.transforms, w).transform_point3(*v)).collect()
-        })
-        .collect();
+    // Each frame: the reference vertices projected onto that pose's surface, skinned.
+    let surfaces: Vec<PoseSurface> = params.par_iter().map(|p| PoseSurface::project(source, p, &rest.positions, options.newton_steps)).collect::<Result<_>>()?;
+    let posed: Vec<Vec<Vec3>> = params.par_iter().zip(&surfaces).map(|(p, s)| s.skin(&body.pose(p).bones.transforms)).collect();
     // The deltas are taken in bind space *with the exported 4-weight skinning*: un-skin the
     // studio's posed mesh with the file's weights. The morph targets then also absorb the
     // truncation to 4 influences, and the file reproduces the posed mesh up to compression.

@@ -2,7 +2,6 @@
 //! clothing, joint and morph-weight animation) and OBJ/PLY sequences. See docs/export.md.
 
 pub mod animated;
-pub mod bench;
 pub mod glb;
 pub mod morph;
 pub mod source;

@@ -3,6 +3,8 @@
 pub mod bvh;
 pub mod extract;
 pub mod io;
+mod marching_cubes;
+pub mod point_index;
 pub mod topology;
 
 use glam::Vec3;

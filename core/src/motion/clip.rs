@@ -130,22 +130,6 @@ impl MotionClip {
         Ok(clip)
     }
 
-    /// Load a clip: `.json` (this format), an AMASS-style `.npz` or a BVH file (retargeted).
-    /// Every command and the studio's timeline open clip files through here.
-    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref();
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        match ext.as_deref() {
-            Some("json") => {
-                let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-                Self::from_json_str(&text).map_err(|e| e.in_file(path))
-            }
-            Some("npz") => super::amass::load_amass_clip(path),
-            Some("bvh") => super::retarget::load_bvh_clip(path),
-            _ => Err(Error::file(path, "unknown motion file type: expected .json (avatar-studio motion), .npz (AMASS) or .bvh (motion capture)")),
-        }
-    }
-
     /// Every `step`-th frame (frame rate divided accordingly).
     pub fn subsample(&self, step: usize) -> MotionClip {
         let step = step.max(1);

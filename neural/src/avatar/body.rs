@@ -1,5 +1,5 @@
-//! The body an avatar file carries. Part of the avatar file format (static_avatar.rs,
-//! meta_avatar.rs); it moves with that format into neural/src/avatar/ (issue 21).
+//! The body an avatar file carries: part of the avatar file format (with `header`; both kinds,
+//! static_avatar.rs and meta_avatar.rs, store it the same way).
 //!
 //! An avatar fitted on the embedded open body stores only the shape coefficients (version 1
 //! files, unchanged): loading rebuilds the body from the embedded model. An avatar fitted on a
@@ -18,7 +18,7 @@
 
 use crate::capture_points::CapturePoints;
 use avatar_core::body::{open_body_ref, BodyModel, Weights, NUM_JOINTS};
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -145,5 +145,5 @@ fn decode(s: &BodySection, data: &[f32]) -> Result<BodyModel> {
         return Err(bad("more skinning weights than counted"));
     }
     let joints: [Vec3; NUM_JOINTS] = vec3s(joints).try_into().expect("24 joints");
-    BodyModel::from_frozen_parts(&format!("{} (frozen in the avatar)", s.label), vec3s(rest), faces, weights, joints)
+    Ok(BodyModel::from_frozen_parts(&format!("{} (frozen in the avatar)", s.label), vec3s(rest), faces, weights, joints)?)
 }

@@ -1,11 +1,20 @@
 //! What both avatar kinds' headers share: the checks of the fields that describe the subject
 //! (shape, normalisation, body model, skinning-field size), run when a file is loaded and
-//! before anything is allocated from them, and the mark of a partial (cancelled) fit.
+//! before anything is allocated from them, the mark of a partial (cancelled) fit, and the one
+//! check of an avatar file's format, version and kind.
 
-use avatar_core::body::check_betas;
-use avatar_core::canonical::{Normalisation, FIELD_CELLS};
-use avatar_core::error::{Error, Result};
+use crate::avatar::body as avatar_body;
+use crate::weights_file;
+use avatar_core::body::{check_betas, BodyModel};
+use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField, FIELD_CELLS};
+use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+pub const AVATAR_FORMAT: &str = "avatar-studio-avatar";
+/// The newest avatar version this build writes and reads: 1 (open body, no body stored) and 2
+/// (the frozen body of a user's SMPL model stored after the weights: avatar_body.rs).
+pub const AVATAR_VERSION: u32 = avatar_body::VERSION_WITH_BODY;
 
 
 /// A fit cancelled before its last step: the avatar is usable but not finished.
@@ -45,6 +54,26 @@ pub fn check_subject(normalisation: &Normalisation, betas: &[f32], body_model: &
         && p.steps_done >= p.steps_requested
     {
         return Err(Error::invalid(format!("\"partial\": {} of {} steps is not partial", p.steps_done, p.steps_requested)));
+    }
+    Ok(())
+}
+
+/// The skinning field of an avatar's body shape (from the cache when it is there).
+pub(crate) fn avatar_field(body: &BodyModel, betas: &[f32], cells: usize) -> Result<SkinningField> {
+    let field_options = FieldOptions { cells_along_height: cells, ..FieldOptions::default() };
+    let cache = default_cache_dir();
+    Ok(Canonicalizer::new(body, betas, &field_options, cache.as_deref())?.field)
+}
+
+/// Refuse avatar files of another format, version or kind with a message naming the file
+/// (read from the header alone, before the rest of the file is parsed).
+pub(crate) fn check_avatar_header(path: &Path, expected_kind: &str) -> Result<()> {
+    let weights_file::Identity { format, version, kind } = weights_file::identity(path)?;
+    if format != AVATAR_FORMAT || !(avatar_body::VERSION_OPEN_BODY..=AVATAR_VERSION).contains(&version) {
+        return Err(Error::file(path, format!("avatar format {format:?} version {version} is not supported by this build (it reads {AVATAR_FORMAT:?} versions 1 to {AVATAR_VERSION})")));
+    }
+    if kind != expected_kind {
+        return Err(Error::file(path, format!("avatar kind {kind:?} is not a {expected_kind:?} avatar")));
     }
     Ok(())
 }

@@ -4,19 +4,16 @@
 //! -> forward skinning.
 
 use crate::avatar::body::{self as avatar_body, BodySection};
-use crate::avatar::header::{check_subject, PartialFit};
+use crate::avatar::header::{avatar_field, check_avatar_header, check_subject, PartialFit, AVATAR_FORMAT};
 use crate::capture_points::CapturePoints;
-use crate::fit::Progress;
 use crate::hyper::{HyperConfig, HyperNet};
-use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
 use crate::model_file::MetaModel;
 use crate::flat_params::{flatten, load_flat};
 use crate::siren_eval::{MetricSdf, SirenEval};
-use crate::avatar::static_avatar::{avatar_field, check_avatar_header, FitReport, AVATAR_FORMAT};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
 use avatar_core::canonical::{forward_skin_mesh, Normalisation, SkinningField};
-use avatar_core::error::{Error, Result};
+use crate::error::{Error, Result};
 use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
@@ -25,7 +22,6 @@ use burn::tensor::{Device, Tensor};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 pub const META_AVATAR_KIND: &str = "meta-hyper";
 
@@ -45,14 +41,14 @@ impl Init<'_> {
         }
     }
 
-    fn config(&self) -> HyperConfig {
+    pub(crate) fn config(&self) -> HyperConfig {
         match self {
             Init::MetaLearned(m) => m.header.config,
             Init::Scratch { config, .. } => *config,
         }
     }
 
-    fn network(&self) -> HyperNet {
+    pub(crate) fn network(&self) -> HyperNet {
         match self {
             Init::MetaLearned(m) => m.hyper_net(),
             Init::Scratch { config, seed } => {
@@ -102,65 +98,9 @@ pub struct MetaAvatar {
 }
 
 impl MetaAvatar {
-    /// Fine-tune on the first `frames` usable frames of a capture.
-    pub fn fit_capture(dir: &Path, frames: usize, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(MetaAvatar, FitReport)> {
-        let capture = CapturePoints::open(dir, frames)?;
-        Ok(Self::fit_points(&capture, init, options, cancel, progress))
-    }
-
-    /// Fine-tune on a canonicalized capture: every frame is one pose sample.
-    pub fn fit_points(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
-        Self::fit_points_in_chunks(capture, init, options, None, cancel, progress)
-    }
-
-    /// Like [`MetaAvatar::fit_points`], but with `Some((every, look))` the fit runs in chunks
-    /// of `every` steps (the optimisers' state carried over; each chunk draws its batches from
-    /// seed + steps done) and `look` sees the partial avatar after each chunk but the last:
-    /// the studio's live preview. `look` may block (a test holds the job there).
-    pub fn fit_points_in_chunks(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, mut chunks: Option<(usize, &mut dyn FnMut(usize, &MetaAvatar))>, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
-        let config = init.config();
-        let samples = capture.pose_samples(config.encoding);
-        let device = crate::compute::training_device();
-        let prior = capture.sign_prior();
-        let mut optimisers = HyperOptimisers::default();
-        let mut model = init.network().fork(&device);
-        // A frozen encoder keeps meta-learned pose features; a random one must learn (the
-        // from-scratch baseline trains it at the reference's 1e-4).
-        let options = &match init {
-            Init::Scratch { .. } if options.lr_encoder == 0.0 => HyperFitOptions { lr_encoder: SCRATCH_ENCODER_RATE, ..options.clone() },
-            _ => options.clone(),
-        };
-        let every = chunks.as_ref().map_or(options.steps, |(every, _)| (*every).clamp(1, options.steps.max(1)));
-        // The fit calls the sign prior once a step: its calls are the steps that ran when a
-        // cancel stops it early (neural/tests/partial_fit.rs checks the count).
-        let steps_run = AtomicUsize::new(0);
-        let counted = |p: &[Vec3]| {
-            steps_run.fetch_add(1, Ordering::Relaxed);
-            prior(p)
-        };
-        let mut done = 0;
-        while done < options.steps && !cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-            let n = every.min(options.steps - done);
-            let chunk_options = HyperFitOptions { steps: n, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
-            let base = done;
-            let mut chunk_progress = |step: usize, loss: f32, terms: [f32; 4]| progress(base + step, loss, terms);
-            model = fit_hyper(model, &samples, &chunk_options, &mut optimisers, &device, Some(&counted), cancel, &mut chunk_progress);
-            done = steps_run.load(Ordering::Relaxed).min(base + n);
-            if done < base + n {
-                break;
-            }
-            if let Some((_, look)) = chunks.as_mut()
-                && done < options.steps
-            {
-                look(done, &Self::from_fitted(capture, init, done, options.steps, &model).0);
-            }
-        }
-        Self::from_fitted(capture, init, done, options.steps, &model)
-    }
-
     /// The avatar of a fitted hypernetwork (inference copy of its weights) after `done` of
     /// `requested` steps.
-    fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet) -> (MetaAvatar, FitReport) {
+    pub(crate) fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet) -> MetaAvatar {
         let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = MetaAvatarHeader {
             format: AVATAR_FORMAT.into(),
@@ -177,9 +117,7 @@ impl MetaAvatar {
             partial: PartialFit::of(done, requested),
             body: section,
         };
-        let report = FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() };
-        let avatar = MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 };
-        (avatar, report)
+        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 }
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
@@ -226,6 +164,24 @@ impl MetaAvatar {
         MetricSdf { siren: SirenEval::from_tensors(&w, &b), normalisation: self.header.normalisation }
     }
 
+    /// [`MetaAvatar::sdf_at`] through burn's forward (the path before `siren_eval`, kept as its
+    /// reference: the bench compares the two).
+    pub fn burn_sdf_at(&self, params: &BodyParams) -> impl Fn(&[Vec3]) -> Vec<f32> + Sync + use<> {
+        use rayon::prelude::*;
+        let (w, b) = self.siren_at(params);
+        let (n, device) = (self.header.normalisation, self.device.clone());
+        move |points: &[Vec3]| -> Vec<f32> {
+            points
+                .par_chunks(points.len().div_ceil(rayon::current_num_threads().max(1)).clamp(1024, 16_384))
+                .flat_map_iter(|chunk| {
+                    let flat: Vec<f32> = chunk.iter().flat_map(|p| n.to_unit(*p).to_array()).collect();
+                    let f = crate::siren::sdf_only(&w, &b, Tensor::from_data(burn::tensor::TensorData::new(flat, [chunk.len(), 3]), &device));
+                    f.into_data().as_slice::<f32>().expect("f32 tensor").iter().map(|v| v * n.metres_per_unit()).collect::<Vec<f32>>()
+                })
+                .collect()
+        }
+    }
+
     /// The clothed surface at a pose in canonical space (metres).
     pub fn canonical_mesh_at(&self, params: &BodyParams, resolution: usize) -> Result<TriMesh> {
         let sdf = self.sdf_at(params);
@@ -261,14 +217,14 @@ impl AvatarSource for MetaAvatar {
     fn betas(&self) -> &[f32] {
         &self.header.betas
     }
-    fn canonical_mesh(&self, params: &BodyParams) -> Result<TriMesh> {
-        self.canonical_mesh_at(params, self.resolution)
+    fn canonical_mesh(&self, params: &BodyParams) -> avatar_core::Result<TriMesh> {
+        Ok(self.canonical_mesh_at(params, self.resolution)?)
     }
-    fn sdf(&self, params: &BodyParams, points: &[Vec3]) -> Result<Vec<f32>> {
+    fn sdf(&self, params: &BodyParams, points: &[Vec3]) -> avatar_core::Result<Vec<f32>> {
         Ok(self.sdf_at(params).sdf(points))
     }
     /// Newton steps with the analytic gradient (reverse mode, `siren_eval`).
-    fn project(&self, params: &BodyParams, points: &[Vec3], steps: usize) -> Result<Vec<Vec3>> {
+    fn project(&self, params: &BodyParams, points: &[Vec3], steps: usize) -> avatar_core::Result<Vec<Vec3>> {
         Ok(self.sdf_at(params).project(points, steps))
     }
     fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights> {

@@ -1,18 +1,30 @@
-//! The avatar, in one place: what a fitted avatar is (the two kinds: a pose-dependent
-//! MetaAvatar and a static SDF), how its file is laid out and checked (`header`, `body`), how it
-//! is fitted (`MetaAvatar::fit_points_in_chunks`, `StaticAvatar::fit_points`) and loaded
-//! (`AnyAvatar::load`, routed by the header's kind). Posing and export see an avatar through
-//! `avatar_core::avatar::AvatarSource`, which both kinds implement.
+//! The avatar, in one place. A newcomer's map:
+//!
+//! | what | where |
+//! |---|---|
+//! | defined: the two kinds, and either one | `meta_avatar.rs` (pose-dependent MetaAvatar), `static_avatar.rs` (static SDF), [`AnyAvatar`] (routed by the header's kind) |
+//! | what posing and export need of an avatar | `avatar_core::avatar::AvatarSource` (re-exported here; both kinds implement it) |
+//! | fitted | `fitting.rs`: [`fit_avatar`], one chunked entry point for both kinds (the CLI's `fit`, the studio's job, the evaluation's rows) |
+//! | saved and loaded | `save`/`load` of each kind, [`AnyAvatar::load`]; the file's header and its one check in `header.rs`, the stored body in `body.rs` |
+//! | posed | `MetaAvatar::posed_mesh`; a reference mesh projected and skinned at a pose: [`PoseSurface`] (the studio's poser and the exporter) |
+//! | exported | [`export_glb`] (animated glTF) |
+//!
+//! Posing and export are written once in `avatar_core` (the exporter needs no burn) and
+//! re-exported here.
 
 pub mod body;
+pub mod fitting;
 pub mod header;
 pub mod meta_avatar;
 pub mod static_avatar;
 
 use crate::weights_file;
+pub use fitting::{fit_avatar, AvatarFit, FitEvent, FitKind, FitReport};
 pub use header::PartialFit;
 pub use meta_avatar::{Init, MetaAvatar, META_AVATAR_KIND};
-pub use static_avatar::{FitReport, StaticAvatar, STATIC_AVATAR_KIND};
+pub use static_avatar::{StaticAvatar, STATIC_AVATAR_KIND};
+pub use avatar_core::avatar::{AvatarSource, PoseSurface, PROJECTION_STEPS};
+pub use avatar_core::export::{export_glb, ExportOptions};
 
 /// An avatar file of either kind, routed by its header.
 pub enum AnyAvatar {
@@ -21,13 +33,13 @@ pub enum AnyAvatar {
 }
 
 impl AnyAvatar {
-    pub fn load(path: impl AsRef<std::path::Path>) -> avatar_core::error::Result<AnyAvatar> {
+    pub fn load(path: impl AsRef<std::path::Path>) -> crate::error::Result<AnyAvatar> {
         let path = path.as_ref();
         let id = weights_file::identity(path)?;
         match id.kind.as_str() {
             STATIC_AVATAR_KIND => Ok(AnyAvatar::Static(StaticAvatar::load(path)?)),
             META_AVATAR_KIND => Ok(AnyAvatar::Meta(MetaAvatar::load(path)?)),
-            other => Err(avatar_core::error::Error::file(path, format!("{other:?} is not an avatar this build can load ({STATIC_AVATAR_KIND} or {META_AVATAR_KIND})"))),
+            other => Err(crate::error::Error::AvatarKind { path: path.into(), kind: other.into(), known: format!("{STATIC_AVATAR_KIND} or {META_AVATAR_KIND}") }),
         }
     }
 
@@ -43,6 +55,13 @@ impl AnyAvatar {
         match self {
             AnyAvatar::Static(a) => a.header.partial,
             AnyAvatar::Meta(a) => a.header.partial,
+        }
+    }
+
+    pub fn save(&self, path: impl AsRef<std::path::Path>) -> crate::error::Result<()> {
+        match self {
+            AnyAvatar::Static(a) => a.save(path),
+            AnyAvatar::Meta(a) => a.save(path),
         }
     }
 

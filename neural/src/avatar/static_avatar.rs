@@ -1,19 +1,18 @@
 //! A static (pose-independent) SDF avatar fitted from scratch to a capture's canonicalized
 //! depth points: the "static SDF" and "from scratch" baselines of the paper, and the first
-//! avatar the studio can fit, pose and export. The meta-learned hypernetwork avatar replaces
-//! the static SDF with a pose-conditioned one (issue 6).
+//! avatar the studio can fit, pose and export. The meta-learned hypernetwork avatar
+//! (`meta_avatar`) replaces the static SDF with a pose-conditioned one.
 
 use crate::avatar::body::{self as avatar_body, BodySection};
-use crate::avatar::header::{check_subject, PartialFit};
+use crate::avatar::header::{avatar_field, check_avatar_header, check_subject, PartialFit};
 use crate::capture_points::CapturePoints;
-use crate::fit::{fit_sdf, FitOptions, Progress};
 use crate::siren_eval::MetricSdf;
 use crate::flat_params::{flatten, load_flat};
 use crate::siren::{Siren, SirenConfig};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights};
-use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
-use avatar_core::error::{Error, Result};
+use avatar_core::canonical::{Normalisation, SkinningField};
+use crate::error::Result;
 use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::{extract, ExtractOptions};
 use avatar_core::mesh::TriMesh;
@@ -21,15 +20,11 @@ use burn::module::Module;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// The header kind of a static-SDF avatar file.
 pub const STATIC_AVATAR_KIND: &str = "static-sdf";
 
-pub const AVATAR_FORMAT: &str = "avatar-studio-avatar";
-/// The newest avatar version this build writes and reads: 1 (open body, no body stored) and 2
-/// (the frozen body of a user's SMPL model stored after the weights: avatar_body.rs).
-pub const AVATAR_VERSION: u32 = avatar_body::VERSION_WITH_BODY;
+pub use crate::avatar::header::{AVATAR_FORMAT, AVATAR_VERSION};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AvatarHeader {
@@ -62,48 +57,9 @@ pub struct StaticAvatar {
     pub resolution: usize,
 }
 
-/// What fitting reports.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FitReport {
-    pub frames: usize,
-    pub points: usize,
-    pub dropped: usize,
-    pub warnings: Vec<String>,
-}
-
 impl StaticAvatar {
-    /// Fit to the first `frames` usable frames of a capture, from SIREN's random
-    /// initialisation (`init` None) or from given weights (the static meta-SDF).
-    pub fn fit_capture(dir: &Path, frames: usize, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(StaticAvatar, FitReport)> {
-        let capture = CapturePoints::open(dir, frames)?;
-        Ok(Self::fit_points(&capture, siren, init, options, cancel, progress))
-    }
-
-    /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose).
-    pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
-        let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
-        let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
-        let outside: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.free_space.iter().copied()).collect();
-        let device = crate::compute::training_device();
-        let model = init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device);
-        let prior = capture.sign_prior();
-        // The fit calls the sign prior once a step: its calls are the steps that ran when a
-        // cancel stops it early (neural/tests/partial_fit.rs checks the count).
-        let steps_run = AtomicUsize::new(0);
-        let counted = |p: &[Vec3]| {
-            steps_run.fetch_add(1, Ordering::Relaxed);
-            prior(p)
-        };
-        let model = fit_sdf(model, &points, &normals, &outside, options, &device, Some(&counted), cancel, progress);
-        let report = FitReport { frames: capture.frames.len(), points: points.len(), dropped: capture.dropped, warnings: capture.warnings.clone() };
-        let mut avatar = Self::from_fitted(capture, siren, &model);
-        avatar.header.partial = PartialFit::of(steps_run.load(Ordering::Relaxed).min(options.steps), options.steps);
-        (avatar, report)
-    }
-
-    /// The avatar of a SIREN fitted to a canonicalized capture (for callers that run the fit
-    /// themselves, like the studio's chunked job).
-    pub fn from_fitted(capture: &CapturePoints, siren: SirenConfig, model: &Siren) -> StaticAvatar {
+    /// The avatar of a SIREN fitted to a canonicalized capture (not marked partial).
+    pub(crate) fn from_fitted(capture: &CapturePoints, siren: SirenConfig, model: &Siren) -> StaticAvatar {
         let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = AvatarHeader {
             format: AVATAR_FORMAT.into(),
@@ -158,26 +114,6 @@ impl StaticAvatar {
     }
 }
 
-/// The skinning field of an avatar's body shape (from the cache when it is there).
-pub(crate) fn avatar_field(body: &BodyModel, betas: &[f32], cells: usize) -> Result<SkinningField> {
-    let field_options = FieldOptions { cells_along_height: cells, ..FieldOptions::default() };
-    let cache = default_cache_dir();
-    Ok(Canonicalizer::new(body, betas, &field_options, cache.as_deref())?.field)
-}
-
-/// Refuse avatar files of another format, version or kind with a message naming the file
-/// (read from the header alone, before the rest of the file is parsed).
-pub(crate) fn check_avatar_header(path: &Path, expected_kind: &str) -> Result<()> {
-    let weights_file::Identity { format, version, kind } = weights_file::identity(path)?;
-    if format != AVATAR_FORMAT || !(avatar_body::VERSION_OPEN_BODY..=AVATAR_VERSION).contains(&version) {
-        return Err(Error::file(path, format!("avatar format {format:?} version {version} is not supported by this build (it reads {AVATAR_FORMAT:?} versions 1 to {AVATAR_VERSION})")));
-    }
-    if kind != expected_kind {
-        return Err(Error::file(path, format!("avatar kind {kind:?} is not a {expected_kind:?} avatar")));
-    }
-    Ok(())
-}
-
 impl AvatarSource for StaticAvatar {
     fn body(&self) -> &BodyModel {
         &self.body
@@ -187,7 +123,7 @@ impl AvatarSource for StaticAvatar {
     }
     /// Pose-independent: the same canonical surface for every pose (coarse-to-fine marching
     /// cubes over the normalised cube, largest component).
-    fn canonical_mesh(&self, _params: &BodyParams) -> Result<TriMesh> {
+    fn canonical_mesh(&self, _params: &BodyParams) -> avatar_core::Result<TriMesh> {
         let n = self.header.normalisation;
         let (lo, hi) = (n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)));
         // The quarter-diagonal refinement margin of the meta avatar (see its canonical_mesh_at).
@@ -195,14 +131,14 @@ impl AvatarSource for StaticAvatar {
         options.margin = 0.25;
         Ok(extract(|p: &[Vec3]| self.sdf_metres(p), &options)?.mesh)
     }
-    fn sdf(&self, _params: &BodyParams, points: &[Vec3]) -> Result<Vec<f32>> {
+    fn sdf(&self, _params: &BodyParams, points: &[Vec3]) -> avatar_core::Result<Vec<f32>> {
         Ok(self.sdf_metres(points))
     }
     fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights> {
         points.iter().map(|&p| self.field.weights_at(p)).collect()
     }
     /// The surface does not change with the pose: reference vertices already lie on it.
-    fn project(&self, _params: &BodyParams, points: &[Vec3], _steps: usize) -> Result<Vec<Vec3>> {
+    fn project(&self, _params: &BodyParams, points: &[Vec3], _steps: usize) -> avatar_core::Result<Vec<Vec3>> {
         Ok(points.to_vec())
     }
 }

@@ -1,7 +1,7 @@
 //! The right-hand panel: the avatar, fine-tuning (settings, progress, loss plot), the pose,
 //! export, and the view (camera presets, turntable, material colour, light).
 
-use crate::studio::avatar_job::{AvatarKind, FitConfig};
+use crate::studio::fit_config::{AvatarKind, FitConfig};
 use crate::studio::camera::Preset;
 use crate::studio::commands::Command;
 use crate::studio::settings::PathPurpose;
@@ -23,13 +23,10 @@ pub fn side_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>
     look_panel(app, ui, out);
 }
 
-/// The loss terms' weights of a fit of this kind (the fits' defaults): a term weighted 0 is
-/// switched off and not shown.
-fn loss_weights(kind: AvatarKind) -> IgrWeights {
-    match kind {
-        AvatarKind::MetaAvatar => avatar_neural::HyperFitOptions::default().weights,
-        AvatarKind::StaticSdf => avatar_neural::FitOptions::default().weights,
-    }
+/// The loss terms' weights of a fit (both kinds take `fit`'s): a term weighted 0 is switched
+/// off and not shown.
+fn loss_weights() -> IgrWeights {
+    avatar_neural::HyperFitOptions::default().weights
 }
 
 /// "loss 0.0123 · surface 0.0040 · eikonal 0.012": the terms with a weight.
@@ -165,7 +162,7 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
                     .labelled_by(l.id);
                 ui.end_row();
             }
-            let l = ui.label(if cfg.kind == AvatarKind::MetaAvatar { "Points / pose" } else { "Points / step" });
+            let l = ui.label("Points / pose");
             ui.add(egui::DragValue::new(&mut cfg.batch).range(100..=20000).speed(50.0)).labelled_by(l.id);
             ui.end_row();
         });
@@ -195,8 +192,7 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
     if running || !jv.losses.is_empty() {
         let left = jv.seconds_left().map(|s| format!(" · {} left", human_seconds(s))).unwrap_or_default();
         ui.add(egui::ProgressBar::new(jv.fraction()).text(format!("step {} / {}{left}", jv.step, jv.steps)).fill(egui::Color32::from_rgb(48, 98, 170)));
-        let kind = app.job.as_ref().map_or(app.settings.fit.kind, |j| j.config.kind);
-        ui.label(egui::RichText::new(loss_readout(jv.loss, jv.terms, loss_weights(kind))).small().monospace());
+        ui.label(egui::RichText::new(loss_readout(jv.loss, jv.terms, loss_weights())).small().monospace());
         if jv.points > 0 {
             ui.label(egui::RichText::new(format!("{} canonical points from {} frames", jv.points, jv.frames)).small().weak());
         }

@@ -4,15 +4,12 @@
 //! memory (target: under 2 GB); a 300-frame animated glTF of the fitted avatar (target: under
 //! 30 s); the SDF evaluation of a posed mesh with burn's forward against `siren_eval`'s.
 
-use crate::capture_points::CapturePoints;
-use crate::hyper_fit::HyperFitOptions;
-use crate::avatar::meta_avatar::{Init, MetaAvatar};
-use crate::model_file::MetaModel;
+use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
 use avatar_core::body::BodyParams;
 use avatar_core::export::{export_glb, ExportOptions};
 use avatar_core::motion::{clip_by_name, library, MotionClip};
 use avatar_core::mesh::extract::{extract, ExtractOptions};
-use burn::tensor::{Tensor, TensorData};
 use glam::Vec3;
 use std::path::Path;
 use std::time::Instant;
@@ -74,19 +71,7 @@ fn burn_against_fast_path(avatar: &MetaAvatar, params: &BodyParams) -> String {
     let n = avatar.header.normalisation;
     let mut options = ExtractOptions::new(n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)), 128);
     options.margin = 0.25;
-    let (w, b) = avatar.siren_at(params);
-    let device = crate::cpu_device();
-    let burn_sdf = |points: &[Vec3]| -> Vec<f32> {
-        use rayon::prelude::*;
-        points
-            .par_chunks(points.len().div_ceil(rayon::current_num_threads().max(1)).clamp(1024, 16_384))
-            .flat_map_iter(|chunk| {
-                let flat: Vec<f32> = chunk.iter().flat_map(|p| n.to_unit(*p).to_array()).collect();
-                let f = crate::siren::sdf_only(&w, &b, Tensor::from_data(TensorData::new(flat, [chunk.len(), 3]), &device));
-                f.into_data().as_slice::<f32>().expect("f32 tensor").iter().map(|v| v * n.metres_per_unit()).collect::<Vec<f32>>()
-            })
-            .collect()
-    };
+    let burn_sdf = avatar.burn_sdf_at(params);
     let t = Instant::now();
     let slow = extract(burn_sdf, &options);
     let burn_s = t.elapsed().as_secs_f64();

@@ -1,6 +1,12 @@
 //! `avatar-studio bench`: the speed targets, measured side by side in one run and printed as a
 //! Markdown report (these machines are noisy: compare ratios within one report).
 
+mod canonical;
+mod eval;
+mod export;
+mod neural;
+mod train;
+
 use avatar_core::body::{BodyModel, BodyParams};
 use glam::Vec3;
 use std::path::PathBuf;
@@ -85,14 +91,14 @@ fn capture_section() -> String {
 }
 
 fn neural_section() -> String {
-    avatar_neural::bench::bench_report(avatar_neural::HyperFitOptions::default().steps)
+    neural::bench_report(avatar_neural::HyperFitOptions::default().steps)
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = &args.out {
         avatar_core::io::Inputs::new().check_file(path, &["md"])?;
     }
-    let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section), ("capture", capture_section), ("canonical", avatar_core::canonical::report::bench_report), ("eval", avatar_core::eval::runner::bench_report), ("export", avatar_core::export::bench::bench_report), ("neural", neural_section), ("train", super::bench_train::bench_report), ("studio", avatar_studio::studio::bench::bench_report)];
+    let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section), ("capture", capture_section), ("canonical", canonical::bench_report), ("eval", eval::bench_report), ("export", export::bench_report), ("neural", neural_section), ("train", train::bench_report), ("studio", avatar_studio::studio::bench::bench_report)];
     let mut report = format!(
         "# Avatar Studio benchmarks\n\n{} threads, profile {}, `avatar-studio bench`\n\n",
         std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),

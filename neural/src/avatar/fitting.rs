@@ -1,0 +1,218 @@
+//! Fitting an avatar to a canonicalized capture: the one entry point ([`fit_avatar`]) that
+//! `avatar-studio fit`, the studio's fit job and the evaluation's rows call. A fit runs in
+//! chunks of steps (the optimisers' state carried over; each chunk draws its batches from
+//! seed + steps done); after each chunk but the last the caller sees the partial avatar
+//! ([`FitEvent::Partial`], the studio's live preview), and a cancel stops it at the next step
+//! with a usable, partial avatar (`PartialFit` in its header).
+//!
+//! Training runs where `crate::compute::select` chose (`training_device`).
+
+use crate::avatar::meta_avatar::{Init, MetaAvatar, SCRATCH_ENCODER_RATE};
+use crate::avatar::static_avatar::StaticAvatar;
+use crate::avatar::{AnyAvatar, PartialFit};
+use crate::capture_points::CapturePoints;
+use crate::fit::{fit_sdf_resuming, FitOptions, Progress, SdfOptimiser, SignPrior};
+use crate::hyper::HyperNet;
+use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
+use crate::siren::{Siren, SirenConfig};
+use burn::module::Module;
+use glam::Vec3;
+use crate::error::Result;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+/// Which avatar a fit makes, and where its networks start.
+pub enum FitKind<'a> {
+    /// The pose-dependent hypernetwork avatar (MetaAvatar or the from-scratch baseline).
+    Meta(Init<'a>),
+    /// A static (pose-independent) SIREN SDF over all frames pooled: from `init` (the
+    /// meta-model's static SDF) or, with `None`, from SIREN's random initialisation.
+    Static { siren: SirenConfig, init: Option<Siren> },
+}
+
+/// A fit's configuration.
+pub struct AvatarFit<'a> {
+    pub kind: FitKind<'a>,
+    /// Steps, seed, points a step, rates and loss. The static SDF uses
+    /// [`HyperFitOptions::static_equivalent`] of them: the same budget pooled over the poses
+    /// (the one static-SDF recipe).
+    pub options: HyperFitOptions,
+    /// Steps per chunk, with a [`FitEvent::Partial`] after each chunk but the last (0: one
+    /// chunk, no partial avatars).
+    pub chunk: usize,
+    /// Set to stop at the next step; the avatar of the steps that ran is returned.
+    pub cancel: Option<&'a AtomicBool>,
+}
+
+/// What fitting reports.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitReport {
+    pub frames: usize,
+    pub points: usize,
+    pub dropped: usize,
+    pub warnings: Vec<String>,
+}
+
+impl FitReport {
+    fn of(capture: &CapturePoints) -> FitReport {
+        FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() }
+    }
+}
+
+/// What a fit tells its caller while it runs.
+pub enum FitEvent {
+    /// A logged step (about 50 a fit, and the last): its index from 0, the loss and its four
+    /// IGR terms (surface, normal, off-surface, eikonal).
+    Progress { step: usize, steps: usize, loss: f32, terms: [f32; 4] },
+    /// The avatar after `done` steps, at the end of a chunk (the caller may block here: the
+    /// fit waits).
+    Partial { done: usize, avatar: AnyAvatar },
+}
+
+/// Fit an avatar to a canonicalized capture.
+pub fn fit_avatar(capture: &CapturePoints, fit: &AvatarFit, on_event: &mut dyn FnMut(FitEvent)) -> (AnyAvatar, FitReport) {
+    match &fit.kind {
+        FitKind::Meta(init) => {
+            let (avatar, report) = fit_meta(capture, init, &fit.options, fit.chunk, fit.cancel, on_event);
+            (AnyAvatar::Meta(avatar), report)
+        }
+        FitKind::Static { siren, init } => {
+            let (avatar, report) = fit_static(capture, *siren, init.clone(), &fit.options.static_equivalent(), fit.chunk, fit.cancel, on_event);
+            (AnyAvatar::Static(avatar), report)
+        }
+    }
+}
+
+fn cancelled(cancel: Option<&AtomicBool>) -> bool {
+    cancel.is_some_and(|c| c.load(Ordering::Relaxed))
+}
+
+/// Steps per chunk: all of them for 0.
+fn chunk_len(chunk: usize, steps: usize) -> usize {
+    if chunk == 0 { steps.max(1) } else { chunk.clamp(1, steps.max(1)) }
+}
+
+/// What the chunk loop asks of a kind's fit: run `steps` more steps (after `done`) with the
+/// counting prior and the progress callback, or make the partial avatar after `done` steps.
+enum Chunk<'a> {
+    Run { steps: usize, done: usize, prior: SignPrior<'a>, progress: Progress<'a> },
+    Partial(usize),
+}
+
+/// The chunk loop both kinds share; returns the steps that ran. The fit calls the sign prior
+/// once a step: its calls are the steps that ran when a cancel stops it early
+/// (neural/tests/partial_fit.rs checks the count).
+fn in_chunks(steps: usize, chunk: usize, cancel: Option<&AtomicBool>, prior: SignPrior, on_event: &mut dyn FnMut(FitEvent), fit: &mut dyn FnMut(Chunk) -> Option<AnyAvatar>) -> usize {
+    let every = chunk_len(chunk, steps);
+    let steps_run = AtomicUsize::new(0);
+    let counted = |p: &[Vec3]| {
+        steps_run.fetch_add(1, Ordering::Relaxed);
+        prior(p)
+    };
+    let mut done = 0;
+    while done < steps && !cancelled(cancel) {
+        let (n, base) = (every.min(steps - done), done);
+        let mut progress = |step: usize, loss: f32, terms: [f32; 4]| on_event(FitEvent::Progress { step: base + step, steps, loss, terms });
+        fit(Chunk::Run { steps: n, done: base, prior: &counted, progress: &mut progress });
+        done = steps_run.load(Ordering::Relaxed).min(base + n);
+        if done < base + n {
+            break;
+        }
+        if chunk > 0
+            && done < steps
+            && let Some(avatar) = fit(Chunk::Partial(done))
+        {
+            on_event(FitEvent::Partial { done, avatar });
+        }
+    }
+    done
+}
+
+/// The hypernetwork's fine-tuning: every frame of the capture is one pose sample.
+pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, chunk: usize, cancel: Option<&AtomicBool>, on_event: &mut dyn FnMut(FitEvent)) -> (MetaAvatar, FitReport) {
+    let samples = capture.pose_samples(init.config().encoding);
+    let device = crate::compute::training_device();
+    let mut optimisers = HyperOptimisers::default();
+    let mut model = Some(init.network().fork(&device));
+    // A frozen encoder keeps meta-learned pose features; a random one must learn (the
+    // from-scratch baseline trains it at the reference's 1e-4).
+    let options = &match init {
+        Init::Scratch { .. } if options.lr_encoder == 0.0 => HyperFitOptions { lr_encoder: SCRATCH_ENCODER_RATE, ..options.clone() },
+        _ => options.clone(),
+    };
+    let avatar = |model: &HyperNet, done: usize| MetaAvatar::from_fitted(capture, init, done, options.steps, model);
+    let done = in_chunks(options.steps, chunk, cancel, &capture.sign_prior(), on_event, &mut |c| match c {
+        Chunk::Run { steps, done, prior, progress } => {
+            let chunk_options = HyperFitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
+            model = model.take().map(|m| fit_hyper(m, &samples, &chunk_options, &mut optimisers, &device, Some(prior), cancel, progress));
+            None
+        }
+        Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Meta(avatar(m, done))),
+    });
+    (avatar(&model.expect("the fit returns its network"), done), FitReport::of(capture))
+}
+
+/// The static SDF's fit: all frames pooled (the SDF ignores the pose), the capture's sign prior.
+pub(crate) fn fit_static(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, chunk: usize, cancel: Option<&AtomicBool>, on_event: &mut dyn FnMut(FitEvent)) -> (StaticAvatar, FitReport) {
+    let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
+    let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
+    let outside: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.free_space.iter().copied()).collect();
+    let device = crate::compute::training_device();
+    let mut model = Some(init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device));
+    let mut optimiser = SdfOptimiser::default();
+    let done = in_chunks(options.steps, chunk, cancel, &capture.sign_prior(), on_event, &mut |c| match c {
+        Chunk::Run { steps, done, prior, progress } => {
+            let chunk_options = FitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
+            model = model.take().map(|m| fit_sdf_resuming(m, &points, &normals, &outside, &chunk_options, &mut optimiser, &device, Some(prior), cancel, progress));
+            None
+        }
+        Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Static(static_avatar(capture, siren, m, done, options.steps))),
+    });
+    (static_avatar(capture, siren, &model.expect("the fit returns its network"), done, options.steps), FitReport::of(capture))
+}
+
+fn static_avatar(capture: &CapturePoints, siren: SirenConfig, model: &Siren, done: usize, requested: usize) -> StaticAvatar {
+    let mut avatar = StaticAvatar::from_fitted(capture, siren, model);
+    avatar.header.partial = PartialFit::of(done, requested);
+    avatar
+}
+
+/// A progress callback as a fit's event callback (partial avatars dropped).
+pub(crate) fn progress_only(progress: crate::fit::Progress<'_>) -> impl FnMut(FitEvent) + '_ {
+    move |e| {
+        if let FitEvent::Progress { step, loss, terms, .. } = e {
+            progress(step, loss, terms)
+        }
+    }
+}
+
+/// One-chunk fits of either kind with a progress callback (tests, examples and benches).
+impl MetaAvatar {
+    /// Fine-tune on the first `frames` usable frames of a capture.
+    pub fn fit_capture(dir: &Path, frames: usize, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(MetaAvatar, FitReport)> {
+        let capture = CapturePoints::open(dir, frames)?;
+        Ok(Self::fit_points(&capture, init, options, cancel, progress))
+    }
+
+    /// Fine-tune on a canonicalized capture: every frame is one pose sample (one chunk of
+    /// [`crate::avatar::fitting::fit_avatar`]).
+    pub fn fit_points(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
+        fit_meta(capture, init, options, 0, cancel, &mut progress_only(progress))
+    }
+}
+
+impl StaticAvatar {
+    /// Fit to the first `frames` usable frames of a capture, from SIREN's random
+    /// initialisation (`init` None) or from given weights (the static meta-SDF).
+    pub fn fit_capture(dir: &Path, frames: usize, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(StaticAvatar, FitReport)> {
+        let capture = CapturePoints::open(dir, frames)?;
+        Ok(Self::fit_points(&capture, siren, init, options, cancel, progress))
+    }
+
+    /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose) with
+    /// these options (one chunk of `fit_static`; the avatars of `fit_avatar` take theirs
+    /// from `HyperFitOptions::static_equivalent`).
+    pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
+        fit_static(capture, siren, init, options, 0, cancel, &mut progress_only(progress))
+    }
+}

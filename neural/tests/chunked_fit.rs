@@ -1,0 +1,62 @@
+//! `fit_avatar`, the one entry point of both kinds: a fit in chunks shows the partial avatar
+//! after each chunk but the last, reports every step range once and in order, and a cancel at a
+//! chunk's end keeps the avatar of the steps that ran. A static fit in one chunk of the
+//! `fit_avatar` recipe is `StaticAvatar::fit_points` with `static_equivalent` options.
+
+use avatar_neural::avatar::{fit_avatar, AvatarFit, FitEvent, FitKind};
+use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::encoder::PoseEncoding;
+use avatar_neural::*;
+use glam::Vec3;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+fn capture() -> CapturePoints {
+    CapturePoints::open(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo"), 2).unwrap()
+}
+
+#[test]
+fn chunked_fits_show_partial_avatars_and_stop_at_a_chunk() {
+    let capture = capture();
+    let config = HyperConfig { siren: SirenConfig { hidden: 16, layers: 2 }, head_hidden: 8, rank: Some(2), encoding: PoseEncoding::Hierarchical };
+    let options = HyperFitOptions { steps: 7, surface_per_pose: 50, off_per_pose: 50, ..HyperFitOptions::default() };
+    for kind in [FitKind::Meta(Init::Scratch { config, seed: 0 }), FitKind::Static { siren: config.siren, init: None }] {
+        let fit = AvatarFit { kind, options: options.clone(), chunk: 3, cancel: None };
+        let (mut steps, mut partials) = (Vec::new(), Vec::new());
+        let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| match e {
+            FitEvent::Progress { step, steps: total, .. } => {
+                assert_eq!(total, 7);
+                steps.push(step);
+            }
+            FitEvent::Partial { done, avatar } => {
+                assert_eq!(avatar.partial().map(|p| p.steps_done), Some(done), "a partial avatar says how far it got");
+                partials.push(done);
+            }
+        });
+        assert_eq!(steps, (0..7).collect::<Vec<_>>(), "every step logged once, in order");
+        assert_eq!(partials, [3, 6], "after each chunk but the last");
+        assert_eq!(avatar.partial(), None);
+        assert_eq!(report.frames, 2);
+
+        let cancel = AtomicBool::new(false);
+        let fit = AvatarFit { cancel: Some(&cancel), ..fit };
+        let (avatar, _) = fit_avatar(&capture, &fit, &mut |e| {
+            if let FitEvent::Partial { .. } = e {
+                cancel.store(true, Ordering::Relaxed);
+            }
+        });
+        assert_eq!(avatar.partial().map(|p| p.to_string()).as_deref(), Some("partial: 3 of 7 steps"));
+    }
+}
+
+#[test]
+fn the_static_recipe_is_static_equivalent() {
+    let capture = capture();
+    let siren = SirenConfig { hidden: 16, layers: 2 };
+    let options = HyperFitOptions { steps: 4, surface_per_pose: 40, off_per_pose: 40, ..HyperFitOptions::default() };
+    let fit = AvatarFit { kind: FitKind::Static { siren, init: None }, options: options.clone(), chunk: 0, cancel: None };
+    let (AnyAvatar::Static(a), _) = fit_avatar(&capture, &fit, &mut |_| {}) else { panic!("a static avatar") };
+    let (b, _) = StaticAvatar::fit_points(&capture, siren, None, &options.static_equivalent(), None, &mut |_, _, _| {});
+    let probe: Vec<Vec3> = (0..20).map(|i| Vec3::new(0.01 * i as f32, 1.0, 0.05)).collect();
+    assert_eq!(a.sdf_metres(&probe), b.sdf_metres(&probe));
+}
