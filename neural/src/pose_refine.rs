@@ -17,6 +17,7 @@
 use crate::capture_points::CapturePoints;
 use crate::encoder::PoseEncoding;
 use crate::hyper_fit::PoseSample;
+use crate::siren_eval::SirenEval;
 use avatar_core::body::{blend_transform, skinned_point_jacobian, BodyParams, PoseCorrection, NUM_JOINTS, POSE_DOF};
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
@@ -324,4 +325,30 @@ fn cholesky_solve(h: &[f64], b: &[f64], n: usize) -> Option<Vec<f64>> {
         x[i] = (y[i] - s) / l[i * n + i];
     }
     Some(x)
+}
+
+/// One round during a fit: the SDF of each frame is the hypernetwork's SIREN for the frame's
+/// current pose input (frozen for the round); afterwards `samples` hold the refined points,
+/// normals and pose inputs.
+pub fn refine_round(refiner: &mut PoseRefiner, model: &crate::hyper::HyperNet, samples: &mut [PoseSample], encoding: PoseEncoding) -> RoundReport {
+    use burn::module::Module;
+    let device = crate::cpu_device();
+    let inference = model.valid().to_device(&device);
+    let sirens: Vec<SirenEval> = samples
+        .iter()
+        .map(|s| {
+            let (w, b) = inference.siren_for(&s.pose_input, &device);
+            SirenEval::from_tensors(&w, &b)
+        })
+        .collect();
+    let norm = refiner.capture.normalisation;
+    let metres = norm.metres_per_unit();
+    let sdf = |k: usize, points: &[Vec3]| -> (Vec<f32>, Vec<Vec3>) {
+        let unit: Vec<[f32; 3]> = points.iter().map(|p| norm.to_unit(*p).to_array()).collect();
+        let (f, g) = sirens[k].sdf_and_gradient(&unit);
+        (f.into_iter().map(|v| v * metres).collect(), g.into_iter().map(Vec3::from_array).collect())
+    };
+    let report = refiner.round(&sdf);
+    refiner.update_samples(samples, encoding);
+    report
 }

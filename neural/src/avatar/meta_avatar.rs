@@ -5,6 +5,8 @@
 
 use crate::avatar::body::{self as avatar_body, BodySection};
 use crate::avatar::header::{check_subject, PartialFit};
+use crate::avatar::refined_poses::{self, RefinedPose};
+use crate::pose_refine::{refine_round, PoseRefiner};
 use crate::capture_points::CapturePoints;
 use crate::fit::Progress;
 use crate::hyper::{HyperConfig, HyperNet};
@@ -85,6 +87,9 @@ pub struct MetaAvatarHeader {
     /// The frozen body stored after the weights (version 2 files; absent for the open body).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub body: Option<BodySection>,
+    /// Each training frame's given and refined fitting (absent without pose refinement).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refined_poses: Option<Vec<RefinedPose>>,
 }
 
 /// The bone encoder's Adam rate when fine-tuning from scratch (the reference's).
@@ -119,7 +124,7 @@ impl MetaAvatar {
     /// the studio's live preview. `look` may block (a test holds the job there).
     pub fn fit_points_in_chunks(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, mut chunks: Option<(usize, &mut dyn FnMut(usize, &MetaAvatar))>, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
         let config = init.config();
-        let samples = capture.pose_samples(config.encoding);
+        let mut samples = capture.pose_samples(config.encoding);
         let device = crate::compute::training_device();
         let prior = capture.sign_prior();
         let mut optimisers = HyperOptimisers::default();
@@ -131,6 +136,9 @@ impl MetaAvatar {
             _ => options.clone(),
         };
         let every = chunks.as_ref().map_or(options.steps, |(every, _)| (*every).clamp(1, options.steps.max(1)));
+        // Pose refinement (PINA 3.2) runs between chunks, after the steps `rounds` names.
+        let rounds = options.refine_poses.round_steps(options.steps);
+        let mut refiner = (!rounds.is_empty()).then(|| PoseRefiner::new(capture, options.refine_poses));
         // The fit calls the sign prior once a step: its calls are the steps that ran when a
         // cancel stops it early (neural/tests/partial_fit.rs checks the count).
         let steps_run = AtomicUsize::new(0);
@@ -140,7 +148,9 @@ impl MetaAvatar {
         };
         let mut done = 0;
         while done < options.steps && !cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-            let n = every.min(options.steps - done);
+            let next_look = (done / every + 1) * every;
+            let next_round = rounds.iter().copied().find(|&s| s > done).unwrap_or(usize::MAX);
+            let n = next_look.min(next_round).min(options.steps) - done;
             let chunk_options = HyperFitOptions { steps: n, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
             let base = done;
             let mut chunk_progress = |step: usize, loss: f32, terms: [f32; 4]| progress(base + step, loss, terms);
@@ -149,18 +159,25 @@ impl MetaAvatar {
             if done < base + n {
                 break;
             }
+            if let Some(r) = refiner.as_mut()
+                && rounds.contains(&done)
+            {
+                refine_round(r, &model, &mut samples, config.encoding);
+            }
             if let Some((_, look)) = chunks.as_mut()
                 && done < options.steps
+                && done % every == 0
             {
-                look(done, &Self::from_fitted(capture, init, done, options.steps, &model).0);
+                look(done, &Self::from_fitted(capture, init, done, options.steps, &model, refiner.as_ref()).0);
             }
         }
-        Self::from_fitted(capture, init, done, options.steps, &model)
+        Self::from_fitted(capture, init, done, options.steps, &model, refiner.as_ref())
     }
 
     /// The avatar of a fitted hypernetwork (inference copy of its weights) after `done` of
     /// `requested` steps.
-    fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet) -> (MetaAvatar, FitReport) {
+    fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet, refiner: Option<&PoseRefiner>) -> (MetaAvatar, FitReport) {
+        let refined_poses = refiner.map(|r| capture.frames.iter().zip(r.refined()).map(|(f, refined)| RefinedPose { given: f.params.clone(), refined }).collect());
         let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = MetaAvatarHeader {
             format: AVATAR_FORMAT.into(),
@@ -176,6 +193,7 @@ impl MetaAvatar {
             steps: done,
             partial: PartialFit::of(done, requested),
             body: section,
+            refined_poses,
         };
         let report = FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() };
         let avatar = MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 };
@@ -201,6 +219,9 @@ impl MetaAvatar {
                 && p.steps_done != h.steps
             {
                 return Err(Error::invalid(format!("\"steps\" {} and \"partial\" ({p}) disagree", h.steps)));
+            }
+            if let Some(poses) = &h.refined_poses {
+                refined_poses::check(poses, h.frames)?;
             }
             Ok(h.config.num_params() + h.body.as_ref().map_or(0, BodySection::len))
         })?;

@@ -7,6 +7,7 @@
 pub mod body;
 pub mod header;
 pub mod meta_avatar;
+pub mod refined_poses;
 pub mod static_avatar;
 
 use crate::weights_file;
