@@ -43,6 +43,8 @@ pub struct PoseRefineOptions {
     /// Largest change of one joint's rotation (radians) and of the translation (metres) a step.
     pub max_step_rad: f32,
     pub max_step_m: f32,
+    /// Keep the frames' mean correction at zero (see `remove_common_correction`).
+    pub zero_mean: bool,
 }
 
 impl Default for PoseRefineOptions {
@@ -53,11 +55,12 @@ impl Default for PoseRefineOptions {
             start: 0.25,
             iterations: 4,
             points_per_frame: 2000,
-            rotation_prior: 1e-6,
+            rotation_prior: 1e-4,
             translation_prior: 1e-3,
             huber: 0.01,
             max_step_rad: 3f32.to_radians(),
             max_step_m: 0.01,
+            zero_mean: true,
         }
     }
 }
@@ -151,9 +154,30 @@ impl<'a> PoseRefiner<'a> {
             let r = self.refine_frame(k, sdf);
             report.residual_before += r.residual_before / n;
             report.residual_after += r.residual_after / n;
+        }
+        if self.options.zero_mean && self.frames.len() > 1 {
+            self.remove_common_correction();
+        }
+        for k in 0..self.frames.len() {
             self.recanonicalise(k);
         }
         report
+    }
+
+    /// Subtract the correction all frames share. A change common to every frame (all knees
+    /// 3 degrees more bent) is also a change of the canonical shape: the SDF follows it and
+    /// the data cannot tell the two apart, so without this the poses drift together toward
+    /// the meta-learned body's shape. The given fittings are taken as right on average.
+    fn remove_common_correction(&mut self) {
+        let n = self.frames.len() as f32;
+        let mut mean = vec![0f32; POSE_DOF];
+        for f in &self.frames {
+            mean.iter_mut().zip(f.correction.to_vec()).for_each(|(m, v)| *m += v / n);
+        }
+        let minus: Vec<f32> = mean.iter().map(|v| -v).collect();
+        for f in self.frames.iter_mut() {
+            f.correction.add(&minus);
+        }
     }
 
     /// The training samples with every frame's current points, normals and pose input.

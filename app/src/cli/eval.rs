@@ -155,6 +155,14 @@ pub struct Args {
     /// Weight of the residual regulariser in fine-tuning (default: `fit`'s).
     #[arg(long)]
     residual_weight: Option<f32>,
+    /// Fitting errors of user captures: DEGREES,CENTIMETRES RMS per joint and of the
+    /// translation (default 3,1; 0,0 gives user captures with exact fittings).
+    #[arg(long, value_delimiter = ',', num_args = 2)]
+    fit_error: Option<Vec<f32>>,
+    /// Joint refinement of the fine-tuning frames' poses in the hypernetwork rows (`fit`'s
+    /// --refine-poses): on or off (default: `fit`'s).
+    #[arg(long, value_parser = ["on", "off"])]
+    refine_poses: Option<String>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -176,6 +184,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = EvalConfig::paper(protocols);
     config.captures = CaptureConditions::parse_list(args.captures.as_deref().unwrap_or(p.captures), args.noise.as_deref())?;
     config.subjects.truncate(subjects);
+    if let Some(e) = &args.fit_error {
+        let (deg, cm) = (e[0], e[1]);
+        if !(0.0..=45.0).contains(&deg) || !(0.0..=50.0).contains(&cm) {
+            bail!("--fit-error {deg},{cm} is out of range (0 to 45 degrees, 0 to 50 cm)");
+        }
+        for c in config.captures.iter_mut().filter(|c| c.name == "user") {
+            c.fit_error = avatar_core::eval::conditions::FitError { joint_deg: deg, trans_m: cm / 100.0 };
+        }
+    }
     let outfits: Vec<String> = args.outfits.clone().unwrap_or_else(|| p.outfits.iter().map(|o| o.to_string()).collect());
     let outfits: Vec<String> = if outfits == ["all"] { ALL.iter().map(|o| o.to_string()).collect() } else { outfits };
     config.outfits = outfits.iter().map(|n| Outfit::from_name(n)).collect::<Result<_, _>>()?;
@@ -216,6 +233,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         surface_per_pose: args.points_per_pose.unwrap_or(defaults.surface_per_pose).max(1),
         off_per_pose: args.points_per_pose.unwrap_or(defaults.off_per_pose).max(1),
         weights: IgrWeights { normal: args.normal_weight.unwrap_or(defaults.weights.normal), ..defaults.weights },
+        refine_poses: match args.refine_poses.as_deref() {
+            Some(v) => avatar_neural::pose_refine::PoseRefineOptions { enabled: v == "on", ..defaults.refine_poses },
+            None => defaults.refine_poses,
+        },
         ..defaults
     };
     for name in &row_names {

@@ -47,6 +47,11 @@ pub struct Args {
     device: String,
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Joint refinement of each frame's pose (24 joint rotations and the translation) with the
+    /// avatar (PINA 3.2), kept close to the given fitting: on or off. The pose-dependent
+    /// avatar only; the refined poses are saved in the avatar.
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    refine_poses: String,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -103,11 +108,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             model = MetaModel::load_or_shipped(args.model.as_deref())?;
             Init::MetaLearned(&model)
         };
-        let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
+        let mut options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
+        options.refine_poses.enabled = args.refine_poses == "on";
         let capture = open_capture()?;
         let (avatar, report) = MetaAvatar::fit_points(&capture, &init, &options, Some(&cancel), &mut progress);
         avatar.save(&args.out)?;
-        (report, format!("pose-dependent avatar ({}, {} parameters)", init.label(), avatar.num_params()), avatar.header.partial)
+        let refined = match &avatar.header.refined_poses {
+            Some(poses) => {
+                let (deg, cm) = avatar_neural::avatar::refined_poses::mean_correction(poses);
+                format!(", poses refined by {deg:.2} deg per joint and {cm:.2} cm on average")
+            }
+            None => String::new(),
+        };
+        (report, format!("pose-dependent avatar ({}, {} parameters{refined})", init.label(), avatar.num_params()), avatar.header.partial)
     };
     eprintln!();
     for w in &report.warnings {
