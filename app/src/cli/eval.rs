@@ -157,8 +157,8 @@ pub struct Args {
     residual_weight: Option<f32>,
     /// Fitting errors of user captures: DEGREES,CENTIMETRES RMS per joint and of the
     /// translation (default 3,1; 0,0 gives user captures with exact fittings).
-    #[arg(long, value_delimiter = ',', num_args = 2)]
-    fit_error: Option<Vec<f32>>,
+    #[arg(long)]
+    fit_error: Option<String>,
     /// Joint refinement of the fine-tuning frames' poses in the hypernetwork rows (`fit`'s
     /// --refine-poses): on or off (default: `fit`'s).
     #[arg(long, value_parser = ["on", "off"])]
@@ -184,8 +184,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = EvalConfig::paper(protocols);
     config.captures = CaptureConditions::parse_list(args.captures.as_deref().unwrap_or(p.captures), args.noise.as_deref())?;
     config.subjects.truncate(subjects);
-    if let Some(e) = &args.fit_error {
-        let (deg, cm) = (e[0], e[1]);
+    if let Some(text) = &args.fit_error {
+        let values: Vec<f32> = text.split(',').map(|v| v.trim().parse::<f32>()).collect::<Result<_, _>>().unwrap_or_default();
+        let [deg, cm] = values[..] else {
+            bail!("--fit-error {text:?}: expected DEGREES,CENTIMETRES (for example 5,2)");
+        };
         if !(0.0..=45.0).contains(&deg) || !(0.0..=50.0).contains(&cm) {
             bail!("--fit-error {deg},{cm} is out of range (0 to 45 degrees, 0 to 50 cm)");
         }
