@@ -56,6 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     r.zero_mean = std::env::var("REFINE_FREE_MEAN").is_err();
     r.start = env("REFINE_START").unwrap_or(r.start);
     r.huber = env("REFINE_HUBER").unwrap_or(r.huber);
+    r.points_per_frame = env("REFINE_POINTS").map_or(r.points_per_frame, |v| v as usize);
     println!("refinement: {:?}", options.refine_poses);
     if std::env::var("ORACLE").is_ok() {
         // The SDF of an avatar fitted on the exact fittings, frozen: how far refinement gets

@@ -51,10 +51,10 @@ impl Default for PoseRefineOptions {
     fn default() -> Self {
         PoseRefineOptions {
             enabled: true,
-            rounds: 6,
-            start: 0.25,
-            iterations: 4,
-            points_per_frame: 2000,
+            rounds: 24,
+            start: 0.05,
+            iterations: 2,
+            points_per_frame: 1000,
             rotation_prior: 1e-4,
             translation_prior: 1e-3,
             huber: 0.01,
