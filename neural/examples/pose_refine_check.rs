@@ -46,15 +46,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let model = MetaModel::shipped();
     let mut options = HyperFitOptions { steps, ..HyperFitOptions::default() };
-    // Experiments: REFINE_ROTATION_PRIOR, REFINE_TRANSLATION_PRIOR, REFINE_ROUNDS, REFINE_ITERATIONS.
+    // Experiments: REFINE_ROTATION_PRIOR, REFINE_TRANSLATION_PRIOR, REFINE_EVERY, REFINE_ITERATIONS.
     let env = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f32>().ok());
     let r = &mut options.refine_poses;
     r.rotation_prior = env("REFINE_ROTATION_PRIOR").unwrap_or(r.rotation_prior);
     r.translation_prior = env("REFINE_TRANSLATION_PRIOR").unwrap_or(r.translation_prior);
-    r.rounds = env("REFINE_ROUNDS").map_or(r.rounds, |v| v as usize);
+    r.every = env("REFINE_EVERY").map_or(r.every, |v| v as usize);
     r.iterations = env("REFINE_ITERATIONS").map_or(r.iterations, |v| v as usize);
     r.zero_mean = std::env::var("REFINE_FREE_MEAN").is_err();
-    r.start = env("REFINE_START").unwrap_or(r.start);
+    r.until = env("REFINE_UNTIL").map_or(r.until, |v| v as usize);
     r.huber = env("REFINE_HUBER").unwrap_or(r.huber);
     r.points_per_frame = env("REFINE_POINTS").map_or(r.points_per_frame, |v| v as usize);
     println!("refinement: {:?}", options.refine_poses);
@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (oracle, _) = MetaAvatar::fit_points(&exact_points, &Init::MetaLearned(&model), &off, None, &mut |_, _, _| {});
         let mut refiner = avatar_neural::pose_refine::PoseRefiner::new(&capture, options.refine_poses);
         let mut samples = capture.pose_samples(oracle.header.config.encoding);
-        for _ in 0..options.refine_poses.rounds {
+        for _ in 0..6 {
             let r = avatar_neural::pose_refine::refine_round(&mut refiner, &oracle.model, &mut samples, oracle.header.config.encoding);
             println!("oracle round {r:?}");
         }

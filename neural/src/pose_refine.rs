@@ -27,9 +27,12 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PoseRefineOptions {
     pub enabled: bool,
-    /// Refinement rounds in a fit, spread evenly from `start` (a fraction of the steps) on.
-    pub rounds: usize,
-    pub start: f32,
+    /// A refinement round after step 1 and then every `every` fitting steps, up to step
+    /// `until`; the SDF then fits the aligned points. Early and often is better: the
+    /// meta-learned SDF is a good target while it is still close to its prior, and the longer
+    /// it learns from misaligned points the more it holds the misalignment (docs/neural.md).
+    pub every: usize,
+    pub until: usize,
     /// Gauss-Newton steps a round.
     pub iterations: usize,
     /// Points of a frame that enter a round (an even subsample).
@@ -51,8 +54,8 @@ impl Default for PoseRefineOptions {
     fn default() -> Self {
         PoseRefineOptions {
             enabled: true,
-            rounds: 24,
-            start: 0.05,
+            every: 3,
+            until: 64,
             iterations: 2,
             points_per_frame: 1000,
             rotation_prior: 1e-4,
@@ -72,14 +75,10 @@ impl PoseRefineOptions {
 
     /// The fitting steps after which a round runs (none when off), for a fit of `steps` steps.
     pub fn round_steps(&self, steps: usize) -> Vec<usize> {
-        if !self.enabled || self.rounds == 0 || steps < 2 {
+        if !self.enabled || self.every == 0 || steps < 2 {
             return Vec::new();
         }
-        let first = ((steps as f32 * self.start.clamp(0.0, 1.0)) as usize).max(1);
-        let span = steps.saturating_sub(first);
-        let mut out: Vec<usize> = (0..self.rounds).map(|r| first + span * r / self.rounds).filter(|&s| s >= 1 && s < steps).collect();
-        out.dedup();
-        out
+        (1..self.until.min(steps)).step_by(self.every).collect()
     }
 }
 
