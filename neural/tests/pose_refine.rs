@@ -77,7 +77,10 @@ fn refinement_against_the_true_surface_recovers_perturbed_poses() {
             })
             .unzip()
     };
-    let mut refiner = PoseRefiner::new(&capture, PoseRefineOptions::default());
+    // The SDF is the truth here, not learned from the frames: a correction every frame shares
+    // is observable (no zero-mean constraint) and the data can outweigh a weak prior.
+    let options = PoseRefineOptions { zero_mean: false, rotation_prior: 1e-6, iterations: 4, points_per_frame: 2000, ..PoseRefineOptions::default() };
+    let mut refiner = PoseRefiner::new(&capture, options);
     let given: Vec<BodyParams> = capture.frames.iter().map(|f| f.params.clone()).collect();
     let (deg0, cm0) = mean_error(&given, &truth);
     let mut reports = Vec::new();
@@ -90,4 +93,15 @@ fn refinement_against_the_true_surface_recovers_perturbed_poses() {
     assert!(deg1 < 0.35 * deg0, "joint error {deg0:.2} -> {deg1:.2} deg");
     assert!(cm1 < 0.15 * cm0, "translation error {cm0:.2} -> {cm1:.2} cm");
     assert!(reports.last().unwrap().residual_after < 0.5 * reports[0].residual_before);
+}
+
+#[test]
+fn fits_refine_early_and_often_and_not_at_all_when_off() {
+    let o = PoseRefineOptions::default();
+    let rounds = o.round_steps(256);
+    assert_eq!(rounds.first(), Some(&1));
+    assert!(rounds.iter().all(|&s| s < o.until) && rounds.windows(2).all(|w| w[1] - w[0] == o.every));
+    // A short fit still refines (the studio's quick fit, a 3-step test fit).
+    assert_eq!(o.round_steps(3), vec![1]);
+    assert!(PoseRefineOptions::off().round_steps(256).is_empty());
 }
