@@ -136,8 +136,13 @@ impl MetaAvatar {
             _ => options.clone(),
         };
         let every = chunks.as_ref().map_or(options.steps, |(every, _)| (*every).clamp(1, options.steps.max(1)));
-        // Pose refinement (PINA 3.2) runs between chunks, after the steps `rounds` names.
-        let rounds = options.refine_poses.round_steps(options.steps);
+        // Pose refinement (PINA 3.2) runs between chunks, after the steps `rounds` names. Its
+        // early rounds need the meta-learned SDF as their target: a random one (the
+        // from-scratch baseline) would only move the poses away.
+        let rounds = match init {
+            Init::MetaLearned(_) => options.refine_poses.round_steps(options.steps),
+            Init::Scratch { .. } => Vec::new(),
+        };
         let mut refiner = (!rounds.is_empty()).then(|| PoseRefiner::new(capture, options.refine_poses));
         // The fit calls the sign prior once a step: its calls are the steps that ran when a
         // cancel stops it early (neural/tests/partial_fit.rs checks the count).
