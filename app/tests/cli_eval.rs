@@ -38,6 +38,8 @@ fn bad_arguments_are_named() {
     let out = studio().args(["eval", "--subjects", "9", "--out"]).arg(dir.path().join("r.json")).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--subjects"));
+    let out = studio().args(["eval", "--subjects", "1", "--fit-error", "90,1", "--out"]).arg(dir.path().join("r.json")).output().unwrap();
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--fit-error"), "{}", String::from_utf8_lossy(&out.stderr));
     for (flag, value) in [("--resolution", "100000"), ("--iou-resolution", "0"), ("--preset", "huge"), ("--captures", "dirty"), ("--noise", "kinect_v9"), ("--rows", "magic"), ("--outfits", "kilt")] {
         let out = studio().args(["eval", "--subjects", "1", flag, value, "--out"]).arg(dir.path().join("r.json")).output().unwrap();
         assert!(!out.status.success(), "{flag} {value}");

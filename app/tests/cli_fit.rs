@@ -19,6 +19,15 @@ fn fits_the_demo_from_the_shipped_meta_model_and_writes_a_loadable_avatar() {
     let avatar = avatar_neural::MetaAvatar::load(&out).unwrap();
     assert_eq!(avatar.header.config, avatar_neural::HyperConfig::compact());
     assert_eq!((avatar.header.init.as_str(), avatar.header.frames, avatar.header.steps), ("meta-learned", 2, 3));
+    // Pose refinement is on by default: both frames' refined fittings are saved with the avatar.
+    let poses = avatar.header.refined_poses.as_ref().expect("refined poses saved");
+    assert_eq!(poses.len(), 2);
+    assert!(poses.iter().all(|p| p.refined.validate().is_ok() && avatar_core::body::pose_error(&p.given, &p.refined).0 < 0.2), "{poses:?}");
+    assert!(stdout.contains("poses refined by"), "{stdout}");
+    let out_off = dir.path().join("off.avatar");
+    let run = studio().arg("fit").arg(&demo).arg("--out").arg(&out_off).args(["--steps", "3", "--frames", "2", "--refine-poses", "off"]).output().unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(avatar_neural::MetaAvatar::load(&out_off).unwrap().header.refined_poses.is_none());
     // The studio opens it as a pose-dependent avatar.
     let studio_avatar = avatar_studio::studio::avatar::load_avatar(&out, 32).unwrap();
     assert!(studio_avatar.pose_dependent() && studio_avatar.describe().contains("meta-learned"), "{}", studio_avatar.describe());

@@ -510,3 +510,47 @@ fn the_in_app_path_dialog_saves_without_a_portal() {
     assert!(h.state().show_shortcuts);
     h.get_by_label("Ctrl+S");
 }
+
+/// Pose refinement: the capture view's body stands at the fitting the open avatar refined the
+/// selected frame to (the avatar file's refined poses), not at the capture's given fitting.
+#[test]
+fn the_capture_view_shows_the_refined_pose_of_a_frame() {
+    use avatar_core::export::{AvatarSource, SyntheticAvatar};
+    use avatar_neural::avatar::refined_poses::RefinedPose;
+    use avatar_studio::studio::avatar::StudioAvatar;
+    use std::sync::Arc;
+    struct Refined(SyntheticAvatar, Vec<RefinedPose>);
+    impl StudioAvatar for Refined {
+        fn describe(&self) -> String {
+            "refined".into()
+        }
+        fn source(&self) -> &dyn AvatarSource {
+            &self.0
+        }
+        fn save(&self, _: &Path) -> anyhow::Result<()> {
+            anyhow::bail!("not saved")
+        }
+        fn refined_poses(&self) -> &[RefinedPose] {
+            &self.1
+        }
+    }
+    let mut h = harness(StudioOptions { load_demo: true, ..Default::default() });
+    settle(&mut h, "opening the demo");
+    h.state_mut().set_mode(ViewMode::Capture);
+    h.state_mut().view.selected_frame = 0;
+    let given = h.state().capture.as_ref().unwrap().frames[0].params.clone().expect("the demo's frame 0 has a fitting");
+    let before: Vec<[f32; 3]> = h.state().build_scene().vertices.iter().map(|v| v.pos).collect();
+    let mut refined = given.clone();
+    refined.pose[18].y += 0.5; // the left elbow, 29 degrees
+    refined.trans.x += 0.05;
+    let synthetic = SyntheticAvatar::new(avatar_core::body::open_body(), 2024, avatar_core::synth::Outfit::TshirtShorts, &Default::default()).unwrap();
+    h.state_mut().avatar = Some(Arc::new(Refined(synthetic, vec![RefinedPose { given: given.clone(), refined: refined.clone() }])));
+    assert_eq!(h.state().refined_fitting(&given), Some(&refined));
+    let after: Vec<[f32; 3]> = h.state().build_scene().vertices.iter().map(|v| v.pos).collect();
+    assert_eq!(before.len(), after.len());
+    let moved = before.iter().zip(&after).map(|(a, b)| glam::Vec3::from(*a).distance(glam::Vec3::from(*b))).fold(0.0f32, f32::max);
+    assert!(moved > 0.05, "the body moved to the refined pose ({moved} m)");
+    // Another frame has no refined fitting: its body stays at the given one.
+    let other = h.state().capture.as_ref().unwrap().frames[1].params.clone().unwrap();
+    assert!(h.state().refined_fitting(&other).is_none());
+}

@@ -69,6 +69,7 @@ fn amass_input(root: &Path, n: usize, trans_scale: f32) -> DepthImport {
         z_up: false,
         cameras: Some(cameras),
         fps: None,
+        body_model: None,
     }
 }
 
@@ -107,6 +108,30 @@ fn depth_folder_with_amass_fittings_becomes_a_capture() {
 }
 
 #[test]
+fn fittings_of_the_users_own_body_model_name_it_in_the_capture() {
+    let root = tempfile::tempdir().unwrap();
+    let mut job = amass_input(root.path(), 2, 1.0);
+    // The open body written in SMPL's layout stands in for the user's model (same geometry).
+    let model = root.path().join("my_model.npz");
+    open_body_ref().save_npz(&model).unwrap();
+    job.body_model = Some(model.clone());
+    let out = root.path().join("capture");
+    let report = import_depth(&job, &out).unwrap();
+    assert_eq!(report.usable, 2, "{:?}", report.warnings);
+    let capture = Capture::open(&out).unwrap();
+    let absolute = std::fs::canonicalize(&model).unwrap();
+    assert_eq!(capture.manifest.body_model, avatar_core::capture::manifest::BodyModelRef::Smpl(absolute.clone()));
+    assert_eq!(capture.body_file.as_deref(), Some(absolute.as_path()));
+    assert_on_body(&capture, 3.0);
+    // A missing model file is named, and nothing is written.
+    job.body_model = Some(root.path().join("gone.npz"));
+    let out2 = root.path().join("capture2");
+    let e = import_depth(&job, &out2).unwrap_err().to_string();
+    assert!(e.contains("gone.npz"), "{e}");
+    assert!(!out2.exists() || std::fs::read_dir(&out2).unwrap().next().is_none());
+}
+
+#[test]
 fn json_pose_files_in_camera_coordinates_and_an_intrinsics_file() {
     let root = tempfile::tempdir().unwrap();
     let (depth, fits) = (root.path().join("d"), root.path().join("f"));
@@ -131,6 +156,7 @@ fn json_pose_files_in_camera_coordinates_and_an_intrinsics_file() {
         z_up: false,
         cameras: None,
         fps: None,
+        body_model: None,
     };
     let out = root.path().join("cap");
     let report = import_depth(&job, &out).unwrap();

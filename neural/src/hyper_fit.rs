@@ -49,6 +49,10 @@ pub struct HyperFitOptions {
     /// Weight of the residual regulariser (MetaAvatar: 1e2 |theta| / parameters).
     pub residual_weight: f32,
     pub seed: u64,
+    /// Joint refinement of the frames' poses during a personal avatar's fit (PINA 3.2; on by
+    /// default; meta-training ignores it).
+    #[serde(default)]
+    pub refine_poses: crate::pose_refine::PoseRefineOptions,
 }
 
 impl Default for HyperFitOptions {
@@ -78,6 +82,7 @@ impl Default for HyperFitOptions {
             prior_weight: 1000.0,
             residual_weight: 1e2,
             seed: 0,
+            refine_poses: crate::pose_refine::PoseRefineOptions::default(),
         }
     }
 }

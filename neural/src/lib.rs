@@ -13,6 +13,7 @@ pub mod fit;
 pub mod hyper;
 pub mod hyper_fit;
 pub mod loss;
+pub mod pose_refine;
 pub mod meta_training;
 pub mod meta_data;
 pub mod model_file;

@@ -164,6 +164,14 @@ pub struct Args {
     /// off-surface points, 0 to turn them off (default: `fit`'s).
     #[arg(long)]
     free_space: Option<usize>,
+    /// Fitting errors of user captures: DEGREES,CENTIMETRES RMS per joint and of the
+    /// translation (default 3,1; 0,0 gives user captures with exact fittings).
+    #[arg(long)]
+    fit_error: Option<String>,
+    /// Joint refinement of the fine-tuning frames' poses in the hypernetwork rows (`fit`'s
+    /// --refine-poses): on or off (default: `fit`'s).
+    #[arg(long, value_parser = ["on", "off"])]
+    refine_poses: Option<String>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -185,6 +193,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = EvalConfig::paper(protocols);
     config.captures = CaptureConditions::parse_list(args.captures.as_deref().unwrap_or(p.captures), args.noise.as_deref())?;
     config.subjects.truncate(subjects);
+    if let Some(text) = &args.fit_error {
+        let values: Vec<f32> = text.split(',').map(|v| v.trim().parse::<f32>()).collect::<Result<_, _>>().unwrap_or_default();
+        let [deg, cm] = values[..] else {
+            bail!("--fit-error {text:?}: expected DEGREES,CENTIMETRES (for example 5,2)");
+        };
+        if !(0.0..=45.0).contains(&deg) || !(0.0..=50.0).contains(&cm) {
+            bail!("--fit-error {deg},{cm} is out of range (0 to 45 degrees, 0 to 50 cm)");
+        }
+        for c in config.captures.iter_mut().filter(|c| c.name == "user") {
+            c.fit_error = avatar_core::eval::conditions::FitError { joint_deg: deg, trans_m: cm / 100.0 };
+        }
+    }
     let outfits: Vec<String> = args.outfits.clone().unwrap_or_else(|| p.outfits.iter().map(|o| o.to_string()).collect());
     let outfits: Vec<String> = if outfits == ["all"] { ALL.iter().map(|o| o.to_string()).collect() } else { outfits };
     config.outfits = outfits.iter().map(|n| Outfit::from_name(n)).collect::<Result<_, _>>()?;
@@ -230,6 +250,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         off_per_pose: args.points_per_pose.unwrap_or(defaults.off_per_pose).max(1),
         free_space_per_pose: args.free_space.unwrap_or(defaults.free_space_per_pose),
         weights: IgrWeights { normal: args.normal_weight.unwrap_or(defaults.weights.normal), ..defaults.weights },
+        refine_poses: match args.refine_poses.as_deref() {
+            Some(v) => avatar_neural::pose_refine::PoseRefineOptions { enabled: v == "on", ..defaults.refine_poses },
+            None => defaults.refine_poses,
+        },
         ..defaults
     };
     for name in &row_names {

@@ -46,6 +46,11 @@ pub struct Args {
     device: super::DeviceArg,
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Joint refinement of each frame's pose (24 joint rotations and the translation) with the
+    /// avatar (PINA 3.2), kept close to the given fitting: on or off. The pose-dependent
+    /// avatar only; the refined poses are saved in the avatar.
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    refine_poses: String,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -87,7 +92,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     // The hypernetwork from scratch needs no meta-model (its networks come from --preset).
     let model = if args.from_scratch && !args.static_sdf { None } else { Some(MetaModel::load_or_shipped(args.model.as_deref())?) };
-    let options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
+    let mut options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
+    options.refine_poses.enabled = args.refine_poses == "on";
     let (kind, what) = match (&model, args.static_sdf) {
         (None, _) => (FitKind::Meta(Init::Scratch { config: preset, seed: args.seed }), String::new()),
         (Some(m), false) => (FitKind::Meta(Init::MetaLearned(m)), String::new()),
@@ -103,7 +109,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     });
     avatar.save(&args.out)?;
     let what = match (&avatar, &fit.kind) {
-        (AnyAvatar::Meta(a), FitKind::Meta(init)) => format!("pose-dependent avatar ({}, {} parameters)", init.label(), a.num_params()),
+        (AnyAvatar::Meta(a), FitKind::Meta(init)) => {
+            let refined = match &a.header.refined_poses {
+                Some(poses) => {
+                    let (deg, cm) = avatar_neural::avatar::refined_poses::mean_correction(poses);
+                    format!(", poses refined by {deg:.2} deg per joint and {cm:.2} cm on average")
+                }
+                None => String::new(),
+            };
+            format!("pose-dependent avatar ({}, {} parameters{refined})", init.label(), a.num_params())
+        }
         _ => what,
     };
     let partial = avatar.partial();

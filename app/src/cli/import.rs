@@ -49,6 +49,10 @@ struct DepthArgs {
     /// Frame rate (default: the npz's, else 30).
     #[arg(long)]
     fps: Option<f32>,
+    /// The SMPL-family model file (.npz) the fittings were made with (default: the open
+    /// body). The capture names it by its absolute path; the file is not copied.
+    #[arg(long)]
+    body_model: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -86,6 +90,7 @@ fn depth(a: DepthArgs) -> anyhow::Result<()> {
         z_up: a.z_up,
         cameras: a.cameras,
         fps: a.fps,
+        body_model: a.body_model,
     };
     let report = import_depth(&job, &a.out)?;
     for w in &report.warnings {

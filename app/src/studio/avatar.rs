@@ -23,6 +23,10 @@ pub trait StudioAvatar: Send + Sync {
     /// Marching-cubes resolution used for the studio's meshes.
     fn set_resolution(&mut self, _cells: usize) {}
     fn save(&self, path: &Path) -> anyhow::Result<()>;
+    /// The training frames' given and refined fittings (pose refinement; empty without).
+    fn refined_poses(&self) -> &[avatar_neural::avatar::refined_poses::RefinedPose] {
+        &[]
+    }
 }
 
 impl StudioAvatar for StaticAvatar {
@@ -57,6 +61,9 @@ impl StudioAvatar for MetaAvatar {
     }
     fn save(&self, path: &Path) -> anyhow::Result<()> {
         Ok(MetaAvatar::save(self, path)?)
+    }
+    fn refined_poses(&self) -> &[avatar_neural::avatar::refined_poses::RefinedPose] {
+        self.header.refined_poses.as_deref().unwrap_or(&[])
     }
 }
 

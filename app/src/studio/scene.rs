@@ -63,6 +63,8 @@ impl StudioApp {
                 if let Some(f) = self.capture.as_ref().and_then(|c| c.frames.get(self.view.selected_frame)) {
                     s.add_lit_points(&f.points, &f.normals, [0.35, 0.85, 0.95], 1.0);
                     if let Some(params) = &f.params {
+                        // The fitting the avatar refined this frame to, when it did.
+                        let params = self.refined_fitting(params).unwrap_or(params);
                         let posed = body.pose(params);
                         s.add_mesh(&posed.vertices, &body.faces, [0.42, 0.40, 0.40]);
                         if self.view.skeleton {
@@ -94,6 +96,11 @@ impl StudioApp {
         let center = (lo + hi) * 0.5;
         s.add_grid(Vec3::new(center.x, 0.0, center.z), lo.y - 0.01, 1.5, 0.25);
         s
+    }
+
+    /// The open avatar's refined fitting of a capture frame given `params` (pose refinement).
+    pub fn refined_fitting(&self, params: &avatar_core::body::BodyParams) -> Option<&avatar_core::body::BodyParams> {
+        avatar_neural::avatar::refined_poses::refined_for(self.avatar.as_ref()?.refined_poses(), params)
     }
 
     /// Frame the subject (F).

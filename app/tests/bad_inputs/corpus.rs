@@ -212,6 +212,11 @@ impl<'a> Corpus<'a> {
                     ("huge-network", "config/siren", Some(json!({"hidden": 4096, "layers": 64}))),
                     ("partial-disagrees", "partial", Some(json!({"steps_done": 3, "steps_requested": 100}))),
                     ("kind-other", "kind", Some(json!("static-sdf"))),
+                    // Pose refinement's section: one frame for an avatar of two, and NaN-free
+                    // JSON with an angle in degrees.
+                    ("refined-poses-count", "refined_poses", Some(json!([{"given": {"pose": vec![[0.0; 3]; 24]}, "refined": {"pose": vec![[0.0; 3]; 24]}}]))),
+                    ("refined-poses-degrees", "refined_poses", Some(json!([{"given": {"pose": vec![[0.0; 3]; 24]}, "refined": {"pose": vec![[90.0, 0.0, 0.0]; 24]}}, {"given": {"pose": vec![[0.0; 3]; 24]}, "refined": {"pose": vec![[0.0; 3]; 24]}}]))),
+                    ("refined-poses-not-a-list", "refined_poses", Some(json!("all good"))),
                 ]);
             }
             for (n, path, value) in edits {

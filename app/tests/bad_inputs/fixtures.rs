@@ -73,6 +73,7 @@ pub fn meta_header() -> MetaAvatarHeader {
         steps: 10,
         partial: None,
         body: None,
+        refined_poses: None,
     }
 }
 

@@ -8,6 +8,7 @@ pub mod kinematics;
 pub mod load;
 pub mod model;
 pub mod params;
+pub mod pose_jacobian;
 pub mod save;
 pub mod skeleton;
 pub mod skinning;
@@ -16,5 +17,6 @@ pub use embedded::{open_body, open_body_lowpoly, open_body_lowpoly_ref, open_bod
 pub use kinematics::{forward_kinematics, Bones};
 pub use model::{BodyModel, PosedBody};
 pub use params::{check_betas, BodyParams, MAX_ABS_BETA};
+pub use pose_jacobian::{pose_error, skinned_point_jacobian, PoseCorrection, POSE_DOF};
 pub use skeleton::{BodyPart, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS};
 pub use skinning::{blend_transform, skin_normal, skin_point, unskin_point, Weights};

@@ -8,7 +8,7 @@ use super::amass::{read_amass, z_up_to_y_up, AmassSequence};
 use super::depth_png::read_depth_png;
 use super::manifest::{CaptureManifest, FrameRecord, Intrinsics};
 use super::open::{Capture, FrameError};
-use crate::body::BodyParams;
+use crate::body::{BodyModel, BodyParams};
 use crate::error::{Error, Result};
 use glam::{Mat4, Quat};
 use serde::Deserialize;
@@ -62,6 +62,9 @@ pub struct DepthImport {
     /// turned 180 degrees about X, Y up).
     pub cameras: Option<PathBuf>,
     pub fps: Option<f32>,
+    /// The SMPL-family model file (.npz) the fittings were made with; the capture names it
+    /// (`"body_model": {"smpl": ABSOLUTE PATH}`). `None`: the embedded open body.
+    pub body_model: Option<PathBuf>,
 }
 
 /// What was imported.
@@ -169,7 +172,14 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
     if let Some(c) = &job.cameras {
         inputs.push(c);
     }
+    if let Some(m) = &job.body_model {
+        inputs.push(m);
+    }
     check_output_dir(out, &inputs)?;
+    // The fittings' body: the user's model (read now, so that a bad file is named before
+    // anything else is done) or the open body.
+    let own_model = job.body_model.as_ref().map(BodyModel::load_npz).transpose()?;
+    let body: &BodyModel = own_model.as_ref().unwrap_or(crate::body::open_body_ref());
     let images = list_files(&job.depth_dir, "png")?;
     if images.is_empty() {
         return Err(Error::file(&job.depth_dir, "no .png depth images in this folder"));
@@ -185,7 +195,7 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
         )));
     }
     if job.z_up {
-        z_up_to_y_up(&mut seq, crate::body::open_body_ref());
+        z_up_to_y_up(&mut seq, body);
     }
     // The image size from the first readable image (the others are checked when opened).
     let first = read_depth_png(&images[0], job.depth_scale)?;
@@ -204,7 +214,7 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
             // the up axis), and the fittings are turned with it.
             let flip = Quat::from_rotation_x(std::f32::consts::PI);
             for p in &mut seq.frames {
-                let j0 = crate::body::open_body_ref().rest_joints(&p.betas)[0];
+                let j0 = body.rest_joints(&p.betas)[0];
                 p.pose[0] = (flip * Quat::from_scaled_axis(p.pose[0])).to_scaled_axis();
                 p.trans = flip * (p.trans + j0) - j0;
             }
@@ -213,6 +223,10 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
     };
     let mut manifest = CaptureManifest::new(intrinsics, job.depth_scale);
     manifest.fps = Some(job.fps.unwrap_or(seq.fps));
+    if let Some(m) = &job.body_model {
+        let absolute = std::fs::canonicalize(m).map_err(|e| Error::io(m, e))?;
+        manifest.body_model = super::manifest::BodyModelRef::Smpl(absolute);
+    }
     for (i, (image, params)) in images.iter().zip(&seq.frames).enumerate() {
         let mut rec = FrameRecord {
             depth: image.to_string_lossy().into_owned(),

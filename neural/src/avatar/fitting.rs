@@ -12,8 +12,8 @@ use crate::avatar::static_avatar::StaticAvatar;
 use crate::avatar::{AnyAvatar, PartialFit};
 use crate::capture_points::CapturePoints;
 use crate::fit::{fit_sdf_resuming, FitOptions, Progress, SdfOptimiser, SignPrior};
-use crate::hyper::HyperNet;
 use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
+use crate::pose_refine::{refine_round, PoseRefiner};
 use crate::siren::{Siren, SirenConfig};
 use burn::module::Module;
 use glam::Vec3;
@@ -93,16 +93,19 @@ fn chunk_len(chunk: usize, steps: usize) -> usize {
 }
 
 /// What the chunk loop asks of a kind's fit: run `steps` more steps (after `done`) with the
-/// counting prior and the progress callback, or make the partial avatar after `done` steps.
+/// counting prior and the progress callback, act at a break (pose refinement), or make the partial avatar after `done` steps.
 enum Chunk<'a> {
     Run { steps: usize, done: usize, prior: SignPrior<'a>, progress: Progress<'a> },
+    Break,
     Partial(usize),
 }
 
-/// The chunk loop both kinds share; returns the steps that ran. The fit calls the sign prior
-/// once a step: its calls are the steps that ran when a cancel stops it early
-/// (neural/tests/partial_fit.rs checks the count).
-fn in_chunks(steps: usize, chunk: usize, cancel: Option<&AtomicBool>, prior: SignPrior, on_event: &mut dyn FnMut(FitEvent), fit: &mut dyn FnMut(Chunk) -> Option<AnyAvatar>) -> usize {
+/// The chunk loop both kinds share; returns the steps that ran. Chunks also end at the steps
+/// `breaks` names (without a partial avatar). The fit calls the sign prior once a step: its
+/// calls are the steps that ran when a cancel stops it early (neural/tests/partial_fit.rs
+/// checks the count).
+#[allow(clippy::too_many_arguments)]
+fn in_chunks(steps: usize, chunk: usize, breaks: &[usize], cancel: Option<&AtomicBool>, prior: SignPrior, on_event: &mut dyn FnMut(FitEvent), fit: &mut dyn FnMut(Chunk) -> Option<AnyAvatar>) -> usize {
     let every = chunk_len(chunk, steps);
     let steps_run = AtomicUsize::new(0);
     let counted = |p: &[Vec3]| {
@@ -111,15 +114,22 @@ fn in_chunks(steps: usize, chunk: usize, cancel: Option<&AtomicBool>, prior: Sig
     };
     let mut done = 0;
     while done < steps && !cancelled(cancel) {
-        let (n, base) = (every.min(steps - done), done);
+        let next_look = (done / every + 1) * every;
+        let next_break = breaks.iter().copied().find(|&s| s > done).unwrap_or(usize::MAX);
+        let base = done;
+        let n = next_look.min(next_break).min(steps) - base;
         let mut progress = |step: usize, loss: f32, terms: [f32; 4]| on_event(FitEvent::Progress { step: base + step, steps, loss, terms });
         fit(Chunk::Run { steps: n, done: base, prior: &counted, progress: &mut progress });
         done = steps_run.load(Ordering::Relaxed).min(base + n);
         if done < base + n {
             break;
         }
+        if breaks.contains(&done) {
+            fit(Chunk::Break);
+        }
         if chunk > 0
             && done < steps
+            && done % every == 0
             && let Some(avatar) = fit(Chunk::Partial(done))
         {
             on_event(FitEvent::Partial { done, avatar });
@@ -130,7 +140,8 @@ fn in_chunks(steps: usize, chunk: usize, cancel: Option<&AtomicBool>, prior: Sig
 
 /// The hypernetwork's fine-tuning: every frame of the capture is one pose sample.
 pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, chunk: usize, cancel: Option<&AtomicBool>, on_event: &mut dyn FnMut(FitEvent)) -> (MetaAvatar, FitReport) {
-    let samples = capture.pose_samples(init.config().encoding);
+    let encoding = init.config().encoding;
+    let mut samples = capture.pose_samples(encoding);
     let device = crate::compute::training_device();
     let mut optimisers = HyperOptimisers::default();
     let mut model = Some(init.network().fork(&device));
@@ -140,16 +151,29 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
         Init::Scratch { .. } if options.lr_encoder == 0.0 => HyperFitOptions { lr_encoder: SCRATCH_ENCODER_RATE, ..options.clone() },
         _ => options.clone(),
     };
-    let avatar = |model: &HyperNet, done: usize| MetaAvatar::from_fitted(capture, init, done, options.steps, model);
-    let done = in_chunks(options.steps, chunk, cancel, &capture.sign_prior(), on_event, &mut |c| match c {
+    // Pose refinement (PINA 3.2) runs between chunks, after the steps `rounds` names. Its
+    // early rounds need the meta-learned SDF as their target: a random one (the from-scratch
+    // baseline) would only move the poses away.
+    let rounds = match init {
+        Init::MetaLearned(_) => options.refine_poses.round_steps(options.steps),
+        Init::Scratch { .. } => Vec::new(),
+    };
+    let mut refiner = (!rounds.is_empty()).then(|| PoseRefiner::new(capture, options.refine_poses));
+    let done = in_chunks(options.steps, chunk, &rounds, cancel, &capture.sign_prior(), on_event, &mut |c| match c {
         Chunk::Run { steps, done, prior, progress } => {
             let chunk_options = HyperFitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
             model = model.take().map(|m| fit_hyper(m, &samples, &chunk_options, &mut optimisers, &device, Some(prior), cancel, progress));
             None
         }
-        Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Meta(avatar(m, done))),
+        Chunk::Break => {
+            if let (Some(r), Some(m)) = (refiner.as_mut(), model.as_ref()) {
+                refine_round(r, m, &mut samples, encoding);
+            }
+            None
+        }
+        Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Meta(MetaAvatar::from_fitted(capture, init, done, options.steps, m, refiner.as_ref()))),
     });
-    (avatar(&model.expect("the fit returns its network"), done), FitReport::of(capture))
+    (MetaAvatar::from_fitted(capture, init, done, options.steps, &model.expect("the fit returns its network"), refiner.as_ref()), FitReport::of(capture))
 }
 
 /// The static SDF's fit: all frames pooled (the SDF ignores the pose), the capture's sign prior.
@@ -160,12 +184,13 @@ pub(crate) fn fit_static(capture: &CapturePoints, siren: SirenConfig, init: Opti
     let device = crate::compute::training_device();
     let mut model = Some(init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device));
     let mut optimiser = SdfOptimiser::default();
-    let done = in_chunks(options.steps, chunk, cancel, &capture.sign_prior(), on_event, &mut |c| match c {
+    let done = in_chunks(options.steps, chunk, &[], cancel, &capture.sign_prior(), on_event, &mut |c| match c {
         Chunk::Run { steps, done, prior, progress } => {
             let chunk_options = FitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
             model = model.take().map(|m| fit_sdf_resuming(m, &points, &normals, &outside, &chunk_options, &mut optimiser, &device, Some(prior), cancel, progress));
             None
         }
+        Chunk::Break => None,
         Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Static(static_avatar(capture, siren, m, done, options.steps))),
     });
     (static_avatar(capture, siren, &model.expect("the fit returns its network"), done, options.steps), FitReport::of(capture))

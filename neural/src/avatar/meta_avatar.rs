@@ -5,6 +5,8 @@
 
 use crate::avatar::body::{self as avatar_body, BodySection};
 use crate::avatar::header::{avatar_field, check_avatar_header, check_subject, PartialFit, AVATAR_FORMAT};
+use crate::avatar::refined_poses::{self, RefinedPose};
+use crate::pose_refine::PoseRefiner;
 use crate::capture_points::CapturePoints;
 use crate::hyper::{HyperConfig, HyperNet};
 use crate::model_file::MetaModel;
@@ -81,6 +83,9 @@ pub struct MetaAvatarHeader {
     /// The frozen body stored after the weights (version 2 files; absent for the open body).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub body: Option<BodySection>,
+    /// Each training frame's given and refined fitting (absent without pose refinement).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refined_poses: Option<Vec<RefinedPose>>,
 }
 
 /// The bone encoder's Adam rate when fine-tuning from scratch (the reference's).
@@ -100,7 +105,8 @@ pub struct MetaAvatar {
 impl MetaAvatar {
     /// The avatar of a fitted hypernetwork (inference copy of its weights) after `done` of
     /// `requested` steps.
-    pub(crate) fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet) -> MetaAvatar {
+    pub(crate) fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet, refiner: Option<&PoseRefiner>) -> MetaAvatar {
+        let refined_poses = refiner.map(|r| capture.frames.iter().zip(r.refined()).map(|(f, refined)| RefinedPose { given: f.params.clone(), refined }).collect());
         let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = MetaAvatarHeader {
             format: AVATAR_FORMAT.into(),
@@ -116,6 +122,7 @@ impl MetaAvatar {
             steps: done,
             partial: PartialFit::of(done, requested),
             body: section,
+            refined_poses,
         };
         MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 }
     }
@@ -139,6 +146,9 @@ impl MetaAvatar {
                 && p.steps_done != h.steps
             {
                 return Err(Error::invalid(format!("\"steps\" {} and \"partial\" ({p}) disagree", h.steps)));
+            }
+            if let Some(poses) = &h.refined_poses {
+                refined_poses::check(poses, h.frames)?;
             }
             Ok(h.config.num_params() + h.body.as_ref().map_or(0, BodySection::len))
         })?;

@@ -16,6 +16,7 @@ pub mod body;
 pub mod fitting;
 pub mod header;
 pub mod meta_avatar;
+pub mod refined_poses;
 pub mod static_avatar;
 
 use crate::weights_file;

@@ -74,7 +74,18 @@ pub fn viewport_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comm
 fn scene_info(app: &StudioApp) -> String {
     let s = &app.scene;
     let what = match app.view.mode {
-        ViewMode::Capture => format!("frame {} · {} points", app.view.selected_frame, s.points.len()),
+        ViewMode::Capture => {
+            let frame = app.capture.as_ref().and_then(|c| c.frames.get(app.view.selected_frame));
+            let refined = frame.and_then(|f| f.params.as_ref()).and_then(|given| Some((given, app.refined_fitting(given)?)));
+            let note = match refined {
+                Some((given, r)) => {
+                    let (angle, trans) = avatar_core::body::pose_error(given, r);
+                    format!(" · body at the refined pose ({:.1}° per joint, {:.1} cm from the fitting)", angle.to_degrees(), trans * 100.0)
+                }
+                None => String::new(),
+            };
+            format!("frame {} · {} points{note}", app.view.selected_frame, s.points.len())
+        }
         ViewMode::Canonical => "canonical".to_string(),
         ViewMode::Posed => format!("{} · frame {}", app.timeline.clip.name, app.timeline.current_frame()),
     };

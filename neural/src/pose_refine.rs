@@ -1,0 +1,384 @@
+//! Joint refinement of per-frame poses (PINA, section 3.2): the fittings of real captures are
+//! off by a few degrees per joint and centimetres of translation, and each frame's canonical
+//! points then disagree with the others'. Every few fitting steps, with the SDF frozen, each
+//! frame's correction (24 joint rotations and the translation, `PoseCorrection`) takes a few
+//! Gauss-Newton steps on
+//!
+//!   mean_k huber(f(x_c,k)) + rotation_prior |d|^2 + translation_prior |t|^2,
+//!   x_c,k = (sum_i w_ik B_i(theta))^-1 x_d,k
+//!
+//! (`x_d`: the frame's depth point, `w`: its skinning weights held fixed during the round, `f`:
+//! the avatar's SDF for the frame's pose, in metres); the priors pull toward the given fitting.
+//! Then the frame's points are canonicalised again with the corrected pose (fixed-point
+//! iterations of the same inverse with the field's weights at the new point) and its pose
+//! input for the hypernetwork recomputed. The derivative of the skinned point comes from
+//! `avatar_core::body::pose_jacobian`; `dx_c = -A^-1 dy` with `A` the blended linear part.
+
+use crate::capture_points::CapturePoints;
+use crate::encoder::PoseEncoding;
+use crate::hyper_fit::PoseSample;
+use crate::siren_eval::SirenEval;
+use avatar_core::body::{blend_transform, skinned_point_jacobian, BodyParams, PoseCorrection, NUM_JOINTS, POSE_DOF};
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// How poses are refined during a fit (docs/neural.md has the measurements behind each value).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PoseRefineOptions {
+    pub enabled: bool,
+    /// A refinement round after step 1 and then every `every` fitting steps, up to step
+    /// `until`; the SDF then fits the aligned points. Early and often is better: the
+    /// meta-learned SDF is a good target while it is still close to its prior, and the longer
+    /// it learns from misaligned points the more it holds the misalignment (docs/neural.md).
+    pub every: usize,
+    pub until: usize,
+    /// Gauss-Newton steps a round.
+    pub iterations: usize,
+    /// Points of a frame that enter a round (an even subsample).
+    pub points_per_frame: usize,
+    /// Weight of the squared rotation correction (m^2 per rad^2, against the mean squared SDF).
+    pub rotation_prior: f32,
+    /// Weight of the squared translation correction.
+    pub translation_prior: f32,
+    /// Residuals beyond this (metres) weigh as |r| (Huber), beyond 10x not at all.
+    pub huber: f32,
+    /// Largest change of one joint's rotation (radians) and of the translation (metres) a step.
+    pub max_step_rad: f32,
+    pub max_step_m: f32,
+    /// Keep the frames' mean correction at zero (see `remove_common_correction`).
+    pub zero_mean: bool,
+}
+
+impl Default for PoseRefineOptions {
+    fn default() -> Self {
+        PoseRefineOptions {
+            enabled: true,
+            every: 3,
+            until: 64,
+            iterations: 2,
+            points_per_frame: 1000,
+            rotation_prior: 1e-4,
+            translation_prior: 1e-3,
+            huber: 0.01,
+            max_step_rad: 3f32.to_radians(),
+            max_step_m: 0.01,
+            zero_mean: true,
+        }
+    }
+}
+
+impl PoseRefineOptions {
+    pub fn off() -> Self {
+        PoseRefineOptions { enabled: false, ..Self::default() }
+    }
+
+    /// The fitting steps after which a round runs (none when off), for a fit of `steps` steps.
+    pub fn round_steps(&self, steps: usize) -> Vec<usize> {
+        if !self.enabled || self.every == 0 || steps < 2 {
+            return Vec::new();
+        }
+        (1..self.until.min(steps)).step_by(self.every).collect()
+    }
+}
+
+/// A frame's SDF (metres) and its spatial gradient at canonical points (metres).
+pub type FrameSdf<'a> = &'a (dyn Fn(usize, &[Vec3]) -> (Vec<f32>, Vec<Vec3>) + Sync);
+
+struct Frame {
+    given: BodyParams,
+    correction: PoseCorrection,
+    /// Depth points and normals (world, metres).
+    posed: Vec<Vec3>,
+    posed_normals: Vec<Vec3>,
+    /// Their current canonical points (metres).
+    canonical: Vec<Vec3>,
+    /// The frame's free-space samples (world, metres) and their current canonical points.
+    free_posed: Vec<Vec3>,
+    free_canonical: Vec<Vec3>,
+}
+
+/// What one round did: the mean |SDF| of the round's points before and after (metres).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoundReport {
+    pub residual_before: f32,
+    pub residual_after: f32,
+}
+
+/// The corrections of every frame of a capture during a fit.
+pub struct PoseRefiner<'a> {
+    capture: &'a CapturePoints,
+    rest_joints: [Vec3; NUM_JOINTS],
+    frames: Vec<Frame>,
+    pub options: PoseRefineOptions,
+}
+
+impl<'a> PoseRefiner<'a> {
+    /// Start from the given fittings: each canonical point's depth point is its forward skinning.
+    pub fn new(capture: &'a CapturePoints, options: PoseRefineOptions) -> Self {
+        let rest_joints = capture.rest_joints();
+        let norm = capture.normalisation;
+        let frames = capture
+            .frames
+            .iter()
+            .map(|f| {
+                let correction = PoseCorrection::default();
+                let bones = correction.bones(&rest_joints, &f.params);
+                let canonical: Vec<Vec3> = f.points.iter().map(|q| norm.from_unit(*q)).collect();
+                let (posed, posed_normals) = canonical
+                    .par_iter()
+                    .zip(&f.normals)
+                    .map(|(&x, &n)| {
+                        let a = blend_transform(&bones.transforms, &capture.field.weights_at(x));
+                        (a.transform_point3(x), (Mat3::from_mat4(a).inverse().transpose() * n).normalize_or_zero())
+                    })
+                    .unzip();
+                let free_canonical: Vec<Vec3> = f.free_space.iter().map(|q| norm.from_unit(*q)).collect();
+                let free_posed = free_canonical.par_iter().map(|&x| blend_transform(&bones.transforms, &capture.field.weights_at(x)).transform_point3(x)).collect();
+                Frame { given: f.params.clone(), correction, posed, posed_normals, canonical, free_posed, free_canonical }
+            })
+            .collect();
+        PoseRefiner { capture, rest_joints, frames, options }
+    }
+
+    /// The corrected fitting of each frame.
+    pub fn refined(&self) -> Vec<BodyParams> {
+        self.frames.iter().map(|f| f.correction.apply(&f.given)).collect()
+    }
+
+    pub fn corrections(&self) -> Vec<PoseCorrection> {
+        self.frames.iter().map(|f| f.correction).collect()
+    }
+
+    /// One round on every frame with the SDF frozen; returns the mean over frames.
+    pub fn round(&mut self, sdf: FrameSdf) -> RoundReport {
+        let mut report = RoundReport { residual_before: 0.0, residual_after: 0.0 };
+        let n = self.frames.len().max(1) as f32;
+        for k in 0..self.frames.len() {
+            let r = self.refine_frame(k, sdf);
+            report.residual_before += r.residual_before / n;
+            report.residual_after += r.residual_after / n;
+        }
+        if self.options.zero_mean && self.frames.len() > 1 {
+            self.remove_common_correction();
+        }
+        for k in 0..self.frames.len() {
+            self.recanonicalise(k);
+        }
+        report
+    }
+
+    /// Subtract the correction all frames share. A change common to every frame (all knees
+    /// 3 degrees more bent) is also a change of the canonical shape: the SDF follows it and
+    /// the data cannot tell the two apart, so without this the poses drift together toward
+    /// the meta-learned body's shape. The given fittings are taken as right on average.
+    fn remove_common_correction(&mut self) {
+        let n = self.frames.len() as f32;
+        let mut mean = vec![0f32; POSE_DOF];
+        for f in &self.frames {
+            mean.iter_mut().zip(f.correction.to_vec()).for_each(|(m, v)| *m += v / n);
+        }
+        let minus: Vec<f32> = mean.iter().map(|v| -v).collect();
+        for f in self.frames.iter_mut() {
+            f.correction.add(&minus);
+        }
+    }
+
+    /// The training samples with every frame's current points, normals and pose input.
+    pub fn update_samples(&self, samples: &mut [PoseSample], encoding: PoseEncoding) {
+        let norm = self.capture.normalisation;
+        for (k, (sample, frame)) in samples.iter_mut().zip(&self.frames).enumerate() {
+            let bones = frame.correction.bones(&self.rest_joints, &frame.given);
+            sample.points = frame.canonical.iter().map(|x| norm.to_unit(*x)).collect();
+            sample.free_space = frame.free_canonical.iter().map(|x| norm.to_unit(*x)).collect();
+            sample.normals = frame
+                .canonical
+                .par_iter()
+                .zip(&self.frames[k].posed_normals)
+                .map(|(&x, &n)| {
+                    let a = Mat3::from_mat4(blend_transform(&bones.transforms, &self.capture.field.weights_at(x)));
+                    (a.transpose() * n).normalize_or_zero()
+                })
+                .collect();
+            sample.pose_input = encoding.input(&frame.correction.apply(&frame.given), &self.rest_joints, &norm);
+        }
+    }
+
+    fn subset(&self, k: usize) -> Vec<usize> {
+        let n = self.frames[k].posed.len();
+        let m = self.options.points_per_frame.clamp(1, n.max(1));
+        (0..m).map(|i| i * n / m).collect()
+    }
+
+    fn refine_frame(&mut self, k: usize, sdf: FrameSdf) -> RoundReport {
+        let idx = self.subset(k);
+        let field = &self.capture.field;
+        let frame = &self.frames[k];
+        // The skinning weights of the round's points, held fixed.
+        let weights: Vec<_> = idx.iter().map(|&i| field.weights_at(frame.canonical[i])).collect();
+        let posed: Vec<Vec3> = idx.iter().map(|&i| frame.posed[i]).collect();
+        let mut before = None;
+        for _ in 0..self.options.iterations.max(1) {
+            let frame = &self.frames[k];
+            let bones = frame.correction.bones(&self.rest_joints, &frame.given);
+            let blends: Vec<_> = weights.iter().map(|w| blend_transform(&bones.transforms, w)).collect();
+            let xc: Vec<Vec3> = blends.iter().zip(&posed).map(|(a, &y)| a.inverse().transform_point3(y)).collect();
+            let (f, g) = sdf(k, &xc);
+            let mean_abs = f.iter().map(|v| v.abs()).sum::<f32>() / f.len().max(1) as f32;
+            before.get_or_insert(mean_abs);
+            let huber = self.options.huber;
+            // Normal equations of the weighted residuals, summed over the points in parallel.
+            let (h, b) = (0..xc.len())
+                .into_par_iter()
+                .fold(
+                    || (vec![0f64; POSE_DOF * POSE_DOF], vec![0f64; POSE_DOF]),
+                    |(mut h, mut b), p| {
+                        let r = f[p];
+                        if r.abs() > 10.0 * huber || !r.is_finite() {
+                            return (h, b);
+                        }
+                        let rho = if r.abs() <= huber { 1.0 } else { huber / r.abs() };
+                        let a3 = Mat3::from_mat4(blends[p]);
+                        let v = -(a3.inverse().transpose() * g[p]);
+                        let cols = skinned_point_jacobian(&bones, &weights[p], xc[p]);
+                        let row: Vec<f64> = cols.iter().map(|c| v.dot(*c) as f64).collect();
+                        let nz: Vec<usize> = (0..POSE_DOF).filter(|&i| row[i] != 0.0).collect();
+                        for &i in &nz {
+                            b[i] += rho as f64 * row[i] * r as f64;
+                            for &j in &nz {
+                                h[i * POSE_DOF + j] += rho as f64 * row[i] * row[j];
+                            }
+                        }
+                        (h, b)
+                    },
+                )
+                .reduce(
+                    || (vec![0f64; POSE_DOF * POSE_DOF], vec![0f64; POSE_DOF]),
+                    |(mut h1, mut b1), (h2, b2)| {
+                        h1.iter_mut().zip(&h2).for_each(|(x, y)| *x += y);
+                        b1.iter_mut().zip(&b2).for_each(|(x, y)| *x += y);
+                        (h1, b1)
+                    },
+                );
+            let step = self.solve_step(k, h, b, xc.len());
+            self.frames[k].correction.add(&step);
+        }
+        // The residual after the last step (one more evaluation).
+        let frame = &self.frames[k];
+        let bones = frame.correction.bones(&self.rest_joints, &frame.given);
+        let xc: Vec<Vec3> = weights.iter().zip(&posed).map(|(w, &y)| blend_transform(&bones.transforms, w).inverse().transform_point3(y)).collect();
+        let (f, _) = sdf(k, &xc);
+        let after = f.iter().map(|v| v.abs()).sum::<f32>() / f.len().max(1) as f32;
+        RoundReport { residual_before: before.unwrap_or(after), residual_after: after }
+    }
+
+    /// The damped Gauss-Newton step of frame `k` from the normal equations of `n` points.
+    fn solve_step(&self, k: usize, mut h: Vec<f64>, mut b: Vec<f64>, n: usize) -> Vec<f32> {
+        let o = &self.options;
+        let scale = 1.0 / n.max(1) as f64;
+        h.iter_mut().for_each(|x| *x *= scale);
+        b.iter_mut().for_each(|x| *x *= scale);
+        let current = self.frames[k].correction.to_vec();
+        for i in 0..POSE_DOF {
+            let prior = if i < 3 * NUM_JOINTS { o.rotation_prior } else { o.translation_prior } as f64;
+            // Levenberg-Marquardt damping on the data's diagonal, then the prior toward zero.
+            h[i * POSE_DOF + i] *= 1.0 + 1e-3;
+            h[i * POSE_DOF + i] += prior;
+            b[i] += prior * current[i] as f64;
+        }
+        let mut step: Vec<f32> = match cholesky_solve(&h, &b, POSE_DOF) {
+            Some(x) => x.iter().map(|v| -*v as f32).collect(),
+            None => return vec![0.0; POSE_DOF],
+        };
+        for j in 0..=NUM_JOINTS {
+            let limit = if j < NUM_JOINTS { o.max_step_rad } else { o.max_step_m };
+            let s = Vec3::from_slice(&step[3 * j..3 * j + 3]);
+            let len = s.length();
+            if !len.is_finite() {
+                return vec![0.0; POSE_DOF];
+            }
+            if len > limit {
+                let c = s * (limit / len);
+                step[3 * j..3 * j + 3].copy_from_slice(&c.to_array());
+            }
+        }
+        step
+    }
+
+    /// Canonical points of frame `k` again for its corrected pose: the inverse with the
+    /// weights at the current point, twice (a fixed-point iteration toward the field's root).
+    fn recanonicalise(&mut self, k: usize) {
+        let field = &self.capture.field;
+        let frame = &mut self.frames[k];
+        let bones = frame.correction.bones(&self.rest_joints, &frame.given);
+        // The free-space samples move with the points they were cast in front of.
+        frame.canonical.par_iter_mut().zip(&frame.posed).chain(frame.free_canonical.par_iter_mut().zip(&frame.free_posed)).for_each(|(x, &y)| {
+            for _ in 0..2 {
+                let a = blend_transform(&bones.transforms, &field.weights_at(*x));
+                let next = a.inverse().transform_point3(y);
+                if next.is_finite() && field.contains(next) {
+                    *x = next;
+                }
+            }
+        });
+    }
+}
+
+/// Solve the symmetric positive definite system `h x = b` (row-major `n x n`) by Cholesky;
+/// `None` when it is not positive definite.
+fn cholesky_solve(h: &[f64], b: &[f64], n: usize) -> Option<Vec<f64>> {
+    let mut l = vec![0f64; n * n];
+    for i in 0..n {
+        for j in 0..=i {
+            let mut s = h[i * n + j];
+            for k in 0..j {
+                s -= l[i * n + k] * l[j * n + k];
+            }
+            if i == j {
+                if s <= 0.0 || !s.is_finite() {
+                    return None;
+                }
+                l[i * n + i] = s.sqrt();
+            } else {
+                l[i * n + j] = s / l[j * n + j];
+            }
+        }
+    }
+    let mut y = vec![0f64; n];
+    for i in 0..n {
+        let s: f64 = (0..i).map(|k| l[i * n + k] * y[k]).sum();
+        y[i] = (b[i] - s) / l[i * n + i];
+    }
+    let mut x = vec![0f64; n];
+    for i in (0..n).rev() {
+        let s: f64 = (i + 1..n).map(|k| l[k * n + i] * x[k]).sum();
+        x[i] = (y[i] - s) / l[i * n + i];
+    }
+    Some(x)
+}
+
+/// One round during a fit: the SDF of each frame is the hypernetwork's SIREN for the frame's
+/// current pose input (frozen for the round); afterwards `samples` hold the refined points,
+/// normals and pose inputs.
+pub fn refine_round(refiner: &mut PoseRefiner, model: &crate::hyper::HyperNet, samples: &mut [PoseSample], encoding: PoseEncoding) -> RoundReport {
+    use burn::module::Module;
+    let device = crate::cpu_device();
+    let inference = model.valid().to_device(&device);
+    let sirens: Vec<SirenEval> = samples
+        .iter()
+        .map(|s| {
+            let (w, b) = inference.siren_for(&s.pose_input, &device);
+            SirenEval::from_tensors(&w, &b)
+        })
+        .collect();
+    let norm = refiner.capture.normalisation;
+    let metres = norm.metres_per_unit();
+    let sdf = |k: usize, points: &[Vec3]| -> (Vec<f32>, Vec<Vec3>) {
+        let unit: Vec<[f32; 3]> = points.iter().map(|p| norm.to_unit(*p).to_array()).collect();
+        let (f, g) = sirens[k].sdf_and_gradient(&unit);
+        (f.into_iter().map(|v| v * metres).collect(), g.into_iter().map(Vec3::from_array).collect())
+    };
+    let report = refiner.round(&sdf);
+    refiner.update_samples(samples, encoding);
+    report
+}
