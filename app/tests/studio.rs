@@ -436,10 +436,13 @@ fn playback_after_baking() {
         assert!(s.timeline.playing);
         let posed = s.posed.as_ref().expect("a posed mesh");
         assert_eq!(posed.id, 0, "frame {} is the baked mesh, not a live pose", s.timeline.current_frame());
+        assert!(s.viewport_moving, "playing redraws every frame (lavapipe: without MSAA)");
         seen.insert(s.timeline.current_frame());
     }
     assert!(seen.len() >= 4, "the clip plays at its rate ({seen:?} of {frames} frames)");
     h.state_mut().apply(Command::TogglePlay);
+    h.step();
+    assert!(!h.state().viewport_moving, "paused: drawn with MSAA again");
     assert!(!h.state().bakes.baking(), "the bake is cached");
     // Two paused frames: different meshes on screen.
     let shot = |h: &mut Harness<'static, StudioApp>, f: usize| {

@@ -64,6 +64,7 @@ impl StudioApp {
             framed: false,
             viewport_rect: None,
             turntable: false,
+            viewport_moving: false,
             show_shortcuts: false,
             status: None,
             error: None,

@@ -136,6 +136,9 @@ pub struct StudioApp {
     pub(crate) viewport_rect: Option<egui::Rect>,
     /// The camera turns around the subject.
     pub turntable: bool,
+    /// The viewport redraws every frame (playing, turntable, orbiting): drawn without MSAA on a
+    /// software renderer.
+    pub viewport_moving: bool,
     /// The shortcuts window (?) is open.
     pub show_shortcuts: bool,
     // Messages and the rest.
