@@ -6,7 +6,7 @@
 //! frame), `panels` (the UI), `viewport` (the wgpu renderer: scene + camera in, pixels out),
 //! `camera`, `avatar_job` (the avatar trait and the fine-tuning job), `posing` (the pose
 //! worker), `playback` (baked clips), `timeline`, `capture_view` (a capture as the studio shows
-//! it), `project` (the project file), `settings` (and the native dialogs), `path_dialog` (the
+//! it), `scan` (an OBJ scan opened as a capture), `project` (the project file), `settings` (and the native dialogs), `path_dialog` (the
 //! in-app one), `screenshot`, `style`, `demo`.
 
 pub mod app;
@@ -22,6 +22,7 @@ pub mod path_dialog;
 pub mod playback;
 pub mod posing;
 pub mod project;
+pub mod scan;
 pub mod scene;
 pub mod screenshot;
 pub mod settings;
