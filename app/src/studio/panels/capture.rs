@@ -23,7 +23,7 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
         }
     });
     ui.horizontal(|ui| {
-        let field = ui.add(egui::TextEdit::singleline(&mut app.path_field).hint_text("or type a folder or scan path").desired_width(ui.available_width() - 40.0));
+        let field = ui.add(egui::TextEdit::singleline(&mut app.path_field).hint_text("or type a path").desired_width(ui.available_width() - 40.0));
         let go = ui.add_enabled(!app.path_field.trim().is_empty(), egui::Button::new("Go")).on_hover_text("Open the capture folder, project, avatar or motion at this path");
         if go.clicked() || (field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) && !app.path_field.trim().is_empty()) {
             out.push(Command::OpenPath(PathBuf::from(app.path_field.trim())));
