@@ -7,7 +7,7 @@
 //! `camera`, `avatar_job` (the avatar trait and the fine-tuning job), `posing` (the pose
 //! worker), `playback` (baked clips), `timeline`, `capture_view` (a capture as the studio shows
 //! it), `scan` (an OBJ scan opened as a capture), `project` (the project file), `settings` (and the native dialogs), `path_dialog` (the
-//! in-app one), `screenshot`, `style`, `demo`.
+//! in-app one), `measure` (the playback rate in a real window), `screenshot`, `style`, `demo`.
 
 pub mod app;
 pub mod avatar_job;
@@ -18,6 +18,7 @@ pub mod capture_view;
 pub mod commands;
 pub mod demo;
 pub mod panels;
+mod measure;
 pub mod path_dialog;
 pub mod playback;
 pub mod posing;
