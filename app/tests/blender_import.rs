@@ -1,8 +1,9 @@
 //! Blender imports an exported GLB headless and plays it (issue 8): `tests/blender/check_glb.py`
 //! run by Debian's `blender` on a short walk of the synthetic avatar. The counts Blender finds
 //! (bones, shape keys, keyframes) must equal what the file holds, read here with the `gltf`
-//! crate, and Blender's skinned, morphed mesh of each frame must match the studio's posed mesh
-//! (`--format obj`) of that frame.
+//! crate, Blender's skinned, morphed mesh of each frame must match the studio's posed mesh
+//! (`--format obj`) of that frame, and the material Blender makes (a Principled BSDF) must have
+//! the base colour chosen for the export (`--color`, the studio's material colour).
 //!
 //! Without `blender` on PATH (or `BLENDER` naming the binary) the test prints a notice and passes,
 //! except under CI (the `CI` variable set), where it fails: `scripts/test.sh` installs Blender.
@@ -74,13 +75,18 @@ fn blender_imports_and_plays_the_exported_glb() {
 
     let dir = tempfile::tempdir().unwrap();
     let glb = dir.path().join("walk.glb");
-    let out = studio().args(["export", "--motion", "walk", "--frames", "12", "--targets", "16", "--out"]).arg(&glb).output().unwrap();
+    // A material colour of the artist's choice (the studio's View panel sets the same option).
+    let color = [0.2f32, 0.5, 0.3];
+    let out = studio().args(["export", "--motion", "walk", "--frames", "12", "--targets", "16", "--color", "0.2,0.5,0.3", "--out"]).arg(&glb).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let seq = dir.path().join("seq");
     let out = studio().args(["export", "--motion", "walk", "--frames", "12", "--format", "obj", "--out"]).arg(&seq).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 
     let (joints, targets, frames) = glb_counts(&glb);
+    let doc = gltf::Gltf::from_slice(&std::fs::read(&glb).unwrap()).unwrap().document;
+    let factor = doc.meshes().next().unwrap().primitives().next().unwrap().material().pbr_metallic_roughness().base_color_factor();
+    assert_eq!(factor, [color[0], color[1], color[2], 1.0], "the chosen colour is in the file");
     assert_eq!((joints, frames), (24, 12));
     assert!(targets >= 2, "{targets} morph targets");
 
@@ -106,8 +112,8 @@ fn blender_imports_and_plays_the_exported_glb() {
     assert_eq!(s["import_warnings"], serde_json::json!([]), "Blender's glTF importer complained");
     assert_eq!(s["material"], "avatar", "the exported material reaches Blender");
     let base: Vec<f64> = s["base_color"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-    let expected = avatar_core::export::DEFAULT_COLOR;
-    assert!(base.iter().zip(expected).all(|(b, e)| (b - e as f64).abs() < 1e-3), "base colour {base:?}, expected {expected:?}");
+    assert_eq!(base.len(), 3);
+    assert!(base.iter().zip(color).all(|(b, e)| (b - e as f64).abs() < 1e-3), "Blender's base colour {base:?}, the chosen {color:?}");
     // Blender's evaluated mesh is the studio's posed mesh (12 frames, 16 targets: exact PCA).
     assert_eq!(s["obj_frames_compared"], frames);
     assert!(s["obj_max_error_mm"].as_f64().unwrap() < 0.5, "{s}");

@@ -46,4 +46,9 @@ fn bad_arguments_are_named() {
     assert!(e.contains("me.avatar"), "{e}");
     let e = run(&["--motion", "walk", "--format", "fbx"]);
     assert!(e.contains("fbx"), "{e}");
+    let e = run(&["--motion", "walk", "--color", "0.2,1.5,0.3"]);
+    assert!(e.contains("--color") && e.contains("between 0 and 1"), "{e}");
+    let e = run(&["--motion", "walk", "--color", "0.2,0.5"]);
+    assert!(e.contains("three numbers"), "{e}");
+    assert!(!dir.path().join("x.glb").exists(), "nothing written");
 }

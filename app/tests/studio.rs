@@ -436,10 +436,13 @@ fn playback_after_baking() {
         assert!(s.timeline.playing);
         let posed = s.posed.as_ref().expect("a posed mesh");
         assert_eq!(posed.id, 0, "frame {} is the baked mesh, not a live pose", s.timeline.current_frame());
+        assert!(s.viewport_moving, "playing redraws every frame (lavapipe: without MSAA)");
         seen.insert(s.timeline.current_frame());
     }
     assert!(seen.len() >= 4, "the clip plays at its rate ({seen:?} of {frames} frames)");
     h.state_mut().apply(Command::TogglePlay);
+    h.step();
+    assert!(!h.state().viewport_moving, "paused: drawn with MSAA again");
     assert!(!h.state().bakes.baking(), "the bake is cached");
     // Two paused frames: different meshes on screen.
     let shot = |h: &mut Harness<'static, StudioApp>, f: usize| {
@@ -553,4 +556,74 @@ fn the_capture_view_shows_the_refined_pose_of_a_frame() {
     // Another frame has no refined fitting: its body stays at the given one.
     let other = h.state().capture.as_ref().unwrap().frames[1].params.clone().unwrap();
     assert!(h.state().refined_fitting(&other).is_none());
+}
+
+/// An OBJ scan opens like a capture (issue 18): the in-app dialog lists the .obj, the scan is
+/// seen by a ring of virtual depth cameras (`import scan`'s recipe) into a capture in the
+/// cache, the depth points lie on the scan's surface, the user's folder is only read, and a
+/// scan without its fitting is refused with a message naming the file.
+#[test]
+fn an_obj_scan_opens_as_a_capture() {
+    use avatar_core::body::{open_body_ref, BodyParams};
+    use avatar_core::synth::{canonical_surface, pose_surface, ClothedTemplate, Outfit, PoseFeatures};
+    use avatar_studio::studio::settings::{NoDialogs, PathPurpose};
+    // A synthetic clothed person, arms lowered and turned, written as an OBJ with its fitting.
+    let mut pose = BodyParams::default();
+    pose.pose[0].y = 0.4;
+    pose.pose[16].z = -0.8;
+    pose.pose[17].z = 0.8;
+    let body = open_body_ref();
+    let t = ClothedTemplate::build(body, &[], Outfit::PoloLoose);
+    let posed = body.pose(&pose);
+    let canonical = canonical_surface(&t, &PoseFeatures::of(&posed.bones), 7);
+    let mesh = avatar_core::mesh::TriMesh::new(pose_surface(&t, &canonical, &posed.bones), t.faces.clone());
+    let dir = tempfile::tempdir().unwrap();
+    let scan = dir.path().join("person.obj");
+    avatar_core::mesh::io::write_obj(&scan, &mesh).unwrap();
+    std::fs::write(dir.path().join("person.pose.json"), serde_json::to_string(&pose).unwrap()).unwrap();
+    let scan_bytes = std::fs::read(&scan).unwrap();
+
+    let mut h = harness(StudioOptions::default());
+    h.state_mut().set_dialogs(Box::new(NoDialogs));
+    h.state_mut().apply(Command::AskPath(PathPurpose::OpenScan));
+    h.state_mut().path_dialog.as_mut().expect("the in-app dialog is open").go_to(dir.path().to_path_buf());
+    for _ in 0..3 {
+        h.step();
+    }
+    assert!(h.query_by_label("person.pose.json").is_none(), "only OBJ files are listed");
+    h.get_by_label("person.obj").click();
+    h.step();
+    h.get_by_label("Open").click();
+    h.step();
+    settle(&mut h, "importing and opening the scan");
+    let app = h.state();
+    assert!(app.error.is_none(), "{:?}", app.error);
+    let c = app.capture.as_ref().expect("the scan is open as a capture");
+    assert_eq!((c.frames.len(), c.usable(), c.name.as_str()), (8, 8, "person.obj"));
+    assert_eq!(app.capture_source.as_deref(), Some(scan.to_str().unwrap()));
+    assert!(c.dir.starts_with(avatar_studio::studio::demo::cache_dir()), "imported into the cache: {}", c.dir.display());
+    // Every frame's back-projected depth lies on the scan (0.1 mm depth steps).
+    let surface = avatar_core::eval::metrics::Prepared::new(&mesh, "scan").unwrap();
+    for f in &c.frames {
+        assert!(f.points.len() > 1000, "frame {}: {} points", f.index, f.points.len());
+        let mean = f.points.iter().map(|p| surface.surface_distance(*p)).sum::<f32>() / f.points.len() as f32;
+        assert!(mean < 2e-3, "frame {}: the depth is {mean} m from the scan", f.index);
+    }
+    let capture_dir = c.dir.clone();
+    assert_eq!(std::fs::read(&scan).unwrap(), scan_bytes, "the scan is only read");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2, "nothing is written beside the scan");
+    // Opened again (a typed or dropped path): the same capture, not imported again.
+    h.state_mut().apply(Command::OpenPath(scan.clone()));
+    settle(&mut h, "reopening the scan");
+    assert_eq!(h.state().capture.as_ref().unwrap().dir, capture_dir);
+    let _ = std::fs::remove_dir_all(&capture_dir);
+
+    // Without its fitting, the scan is refused with the reason.
+    let lone = dir.path().join("lone");
+    std::fs::create_dir(&lone).unwrap();
+    std::fs::copy(&scan, lone.join("other.obj")).unwrap();
+    h.state_mut().apply(Command::OpenPath(lone.join("other.obj")));
+    settle(&mut h, "opening a scan without a fitting");
+    let e = h.state().error.clone().unwrap_or_default();
+    assert!(e.contains("other.obj") && e.contains("other.pose.json"), "{e}");
 }

@@ -35,6 +35,20 @@ pub struct Args {
     /// Shape seed of the synthetic avatar (2024 = the demo capture's subject).
     #[arg(long, default_value_t = 2024)]
     synthetic_subject: u64,
+    /// The glTF material's base colour, linear RGB from 0 to 1 (as the studio's View panel
+    /// sets it), e.g. 0.2,0.5,0.3; default a neutral skin tone.
+    #[arg(long, value_parser = parse_color)]
+    color: Option<[f32; 3]>,
+}
+
+/// "R,G,B" with each channel a number from 0 to 1.
+fn parse_color(s: &str) -> Result<[f32; 3], String> {
+    let v: Vec<f32> = s.split(',').map(|c| c.trim().parse::<f32>().map_err(|_| format!("{c:?} is not a number"))).collect::<Result<_, _>>()?;
+    match v[..] {
+        [r, g, b] if v.iter().all(|c| (0.0..=1.0).contains(c)) => Ok([r, g, b]),
+        [_, _, _] => Err("each channel must be between 0 and 1 (linear RGB)".into()),
+        _ => Err(format!("expected three numbers R,G,B, got {}", v.len())),
+    }
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -76,7 +90,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             &synthetic
         }
     };
-    let exported = export_glb(avatar, &clip, &ExportOptions { max_targets: args.targets, ..ExportOptions::default() }).map_err(|e| match &args.avatar {
+    let exported = export_glb(avatar, &clip, &ExportOptions { max_targets: args.targets, color: args.color.unwrap_or(avatar_core::export::DEFAULT_COLOR), ..ExportOptions::default() }).map_err(|e| match &args.avatar {
         Some(path) => e.in_file(path),
         None => e,
     })?;

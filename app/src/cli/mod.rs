@@ -38,6 +38,9 @@ pub struct StudioArgs {
     /// Start the quick fine-tuning configuration as soon as the capture is open.
     #[arg(long, hide = true)]
     pub quick_fit: bool,
+    /// Once idle, play the clip; after its bake print the frames drawn a second, then exit.
+    #[arg(long, hide = true)]
+    pub measure_playback: bool,
 }
 
 #[derive(Subcommand)]

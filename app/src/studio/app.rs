@@ -64,6 +64,8 @@ impl StudioApp {
             framed: false,
             viewport_rect: None,
             turntable: false,
+            viewport_moving: false,
+            playback_measure: None,
             show_shortcuts: false,
             status: None,
             error: None,
@@ -136,6 +138,7 @@ impl eframe::App for StudioApp {
         self.apply_all(commands);
         self.frames_drawn += 1;
         self.after_frame();
+        self.measure_playback();
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {

@@ -81,7 +81,7 @@ impl StudioApp {
         let flagged = capture.flagged();
         let msg = format!(
             "Opened {}: {} frames, {} usable{}",
-            if source == DEMO { "the demo capture".to_string() } else { capture.dir.display().to_string() },
+            if source == DEMO { "the demo capture".to_string() } else if crate::studio::scan::is_scan(std::path::Path::new(&source)) { format!("the scan {source}") } else { capture.dir.display().to_string() },
             capture.frames.len(),
             capture.usable(),
             if flagged > 0 { format!(", {flagged} flagged") } else { String::new() }

@@ -117,27 +117,45 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
         Err(e) => return out + &format!("| playback | | {e} |\n"),
     };
     let size = [1280u32, 800u32];
-    let mut resources = crate::studio::viewport::ViewportResources::new(&device, eframe::egui_wgpu::wgpu::TextureFormat::Rgba8Unorm);
     let mut camera = crate::studio::camera::OrbitCamera::default();
     let first = &baked.frames[0];
     if let Some((lo, hi)) = avatar_core::mesh::bounds(&first.positions) {
         camera.frame(lo, hi);
     }
-    let t = Instant::now();
-    let loops = 2;
-    for m in baked.frames.iter().cycle().take(loops * baked.frames.len()) {
+    let scene_of = |m: &crate::studio::posing::PosedMesh| {
         let mut scene = crate::studio::viewport::Scene::new();
         scene.add_mesh_with_normals(&m.positions, m.normals.as_deref(), &m.faces, avatar_core::export::DEFAULT_COLOR);
         scene.add_grid(glam::Vec3::ZERO, -1.2, 1.5, 0.25);
-        let mut encoder = device.create_command_encoder(&Default::default());
-        resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), crate::studio::viewport::Shading::Lit, 3.0, size, crate::studio::project::default_light());
-        queue.submit([encoder.finish()]);
-        if let Err(e) = device.poll(eframe::egui_wgpu::wgpu::PollType::wait_indefinitely()) {
-            return out + &format!("| playback | | {e} |\n");
+        scene
+    };
+    let t = Instant::now();
+    let scenes: Vec<_> = baked.frames.iter().map(|m| scene_of(m)).collect();
+    let build_ms = t.elapsed().as_secs_f64() * 1e3 / scenes.len() as f64;
+    drop(scenes);
+    out += &format!("| playback: the scene rebuilt from a baked frame ({} vertices; CPU, uploaded with the draw below) | {build_ms:.2} ms | |\n", first.positions.len());
+    let software = info.device_type == eframe::egui_wgpu::wgpu::DeviceType::Cpu;
+    let mut resources = crate::studio::viewport::ViewportResources::new(&device, eframe::egui_wgpu::wgpu::TextureFormat::Rgba8Unorm, software);
+    // While playing (moving) as the studio draws it, then paused (4x MSAA) for comparison.
+    for moving in [true, false] {
+        let samples = resources.samples(moving);
+        // The first frame (not timed) builds this sample count's pipelines and targets.
+        let mut t = Instant::now();
+        for (i, m) in std::iter::once(first).chain(baked.frames.iter()).enumerate() {
+            if i == 1 {
+                t = Instant::now();
+            }
+            let scene = scene_of(m);
+            let mut encoder = device.create_command_encoder(&Default::default());
+            resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), crate::studio::viewport::Shading::Lit, 3.0, size, crate::studio::project::default_light(), samples);
+            queue.submit([encoder.finish()]);
+            if let Err(e) = device.poll(eframe::egui_wgpu::wgpu::PollType::wait_indefinitely()) {
+                return out + &format!("| playback | | {e} |\n");
+            }
         }
+        let fps = baked.frames.len() as f64 / t.elapsed().as_secs_f64();
+        let what = if moving { "playing" } else { "the paused look, for comparison" };
+        out += &format!("| playback of the baked clip ({what}): each frame's scene rebuilt, uploaded and drawn at 1280 x 800, {samples} sample(s) a pixel, on {} ({:?}) | {fps:.1} fps | target: the clip's 30 fps |\n", info.name, info.device_type);
     }
-    let fps = (loops * baked.frames.len()) as f64 / t.elapsed().as_secs_f64();
-    out += &format!("| playback of the baked clip: {} vertices a frame, scene rebuilt and drawn at 1280 x 800 on {} ({:?}) | {fps:.1} fps | target: the clip's 30 fps |\n", first.positions.len(), info.name, info.device_type);
     out
 }
 
@@ -180,11 +198,11 @@ pub fn viewport_row() -> String {
     if let Some((lo, hi)) = scene.bounds() {
         camera.frame(lo, hi);
     }
-    let mut resources = ViewportResources::new(&device, wgpu::TextureFormat::Rgba8Unorm);
+    let mut resources = ViewportResources::new(&device, wgpu::TextureFormat::Rgba8Unorm, info.device_type == wgpu::DeviceType::Cpu);
     let mut frame = |yaw: f32| {
         camera.yaw = yaw; // a turning camera: nothing is cached between frames but the buffers
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench frame") });
-        resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), Shading::Lit, 3.0, size, crate::studio::project::default_light());
+        resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), Shading::Lit, 3.0, size, crate::studio::project::default_light(), crate::studio::viewport::MSAA);
         queue.submit([encoder.finish()]);
         device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ())
     };

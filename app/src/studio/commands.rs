@@ -7,6 +7,7 @@ use crate::studio::avatar_job::FitJob;
 use crate::studio::fit_config::FitConfig;
 use crate::studio::camera::Preset;
 use crate::studio::capture_view::{load_capture, LoadedCapture};
+use crate::studio::scan::{fitting_beside, is_scan, scan_capture};
 use crate::studio::path_dialog::PathDialog;
 use crate::studio::posing::sdf_normals;
 use crate::studio::project::{MotionState, Project, ViewMode, DEMO, PROJECT_EXTENSION};
@@ -56,7 +57,7 @@ impl Command {
     /// The command a path answers.
     pub fn answer(purpose: PathPurpose, path: PathBuf) -> Command {
         match purpose {
-            PathPurpose::OpenCapture => Command::OpenCapture(path.display().to_string()),
+            PathPurpose::OpenCapture | PathPurpose::OpenScan => Command::OpenCapture(path.display().to_string()),
             PathPurpose::OpenProject => Command::OpenProject(path),
             PathPurpose::SaveProject => Command::SaveProject(path),
             PathPurpose::OpenAvatar => Command::OpenAvatar(path),
@@ -150,7 +151,7 @@ impl StudioApp {
     /// Open whatever a path is.
     fn open_path(&mut self, p: PathBuf) {
         let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_string();
-        if p.is_dir() || name == "capture.json" {
+        if p.is_dir() || name == "capture.json" || (is_scan(&p) && p.is_file()) {
             self.open_capture(p.display().to_string());
         } else if name.ends_with(PROJECT_EXTENSION) {
             self.open_project(&p);
@@ -161,17 +162,24 @@ impl StudioApp {
         } else if !p.exists() {
             self.fail(format!("{}: no such file or folder", p.display()));
         } else {
-            self.fail(format!("{}: not a capture folder, project, avatar or motion", p.display()));
+            self.fail(format!("{}: not a capture folder, scan (OBJ), project, avatar or motion", p.display()));
         }
     }
 
     // ---- capture -------------------------------------------------------------------------
 
-    /// Open a capture folder ("demo" = the embedded demo) in the background.
+    /// Open a capture folder ("demo" = the embedded demo; an OBJ scan becomes a capture in the
+    /// cache first) in the background.
     fn open_capture(&mut self, source: String) {
         let src = source.clone();
         let task = Task::spawn("capture loader", self.wake(), move |_| -> anyhow::Result<LoadedCapture> {
-            let dir = if src == DEMO { crate::studio::demo::demo_capture_dir()? } else { PathBuf::from(&src) };
+            let path = PathBuf::from(&src);
+            if src != DEMO && is_scan(&path) {
+                let mut c = load_capture(&scan_capture(&path)?)?;
+                c.name = path.file_name().map_or(src.clone(), |n| n.to_string_lossy().into_owned());
+                return Ok(c);
+            }
+            let dir = if src == DEMO { crate::studio::demo::demo_capture_dir()? } else { path };
             load_capture(&dir)
         });
         self.tasks.capture = Some((source, task));
@@ -216,6 +224,13 @@ impl StudioApp {
         let mut inputs = avatar_core::io::Inputs::new();
         if let Some(c) = &self.capture {
             inputs = inputs.capture(&c.dir);
+        }
+        // A scan's capture is in the cache; the files the user has are the scan and its fitting.
+        if let Some(scan) = self.capture_source.as_deref().map(Path::new).filter(|p| is_scan(p)) {
+            inputs = inputs.file(scan);
+            if let Ok(f) = fitting_beside(scan) {
+                inputs = inputs.file(&f);
+            }
         }
         let clip = Path::new(&self.timeline.clip_source);
         if clip.is_file() {

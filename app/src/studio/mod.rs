@@ -7,8 +7,8 @@
 //! `camera`, `avatar` (what the studio needs from an avatar), `fit_config` (the fit settings),
 //! `avatar_job` (the fine-tuning job), `posing` (the pose
 //! worker), `playback` (baked clips), `timeline`, `capture_view` (a capture as the studio shows
-//! it), `project` (the project file), `settings` (and the native dialogs), `path_dialog` (the
-//! in-app one), `screenshot`, `style`, `demo`.
+//! it), `scan` (an OBJ scan opened as a capture), `project` (the project file), `settings` (and the native dialogs), `path_dialog` (the
+//! in-app one), `measure` (the playback rate in a real window), `screenshot`, `style`, `demo`.
 
 pub mod app;
 pub mod avatar;
@@ -21,10 +21,12 @@ pub mod commands;
 pub mod demo;
 pub mod fit_config;
 pub mod panels;
+mod measure;
 pub mod path_dialog;
 pub mod playback;
 pub mod posing;
 pub mod project;
+pub mod scan;
 pub mod scene;
 pub mod screenshot;
 pub mod settings;

@@ -42,6 +42,8 @@ impl Settings {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PathPurpose {
     OpenCapture,
+    /// An OBJ scan, opened as a capture (`studio::scan`).
+    OpenScan,
     OpenProject,
     SaveProject,
     OpenAvatar,
@@ -144,6 +146,7 @@ impl PathPurpose {
         use PathKind::*;
         let (title, kind, filter): (&'static str, PathKind, (&'static str, &'static [&'static str])) = match self {
             PathPurpose::OpenCapture => ("Open a capture folder", Folder, ("Capture folder", &[])),
+            PathPurpose::OpenScan => ("Open a 3D scan", OpenFile, ("OBJ scan", &["obj"])),
             PathPurpose::OpenProject => ("Open a project", OpenFile, ("Studio project", &["json"])),
             PathPurpose::SaveProject => ("Save the project", SaveFile, ("Studio project", &["json"])),
             PathPurpose::OpenAvatar => ("Open an avatar", OpenFile, ("Avatar", &["avatar"])),

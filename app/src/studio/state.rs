@@ -39,6 +39,8 @@ pub struct StudioOptions {
     pub timing: bool,
     /// Start this fine-tuning as soon as the capture is open (README screenshots).
     pub auto_fit: Option<FitConfig>,
+    /// Measure playback in the window once idle, print it and close (`studio::measure`).
+    pub measure_playback: bool,
 }
 
 /// An avatar loaded (or fitted) and meshed off the UI thread.
@@ -138,6 +140,10 @@ pub struct StudioApp {
     pub(crate) viewport_rect: Option<egui::Rect>,
     /// The camera turns around the subject.
     pub turntable: bool,
+    /// The viewport redraws every frame (playing, turntable, orbiting): drawn without MSAA on a
+    /// software renderer.
+    pub viewport_moving: bool,
+    pub(crate) playback_measure: Option<crate::studio::measure::PlaybackMeasure>,
     /// The shortcuts window (?) is open.
     pub show_shortcuts: bool,
     // Messages and the rest.

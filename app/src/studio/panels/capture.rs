@@ -15,12 +15,15 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
         if ui.button("Open…").on_hover_text("Open a capture folder (or drop it on the window)").clicked() {
             out.push(Command::AskPath(PathPurpose::OpenCapture));
         }
+        if ui.button("Scan…").on_hover_text("Open a 3D scan (OBJ) with its body fitting beside it (NAME.pose.json or pose.json)").clicked() {
+            out.push(Command::AskPath(PathPurpose::OpenScan));
+        }
         if ui.button("Demo").on_hover_text("The embedded demo capture").clicked() {
             out.push(Command::OpenCapture(DEMO.into()));
         }
     });
     ui.horizontal(|ui| {
-        let field = ui.add(egui::TextEdit::singleline(&mut app.path_field).hint_text("or type a folder path").desired_width(ui.available_width() - 40.0));
+        let field = ui.add(egui::TextEdit::singleline(&mut app.path_field).hint_text("or type a path").desired_width(ui.available_width() - 40.0));
         let go = ui.add_enabled(!app.path_field.trim().is_empty(), egui::Button::new("Go")).on_hover_text("Open the capture folder, project, avatar or motion at this path");
         if go.clicked() || (field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) && !app.path_field.trim().is_empty()) {
             out.push(Command::OpenPath(PathBuf::from(app.path_field.trim())));

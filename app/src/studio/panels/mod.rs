@@ -143,6 +143,9 @@ fn menu_bar(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
             if ui.button("Open capture folder…").clicked() {
                 out.push(Command::AskPath(PathPurpose::OpenCapture));
             }
+            if ui.button("Open scan (OBJ)…").on_hover_text("A 3D scan with its body fitting beside it (NAME.pose.json or pose.json), seen by virtual depth cameras").clicked() {
+                out.push(Command::AskPath(PathPurpose::OpenScan));
+            }
             if ui.button("Open demo capture").clicked() {
                 out.push(Command::OpenCapture(DEMO.into()));
             }

@@ -20,7 +20,10 @@ pub fn viewport_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comm
     }
     app.viewport_rect = Some(rect);
     let cam = app.view.camera.matrices(rect.width() / rect.height().max(1.0));
-    viewport::paint(ui, rect, app.scene.clone(), cam, app.view.shading, app.settings.point_size, app.view.light);
+    // Playback, the turntable and an orbit redraw every frame: the renderer may then trade MSAA
+    // for the frame rate (on a software renderer).
+    app.viewport_moving = app.timeline.playing || app.turntable || response.dragged();
+    viewport::paint(ui, rect, app.scene.clone(), cam, app.view.shading, app.settings.point_size, app.view.light, app.viewport_moving);
     // Toolbar over the viewport.
     let mut bar = ui.new_child(egui::UiBuilder::new().max_rect(rect.shrink(8.0)).layout(egui::Layout::left_to_right(egui::Align::TOP)));
     egui::Frame::new().fill(egui::Color32::from_rgba_unmultiplied(24, 26, 30, 225)).corner_radius(5.0).inner_margin(4.0).show(&mut bar, |ui| {
