@@ -17,6 +17,7 @@ pub mod pose_refine;
 pub mod meta_training;
 pub mod meta_data;
 pub mod model_file;
+pub mod off_surface;
 pub mod flat_params;
 pub mod siren;
 pub mod siren_eval;
