@@ -68,15 +68,11 @@ impl StudioError {
 /// `.context(…)` on a result whose error converts into [`StudioError`].
 pub trait Context<T> {
     fn context(self, context: impl Into<String>) -> Result<T>;
-    fn with_context<S: Into<String>>(self, context: impl FnOnce() -> S) -> Result<T>;
 }
 
 impl<T, E: Into<StudioError>> Context<T> for std::result::Result<T, E> {
     fn context(self, context: impl Into<String>) -> Result<T> {
         self.map_err(|e| e.into().context(context))
-    }
-    fn with_context<S: Into<String>>(self, context: impl FnOnce() -> S) -> Result<T> {
-        self.map_err(|e| e.into().context(context()))
     }
 }
 
