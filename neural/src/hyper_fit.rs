@@ -16,16 +16,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// One pose's training data: the pose input of the encoder and canonical points with normals
-/// (normalised [-1, 1]^3 space).
-#[derive(Debug, Clone, PartialEq)]
-pub struct PoseSample {
-    pub pose_input: Vec<f32>,
-    pub points: Vec<Vec3>,
-    pub normals: Vec<Vec3>,
-    /// Free-space samples of the pose's frame (outside constraints; empty in meta-training).
-    pub free_space: Vec<Vec3>,
-}
+// `PoseSample` (one pose's training data) lives in pose_sample.rs; named here too until
+// pose_refine.rs imports it from there (then hyper_fit <-> pose_refine is no longer a circle).
+pub use crate::pose_sample::PoseSample;
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HyperFitOptions {
