@@ -1,3 +1,6 @@
 //! `avatar-studio` as a library: the studio (egui), so that tests can drive it.
 
+pub mod error;
 pub mod studio;
+
+pub use error::StudioError;

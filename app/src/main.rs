@@ -38,5 +38,6 @@ fn open_studio(args: cli::StudioArgs, started: std::time::Instant) -> anyhow::Re
         timing: args.timing || std::env::var_os("AVATAR_STUDIO_TIMING").is_some(),
         auto_fit: args.quick_fit.then(avatar_studio::studio::fit_config::FitConfig::tiny),
         measure_playback: args.measure_playback,
-    })
+    })?;
+    Ok(())
 }

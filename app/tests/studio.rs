@@ -297,8 +297,8 @@ fn pose_dependent_avatars_are_projected_per_pose() {
         fn pose_dependent(&self) -> bool {
             true
         }
-        fn save(&self, _: &Path) -> anyhow::Result<()> {
-            anyhow::bail!("not saved")
+        fn save(&self, _: &Path) -> Result<(), avatar_studio::StudioError> {
+            Err(avatar_studio::StudioError::invalid("not saved"))
         }
     }
     let body = avatar_core::body::open_body();
@@ -530,8 +530,8 @@ fn the_capture_view_shows_the_refined_pose_of_a_frame() {
         fn source(&self) -> &dyn AvatarSource {
             &self.0
         }
-        fn save(&self, _: &Path) -> anyhow::Result<()> {
-            anyhow::bail!("not saved")
+        fn save(&self, _: &Path) -> Result<(), avatar_studio::StudioError> {
+            Err(avatar_studio::StudioError::invalid("not saved"))
         }
         fn refined_poses(&self) -> &[RefinedPose] {
             &self.1

@@ -4,7 +4,7 @@
 //! off-surface sign prior from the canonical body's SDF.
 
 use crate::encoder::PoseEncoding;
-use crate::hyper_fit::PoseSample;
+use crate::pose_sample::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS};
 use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
 use avatar_core::capture::{free_space_samples, Capture, CaptureOptions, FreeSpaceOptions};

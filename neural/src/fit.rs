@@ -2,6 +2,7 @@
 //! meta-learning and of fine-tuning the static SDF.
 
 use crate::loss::{igr_loss, IgrWeights};
+use crate::off_surface::OffSurface;
 use crate::siren::Siren;
 use crate::train::{Adam, IgrPoints, SirenGradient, SirenShape};
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
@@ -138,27 +139,10 @@ pub fn sample_step(points: &[Vec3], normals: &[Vec3], outside: &[Vec3], options:
     let idx: Vec<usize> = (0..options.batch.min(points.len())).map(|_| rng.random_range(0..points.len())).collect();
     let surface: Vec<Vec3> = idx.iter().map(|&i| points[i]).collect();
     let surface_n: Vec<Vec3> = idx.iter().map(|&i| normals[i]).collect();
-    let mut off = Vec::with_capacity(options.off_surface);
-    let free = if outside.is_empty() { 0 } else { options.free_space.min(options.off_surface) };
-    for k in 0..options.off_surface {
-        if k >= options.off_surface - free {
-            off.push(outside[rng.random_range(0..outside.len())]);
-        } else if k % 2 == 0 {
-            off.push(Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)));
-        } else {
-            let p = points[rng.random_range(0..points.len())];
-            let g = Vec3::new(gauss(rng), gauss(rng), gauss(rng));
-            off.push(p + g * options.near_sigma);
-        }
-    }
+    let mut off = Vec::new();
+    let spec = OffSurface { surface: points, outside, count: options.off_surface, free_space: options.free_space, near_sigma: options.near_sigma };
+    let free = spec.draw(rng, &mut off);
     (surface, surface_n, off, free)
-}
-
-pub(crate) fn gauss(rng: &mut ChaCha8Rng) -> f32 {
-    // Box-Muller.
-    let u1: f32 = rng.random_range(1e-7..1.0);
-    let u2: f32 = rng.random();
-    (-2.0 * u1.ln()).sqrt() * (std::f32::consts::TAU * u2).cos()
 }
 
 /// SDF values of points (no gradient), through the fast evaluation path (`siren_eval`).

@@ -9,7 +9,7 @@
 //! fine-tunes in minutes.
 
 use crate::encoder::{default_linear, BoneEncoder, PoseEncoding};
-use crate::fit::gauss;
+use crate::off_surface::gauss;
 use crate::siren::{Siren, SirenConfig};
 use burn::module::{Module, Param};
 use burn::tensor::activation::relu;

@@ -2,7 +2,8 @@
 //! (meta-learning) and the fine-tuning of a personal avatar. Each step takes a minibatch of
 //! poses, predicts one SIREN per pose and scores its surface and off-surface points.
 
-use crate::fit::{gauss, Progress, SignPrior};
+use crate::fit::{Progress, SignPrior};
+use crate::off_surface::OffSurface;
 use crate::hyper::HyperNet;
 use crate::loss::{igr_loss, scalar, IgrWeights};
 use crate::train::{Adam, HyperBatch, HyperGradient, IgrPoints, StepLoss};
@@ -15,16 +16,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// One pose's training data: the pose input of the encoder and canonical points with normals
-/// (normalised [-1, 1]^3 space).
-#[derive(Debug, Clone, PartialEq)]
-pub struct PoseSample {
-    pub pose_input: Vec<f32>,
-    pub points: Vec<Vec3>,
-    pub normals: Vec<Vec3>,
-    /// Free-space samples of the pose's frame (outside constraints; empty in meta-training).
-    pub free_space: Vec<Vec3>,
-}
+// `PoseSample` (one pose's training data) lives in pose_sample.rs; named here too until
+// pose_refine.rs imports it from there (then hyper_fit <-> pose_refine is no longer a circle).
+use crate::pose_sample::PoseSample;
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HyperFitOptions {
@@ -225,20 +219,11 @@ pub fn sample_batch(samples: &[&PoseSample], options: &HyperFitOptions, rng: &mu
             points.push(sample.points[i]);
             normals.push(sample.normals[i]);
         }
-        let free = if sample.free_space.is_empty() { 0 } else { options.free_space_per_pose.min(o) };
-        for k in 0..o {
-            let p = if k >= o - free {
-                outside.push(offs.len());
-                sample.free_space[rng.random_range(0..sample.free_space.len())]
-            } else if k % 2 == 0 {
-                Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0))
-            } else {
-                let p = sample.points[rng.random_range(0..n)];
-                p + Vec3::new(gauss(rng), gauss(rng), gauss(rng)) * options.near_sigma
-            };
-            points.push(p);
-            offs.push(p);
-        }
+        let start = offs.len();
+        let spec = OffSurface { surface: &sample.points, outside: &sample.free_space, count: o, free_space: options.free_space_per_pose, near_sigma: options.near_sigma };
+        let free = spec.draw(rng, &mut offs);
+        points.extend_from_slice(&offs[start..]);
+        outside.extend(start + o - free..start + o);
     }
     SampledBatch { poses: b, inputs, points, normals, offs, outside }
 }

@@ -7,7 +7,7 @@
 //! `samples.bin` (float32: per sample 72 pose values, then points x (position, normal)).
 
 use crate::encoder::PoseEncoding;
-use crate::hyper_fit::PoseSample;
+use crate::pose_sample::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams};
 use avatar_core::canonical::Normalisation;
 use crate::error::{Error, Result};

@@ -7,7 +7,8 @@
 
 use crate::fit::{fit_sdf, FitOptions};
 use crate::hyper::HyperConfig;
-use crate::hyper_fit::{fit_hyper, GroupRates, HyperFitOptions, HyperOptimisers, PoseSample};
+use crate::hyper_fit::{fit_hyper, GroupRates, HyperFitOptions, HyperOptimisers};
+use crate::pose_sample::PoseSample;
 use crate::loss::IgrWeights;
 use crate::meta_data::MetaData;
 use crate::model_file::MetaModel;

@@ -16,7 +16,7 @@
 
 use crate::capture_points::CapturePoints;
 use crate::encoder::PoseEncoding;
-use crate::hyper_fit::PoseSample;
+use crate::pose_sample::PoseSample;
 use crate::siren_eval::SirenEval;
 use avatar_core::body::{blend_transform, skinned_point_jacobian, BodyParams, PoseCorrection, NUM_JOINTS, POSE_DOF};
 use glam::{Mat3, Vec3};

@@ -1,6 +1,7 @@
 //! What the studio needs from an avatar ([`StudioAvatar`]: both kinds of
 //! `avatar_neural::avatar` implement it), opening one, and the canonical meshes the poser skins.
 
+use crate::error::Result;
 use avatar_core::avatar::AvatarSource;
 use avatar_core::body::{BodyModel, Weights};
 use avatar_core::mesh::TriMesh;
@@ -22,7 +23,7 @@ pub trait StudioAvatar: Send + Sync {
     }
     /// Marching-cubes resolution used for the studio's meshes.
     fn set_resolution(&mut self, _cells: usize) {}
-    fn save(&self, path: &Path) -> anyhow::Result<()>;
+    fn save(&self, path: &Path) -> Result<()>;
     /// The training frames' given and refined fittings (pose refinement; empty without).
     fn refined_poses(&self) -> &[avatar_neural::avatar::refined_poses::RefinedPose] {
         &[]
@@ -40,7 +41,7 @@ impl StudioAvatar for StaticAvatar {
     fn set_resolution(&mut self, cells: usize) {
         self.resolution = cells.clamp(16, 512);
     }
-    fn save(&self, path: &Path) -> anyhow::Result<()> {
+    fn save(&self, path: &Path) -> Result<()> {
         Ok(StaticAvatar::save(self, path)?)
     }
 }
@@ -59,7 +60,7 @@ impl StudioAvatar for MetaAvatar {
     fn set_resolution(&mut self, cells: usize) {
         self.resolution = cells.clamp(16, 512);
     }
-    fn save(&self, path: &Path) -> anyhow::Result<()> {
+    fn save(&self, path: &Path) -> Result<()> {
         Ok(MetaAvatar::save(self, path)?)
     }
     fn refined_poses(&self) -> &[avatar_neural::avatar::refined_poses::RefinedPose] {
@@ -68,7 +69,7 @@ impl StudioAvatar for MetaAvatar {
 }
 
 /// Open an avatar file of any kind this build reads (`avatar-studio fit` writes both).
-pub fn load_avatar(path: &Path, resolution: usize) -> anyhow::Result<Arc<dyn StudioAvatar>> {
+pub fn load_avatar(path: &Path, resolution: usize) -> Result<Arc<dyn StudioAvatar>> {
     Ok(studio_avatar(AnyAvatar::load(path)?, resolution))
 }
 
@@ -93,7 +94,7 @@ pub struct CanonicalMesh {
 }
 
 /// The canonical mesh of an avatar (at the rest pose) with its skinning weights.
-pub fn canonical_of(avatar: &dyn StudioAvatar, body_betas: &[f32]) -> anyhow::Result<CanonicalMesh> {
+pub fn canonical_of(avatar: &dyn StudioAvatar, body_betas: &[f32]) -> Result<CanonicalMesh> {
     let params = avatar_core::body::BodyParams { betas: body_betas.to_vec(), ..Default::default() };
     let mesh = avatar.source().canonical_mesh(&params)?;
     let weights = avatar.source().skinning_weights(&mesh.positions);

@@ -54,7 +54,7 @@ impl FitJob {
             let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_fit(&dir, &cfg, cx.cancel_flag(), &hold, &send)));
             match result {
                 Ok(Ok((avatar, warnings))) => send(JobEvent::Finished { avatar, cancelled: cx.cancelled(), warnings, seconds: t.elapsed().as_secs_f64() }),
-                Ok(Err(e)) => send(JobEvent::Failed(format!("{e:#}"))),
+                Ok(Err(e)) => send(JobEvent::Failed(e.to_string())),
                 Err(_) => send(JobEvent::Failed("the fit stopped on an internal error".into())),
             }
             Ok(())
@@ -83,9 +83,9 @@ impl FitJob {
 /// The fit itself (runs on the job thread): `fit_avatar` in chunks of `preview_every` steps;
 /// after each chunk the partial avatar's canonical surface at the rest pose is meshed for the
 /// preview, then `after_chunk` runs (it may block: a paused job).
-pub fn run_fit(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, after_chunk: &dyn Fn(), send: &dyn Fn(JobEvent)) -> anyhow::Result<(Arc<dyn StudioAvatar>, Vec<String>)> {
+pub fn run_fit(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, after_chunk: &dyn Fn(), send: &dyn Fn(JobEvent)) -> crate::error::Result<(Arc<dyn StudioAvatar>, Vec<String>)> {
     if cfg.steps == 0 || cfg.frames == 0 || cfg.batch == 0 || cfg.hidden == 0 || cfg.layers == 0 {
-        anyhow::bail!("steps, frames, points per step, width and layers must be at least 1");
+        return Err(crate::error::StudioError::invalid("steps, frames, points per step, width and layers must be at least 1"));
     }
     let t = Instant::now();
     let capture = CapturePoints::open(dir, cfg.frames)?;

@@ -54,7 +54,7 @@ impl StudioApp {
                 self.info(format!("Baked {} frames for playback in {:.1} s", b.frames.len(), b.seconds));
                 self.show_baked();
             }
-            Some(Err(e)) => self.fail(format!("{e:#}")),
+            Some(Err(e)) => self.fail(format!("{e}")),
             None => {}
         }
         self.poll_pose();

@@ -59,12 +59,12 @@ pub fn bench_report() -> String {
             out += &format!("| fine-tune the quick configuration ({}, {} steps, {} frames) | {:.1} s | |\n", avatar.describe(), cfg.steps, cfg.frames, fit_s);
             let file = std::env::temp_dir().join(format!("avatar-studio-bench-{}.avatar", std::process::id()));
             if let Err(e) = avatar.save(&file) {
-                return out + &format!("| save the avatar | | {e:#} |\n");
+                return out + &format!("| save the avatar | | {e} |\n");
             }
             for res in [96usize, 128] {
                 let a = match crate::studio::avatar::load_avatar(&file, res) {
                     Ok(a) => a,
-                    Err(e) => return out + &format!("| load the avatar | | {e:#} |\n"),
+                    Err(e) => return out + &format!("| load the avatar | | {e} |\n"),
                 };
                 let t = Instant::now();
                 let m = canonical_of(a.as_ref(), &betas).expect("meshing works");
@@ -87,7 +87,7 @@ pub fn bench_report() -> String {
             }
             let _ = std::fs::remove_file(&file);
         }
-        Err(e) => out += &format!("| fine-tune | | {e:#} |\n"),
+        Err(e) => out += &format!("| fine-tune | | {e} |\n"),
     }
     out += &viewport_row();
     out += "| start to first frame, start to demo loaded and posed | | a real window: `avatar-studio --timing` (see README) |\n";
@@ -107,7 +107,7 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
     let baked = loop {
         match bakes.poll() {
             Some(Ok(b)) => break b,
-            Some(Err(e)) => return format!("| bake the clip for playback | | {e:#} |\n"),
+            Some(Err(e)) => return format!("| bake the clip for playback | | {e} |\n"),
             None => std::thread::sleep(Duration::from_millis(2)),
         }
     };
@@ -162,12 +162,12 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
 type Headless = (eframe::egui_wgpu::wgpu::Device, eframe::egui_wgpu::wgpu::Queue, eframe::egui_wgpu::wgpu::AdapterInfo);
 
 /// A wgpu device without a window, on the adapter wgpu picks (`WGPU_BACKEND` chooses the API).
-fn headless() -> anyhow::Result<Headless> {
+fn headless() -> crate::error::Result<Headless> {
     use eframe::egui_wgpu::wgpu;
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions { power_preference: wgpu::PowerPreference::HighPerformance, ..Default::default() })).map_err(|e| anyhow::anyhow!("no wgpu adapter: {e}"))?;
+    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions { power_preference: wgpu::PowerPreference::HighPerformance, ..Default::default() })).map_err(|e| crate::error::StudioError::invalid(format!("no wgpu adapter: {e}")))?;
     let info = adapter.get_info();
-    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())).map_err(|e| anyhow::anyhow!("no device on {}: {e}", info.name))?;
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())).map_err(|e| crate::error::StudioError::invalid(format!("no device on {}: {e}", info.name)))?;
     Ok((device, queue, info))
 }
 

@@ -50,7 +50,7 @@ impl LoadedCapture {
 }
 
 /// Open a capture folder (or its capture.json) for the studio.
-pub fn load_capture(path: &Path) -> anyhow::Result<LoadedCapture> {
+pub fn load_capture(path: &Path) -> crate::error::Result<LoadedCapture> {
     let capture = Capture::open(path)?;
     let dir = capture.dir.clone();
     let manifest = capture.manifest.clone();

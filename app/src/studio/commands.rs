@@ -172,7 +172,7 @@ impl StudioApp {
     /// cache first) in the background.
     fn open_capture(&mut self, source: String) {
         let src = source.clone();
-        let task = Task::spawn("capture loader", self.wake(), move |_| -> anyhow::Result<LoadedCapture> {
+        let task = Task::spawn("capture loader", self.wake(), move |_| -> crate::error::Result<LoadedCapture> {
             let path = PathBuf::from(&src);
             if src != DEMO && is_scan(&path) {
                 let mut c = load_capture(&scan_capture(&path)?)?;
@@ -205,7 +205,7 @@ impl StudioApp {
         self.spawn_avatar_work(move || load_avatar(&path, resolution).map(|a| (a, Some(path.clone()))).map_err(|e| e.context(format!("Could not open the avatar {}", path.display()))));
     }
 
-    fn spawn_avatar_work(&mut self, get: impl FnOnce() -> anyhow::Result<(Arc<dyn StudioAvatar>, Option<PathBuf>)> + Send + 'static) {
+    fn spawn_avatar_work(&mut self, get: impl FnOnce() -> crate::error::Result<(Arc<dyn StudioAvatar>, Option<PathBuf>)> + Send + 'static) {
         let task = Task::spawn("avatar mesher", self.wake(), move |_| {
             let (avatar, path) = get()?;
             let betas = avatar.source().betas().to_vec();
@@ -252,7 +252,7 @@ impl StudioApp {
                 self.avatar_saved = true;
                 self.info(format!("Saved the avatar to {}", path.display()));
             }
-            Err(e) => self.fail(format!("Could not save the avatar: {e:#}")),
+            Err(e) => self.fail(format!("Could not save the avatar: {e}")),
         }
     }
 
@@ -291,7 +291,7 @@ impl StudioApp {
         }
         let clip = self.timeline.clip.clone();
         let options = avatar_core::export::ExportOptions { color: self.view.material, ..Default::default() };
-        let task = Task::spawn("export", self.wake(), move |_| -> anyhow::Result<String> {
+        let task = Task::spawn("export", self.wake(), move |_| -> crate::error::Result<String> {
             let e = avatar_core::export::export_glb(avatar.source(), &clip, &options)?;
             avatar_core::io::write_bytes_atomic(&path, &e.glb)?;
             Ok(format!("Exported {} ({} frames, {} vertices, {:.2} MB)", path.display(), e.frames, e.rest.positions.len(), e.glb.len() as f64 / 1e6))
@@ -346,14 +346,14 @@ impl StudioApp {
                 self.project_path = Some(path.to_path_buf());
                 self.info(format!("Saved the project {}", path.display()));
             }
-            Err(e) => self.fail(format!("Could not save the project: {e:#}")),
+            Err(e) => self.fail(format!("Could not save the project: {e}")),
         }
     }
 
     fn open_project(&mut self, path: &Path) {
         let p = match Project::load(path) {
             Ok(p) => p,
-            Err(e) => return self.fail(format!("Could not open the project: {e:#}")),
+            Err(e) => return self.fail(format!("Could not open the project: {e}")),
         };
         if let Some(c) = &p.capture {
             self.open_capture(c.clone());
@@ -367,7 +367,7 @@ impl StudioApp {
                 }
                 self.timeline = t;
             }
-            Err(e) => self.fail(format!("Could not open the project's motion: {e:#}")),
+            Err(e) => self.fail(format!("Could not open the project's motion: {e}")),
         }
         self.view = p.view.clone();
         self.framed = true;
@@ -392,7 +392,7 @@ impl StudioApp {
                 self.timeline = t;
                 self.pose_needed = true;
             }
-            Err(e) => self.fail(format!("Could not open the motion: {e:#}")),
+            Err(e) => self.fail(format!("Could not open the motion: {e}")),
         }
     }
 }

@@ -29,7 +29,7 @@ pub fn cache_dir() -> PathBuf {
 }
 
 /// The demo capture folder, written (atomically, file by file) if missing.
-pub fn demo_capture_dir() -> anyhow::Result<PathBuf> {
+pub fn demo_capture_dir() -> crate::error::Result<PathBuf> {
     let dir = cache_dir().join(format!("demo-{:016x}", fingerprint()));
     for (name, bytes) in DEMO_FILES {
         let path = dir.join(name);
@@ -37,7 +37,7 @@ pub fn demo_capture_dir() -> anyhow::Result<PathBuf> {
             continue;
         }
         if let Some(parent) = path.parent() {
-            std::fs::create_dir_all(parent)?;
+            std::fs::create_dir_all(parent).map_err(|e| crate::error::StudioError::io(parent, e))?;
         }
         avatar_core::io::write_bytes_atomic(&path, bytes)?;
     }

@@ -4,23 +4,12 @@
 //! counts the frames drawn and the clip frames shown for 5 s, prints them and closes.
 
 use crate::studio::commands::Command;
-use crate::studio::state::StudioApp;
+use crate::studio::state::{PlaybackMeasure, StudioApp};
 use eframe::egui;
 use std::time::Instant;
 
 /// How long the frames are counted.
 const SECONDS: f64 = 5.0;
-
-/// Where the measurement is.
-#[derive(Debug, Clone, Copy)]
-pub enum PlaybackMeasure {
-    /// Play pressed; the clip is baking.
-    Baking,
-    /// Counting since `start`: frames drawn then, clip frames shown since, the last one shown.
-    Counting { start: Instant, cpu: f64, drawn: u64, shown: usize, last: usize },
-    /// Printed; the window is closing.
-    Done,
-}
 
 impl StudioApp {
     /// Called after every frame.

@@ -53,7 +53,7 @@ pub fn native_options() -> eframe::NativeOptions {
 }
 
 /// Open the studio window (blocks until it closes).
-pub fn run(options: StudioOptions) -> anyhow::Result<()> {
+pub fn run(options: StudioOptions) -> crate::error::Result<()> {
     eframe::run_native("Avatar Studio", native_options(), Box::new(move |cc| Ok(Box::new(StudioApp::new(cc, options)))))
-        .map_err(|e| anyhow::anyhow!("could not open the studio window: {e}"))
+        .map_err(|e| crate::error::StudioError::invalid(format!("could not open the studio window: {e}")))
 }

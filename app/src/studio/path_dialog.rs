@@ -2,6 +2,7 @@
 //! zenity) or fails: a folder field, the folder's listing (folders first, then the files the
 //! request's filter admits) and, when saving, a file name that starts as the default name.
 
+use crate::error::StudioError;
 use crate::studio::settings::{PathKind, PathRequest};
 use eframe::egui;
 use std::path::{Path, PathBuf};
@@ -58,21 +59,21 @@ impl PathDialog {
     }
 
     /// The path the dialog would answer now, or why it cannot answer.
-    pub fn answer(&self) -> anyhow::Result<PathBuf> {
+    pub fn answer(&self) -> crate::error::Result<PathBuf> {
         let name = self.name.trim();
         match self.request.kind {
             PathKind::Folder => Ok(if name.is_empty() { self.folder.clone() } else { self.folder.join(name) }),
-            PathKind::OpenFile | PathKind::SaveFile if name.is_empty() => Err(anyhow::anyhow!("Type a file name or pick one from the list")),
+            PathKind::OpenFile | PathKind::SaveFile if name.is_empty() => Err(StudioError::invalid("Type a file name or pick one from the list")),
             PathKind::OpenFile => {
                 let p = self.folder.join(name);
-                if p.is_file() { Ok(p) } else { Err(anyhow::anyhow!("{}: no such file", p.display())) }
+                if p.is_file() { Ok(p) } else { Err(StudioError::file(&p, "no such file")) }
             }
             PathKind::SaveFile => {
                 let p = self.folder.join(name);
                 if !self.folder.is_dir() {
-                    Err(anyhow::anyhow!("{}: no such folder", self.folder.display()))
+                    Err(StudioError::file(&self.folder, "no such folder"))
                 } else if p.is_dir() {
-                    Err(anyhow::anyhow!("{} is a folder", p.display()))
+                    Err(StudioError::invalid(format!("{} is a folder", p.display())))
                 } else {
                     Ok(p)
                 }

@@ -2,6 +2,7 @@
 //! poses are baked once in the background (with progress) and played from memory. Bakes are
 //! cached per posable (avatar, body or partial result) and per clip with its joint offsets.
 
+use crate::error::StudioError;
 use crate::studio::posing::{pose, Posable, PoseRequest, PosedMesh};
 use crate::studio::tasks::{Task, Wake};
 use avatar_core::body::{BodyModel, BodyParams};
@@ -65,7 +66,9 @@ impl Bakes {
             let t = std::time::Instant::now();
             let mut frames: Vec<Arc<PosedMesh>> = Vec::with_capacity(n);
             for (f, params) in params.into_iter().enumerate() {
-                anyhow::ensure!(!cx.cancelled(), "cancelled");
+                if cx.cancelled() {
+                    return Err(StudioError::invalid("cancelled"));
+                }
                 let mut m = pose(&PoseRequest { id: 0, params, posable: posable.clone(), body: body.clone() })?;
                 if let Some(first) = frames.first() {
                     m.faces = first.faces.clone(); // one copy of the triangles for the whole clip
@@ -81,7 +84,7 @@ impl Bakes {
 
     /// Progress and the finished bake, if it just finished (errors are returned for the status
     /// bar; a cancelled bake is dropped quietly).
-    pub fn poll(&mut self) -> Option<anyhow::Result<Arc<Baked>>> {
+    pub fn poll(&mut self) -> Option<crate::error::Result<Arc<Baked>>> {
         let (key, task) = self.running.as_ref()?;
         if let (Some(done), Some((_, n))) = (task.drain_events().last().copied(), self.progress) {
             self.progress = Some((done, n));
@@ -103,7 +106,7 @@ impl Bakes {
             Err(_) if cancelled => None,
             Err(e) => {
                 self.failed.push(key);
-                Some(Err(anyhow::Error::new(e).context("baking the clip for playback")))
+                Some(Err(StudioError::from(e).context("baking the clip for playback")))
             }
         }
     }

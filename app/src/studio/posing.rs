@@ -123,7 +123,7 @@ impl PoseWorker {
 
 /// Unit normals of canonical points from the SDF's gradient at a pose (central differences);
 /// where the gradient vanishes, `fallback`'s normal is kept.
-pub fn sdf_normals(source: &dyn AvatarSource, params: &BodyParams, points: &[Vec3], fallback: &[Vec3]) -> anyhow::Result<Vec<Vec3>> {
+pub fn sdf_normals(source: &dyn AvatarSource, params: &BodyParams, points: &[Vec3], fallback: &[Vec3]) -> crate::error::Result<Vec<Vec3>> {
     const H: f32 = 1e-3;
     let probe: Vec<Vec3> = points.iter().flat_map(|&p| [Vec3::X, Vec3::Y, Vec3::Z].into_iter().flat_map(move |a| [p + a * H, p - a * H])).collect();
     let f = source.sdf(params, &probe)?;
@@ -138,7 +138,7 @@ pub fn sdf_normals(source: &dyn AvatarSource, params: &BodyParams, points: &[Vec
 
 /// Linear blend skinning of the canonical mesh by the pose (the exporter's skinning); smooth
 /// normals turn with the blended transform.
-pub fn pose(req: &PoseRequest) -> anyhow::Result<PosedMesh> {
+pub fn pose(req: &PoseRequest) -> crate::error::Result<PosedMesh> {
     let t = std::time::Instant::now();
     let posed_body = req.body.pose(&req.params);
     let bones = &posed_body.bones;

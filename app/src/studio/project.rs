@@ -2,6 +2,7 @@
 //! session. Written atomically; paths are stored relative to the project file when they lie
 //! beside it, so a project folder can be moved.
 
+use crate::error::{Result, StudioError};
 use crate::studio::camera::OrbitCamera;
 use crate::studio::viewport::Shading;
 use serde::{Deserialize, Serialize};
@@ -81,24 +82,24 @@ impl Project {
         Project { format: PROJECT_FORMAT.into(), version: PROJECT_VERSION, capture, avatar, view, motion }
     }
 
-    pub fn save(&self, path: &Path) -> anyhow::Result<()> {
+    pub fn save(&self, path: &Path) -> Result<()> {
         let mut p = self.clone();
         let base = path.parent().unwrap_or(Path::new("."));
         p.capture = p.capture.map(|c| relative_to(&c, base));
         p.avatar = p.avatar.map(|a| relative_to(&a, base));
-        let text = serde_json::to_string_pretty(&p)?;
+        let text = serde_json::to_string_pretty(&p).map_err(|e| StudioError::file(path, e.to_string()))?;
         avatar_core::io::write_bytes_atomic(path, text.as_bytes())?;
         Ok(())
     }
 
-    pub fn load(path: &Path) -> anyhow::Result<Project> {
-        let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        let mut p: Project = serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: not a studio project: {e}", path.display()))?;
+    pub fn load(path: &Path) -> Result<Project> {
+        let text = std::fs::read_to_string(path).map_err(|e| StudioError::file(path, e.to_string()))?;
+        let mut p: Project = serde_json::from_str(&text).map_err(|e| StudioError::file(path, format!("not a studio project: {e}")))?;
         if p.format != PROJECT_FORMAT {
-            anyhow::bail!("{}: not a studio project (format {:?})", path.display(), p.format);
+            return Err(StudioError::file(path, format!("not a studio project (format {:?})", p.format)));
         }
         if p.version > PROJECT_VERSION {
-            anyhow::bail!("{}: project version {} is newer than this build reads ({PROJECT_VERSION})", path.display(), p.version);
+            return Err(StudioError::file(path, format!("project version {} is newer than this build reads ({PROJECT_VERSION})", p.version)));
         }
         let base = path.parent().unwrap_or(Path::new("."));
         p.capture = p.capture.map(|c| absolute_from(&c, base));

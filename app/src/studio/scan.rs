@@ -5,7 +5,7 @@
 //! and an edited scan is imported afresh.
 
 use crate::studio::demo::cache_dir;
-use anyhow::Context;
+use crate::error::{Context, Result, StudioError};
 use avatar_core::capture::scan::{import_scan, ScanViews};
 use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
@@ -23,17 +23,17 @@ pub fn fitting_names(scan: &Path) -> Vec<String> {
 }
 
 /// The scan's body fitting: the first of [`fitting_names`] that exists in the scan's folder.
-pub fn fitting_beside(scan: &Path) -> anyhow::Result<PathBuf> {
+pub fn fitting_beside(scan: &Path) -> Result<PathBuf> {
     let folder = scan.parent().unwrap_or(Path::new("."));
     let names = fitting_names(scan);
     names.iter().map(|n| folder.join(n)).find(|p| p.is_file()).ok_or_else(|| {
-        anyhow::anyhow!("{}: a scan needs its body fitting (a pose JSON, as `avatar-studio import scan --fitting` takes) beside it, named {}", scan.display(), names.join(", "))
+        StudioError::file(scan, format!("a scan needs its body fitting (a pose JSON, as `avatar-studio import scan --fitting` takes) beside it, named {}", names.join(", ")))
     })
 }
 
 /// Identity of a file's version: its full path, size and modification time.
-fn hash_file(path: &Path, h: &mut impl Hasher) -> anyhow::Result<()> {
-    let meta = std::fs::metadata(path).with_context(|| format!("{}: cannot read it", path.display()))?;
+fn hash_file(path: &Path, h: &mut impl Hasher) -> Result<()> {
+    let meta = std::fs::metadata(path).map_err(|e| StudioError::file(path, format!("cannot read it: {e}")))?;
     std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()).hash(h);
     meta.len().hash(h);
     meta.modified().ok().hash(h);
@@ -43,9 +43,9 @@ fn hash_file(path: &Path, h: &mut impl Hasher) -> anyhow::Result<()> {
 /// The capture folder of `scan` (imported into the cache on first use; the scan and its
 /// fitting are only read). Errors name the file and the problem (`import_scan`'s checks: a
 /// scan that is not an OBJ surface, in millimetres, or not on the fitted body).
-pub fn scan_capture(scan: &Path) -> anyhow::Result<PathBuf> {
+pub fn scan_capture(scan: &Path) -> Result<PathBuf> {
     if !scan.is_file() {
-        anyhow::bail!("{}: no such scan file", scan.display());
+        return Err(StudioError::file(scan, "no such scan file"));
     }
     let fitting = fitting_beside(scan)?;
     let mut h = std::collections::hash_map::DefaultHasher::new();
@@ -59,18 +59,20 @@ pub fn scan_capture(scan: &Path) -> anyhow::Result<PathBuf> {
     }
     // Imported beside its final name and renamed into place: an interrupted import leaves no
     // half capture under the final name.
-    std::fs::create_dir_all(&root).with_context(|| format!("{}: cannot create the cache folder", root.display()))?;
+    std::fs::create_dir_all(&root).map_err(|e| StudioError::file(&root, format!("cannot create the cache folder: {e}")))?;
     let tmp = root.join(format!(".scan-{key:016x}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
     let imported = import_scan(scan, &fitting, &tmp, avatar_core::body::open_body_ref(), &ScanViews::default());
     if let Err(e) = imported {
         let _ = std::fs::remove_dir_all(&tmp);
-        return Err(anyhow::Error::new(e).context(format!("Could not turn the scan {} into a capture", scan.display())));
+        return Err(e).context(format!("Could not turn the scan {} into a capture", scan.display()));
     }
     if std::fs::rename(&tmp, &dir).is_err() {
         // Another studio imported the same scan meanwhile: use its capture.
         let _ = std::fs::remove_dir_all(&tmp);
-        anyhow::ensure!(dir.join("capture.json").is_file(), "{}: cannot move the imported scan into place", dir.display());
+        if !dir.join("capture.json").is_file() {
+            return Err(StudioError::file(&dir, "cannot move the imported scan into place"));
+        }
     }
     Ok(dir)
 }

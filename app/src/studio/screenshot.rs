@@ -1,6 +1,7 @@
 //! Screenshots: P saves the viewport; `StudioOptions::screenshot` saves the whole window once
 //! the studio is idle and then closes it (for README images taken from a real window).
 
+use crate::error::StudioError;
 use crate::studio::state::{Status, StudioApp};
 use eframe::egui;
 use std::path::{Path, PathBuf};
@@ -12,13 +13,15 @@ const SAVED: u8 = 2;
 const FAILED: u8 = 3;
 
 /// Encode and write (atomically) an egui image as PNG, cropped to `crop` (pixels) if given.
-pub fn save_png(image: &egui::ColorImage, crop: Option<egui::Rect>, path: &Path) -> anyhow::Result<()> {
+pub fn save_png(image: &egui::ColorImage, crop: Option<egui::Rect>, path: &Path) -> crate::error::Result<()> {
     let [w, h] = image.size;
     let (x0, y0, x1, y1) = match crop {
         Some(r) => ((r.min.x.max(0.0) as usize).min(w), (r.min.y.max(0.0) as usize).min(h), (r.max.x.max(0.0) as usize).min(w), (r.max.y.max(0.0) as usize).min(h)),
         None => (0, 0, w, h),
     };
-    anyhow::ensure!(x1 > x0 && y1 > y0, "empty screenshot");
+    if x1 <= x0 || y1 <= y0 {
+        return Err(StudioError::invalid("empty screenshot"));
+    }
     let mut buf = image::RgbaImage::new((x1 - x0) as u32, (y1 - y0) as u32);
     for y in y0..y1 {
         for x in x0..x1 {
@@ -27,7 +30,7 @@ pub fn save_png(image: &egui::ColorImage, crop: Option<egui::Rect>, path: &Path)
         }
     }
     let mut bytes = Vec::new();
-    buf.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+    buf.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png).map_err(|e| StudioError::file(path, format!("cannot encode the PNG: {e}")))?;
     avatar_core::io::write_bytes_atomic(path, &bytes)?;
     Ok(())
 }
@@ -57,7 +60,7 @@ impl StudioApp {
         let p = path.clone();
         self.ctx.request_screenshot(move |img| {
             if let Err(e) = save_png(&img, crop, &p) {
-                eprintln!("screenshot: {e:#}");
+                eprintln!("screenshot: {e}");
             }
         });
         self.status = Some(Status::Info(format!("Screenshot: {}", path.display())));
@@ -88,7 +91,7 @@ impl StudioApp {
                     let s = state.clone();
                     let ctx = self.ctx.clone();
                     self.ctx.request_screenshot(move |img| {
-                        let ok = save_png(&img, None, &path).map_err(|e| eprintln!("screenshot: {e:#}")).is_ok();
+                        let ok = save_png(&img, None, &path).map_err(|e| eprintln!("screenshot: {e}")).is_ok();
                         s.store(if ok { SAVED } else { FAILED }, Ordering::SeqCst);
                         ctx.request_repaint();
                     });

@@ -143,7 +143,7 @@ pub struct StudioApp {
     /// The viewport redraws every frame (playing, turntable, orbiting): drawn without MSAA on a
     /// software renderer.
     pub viewport_moving: bool,
-    pub(crate) playback_measure: Option<crate::studio::measure::PlaybackMeasure>,
+    pub(crate) playback_measure: Option<PlaybackMeasure>,
     /// The shortcuts window (?) is open.
     pub show_shortcuts: bool,
     // Messages and the rest.
@@ -230,4 +230,15 @@ impl StudioApp {
     pub(crate) fn info(&mut self, message: impl Into<String>) {
         self.status = Some(Status::Info(message.into()));
     }
+}
+
+/// Where `--measure-playback` is (`studio::measure`).
+#[derive(Debug, Clone, Copy)]
+pub enum PlaybackMeasure {
+    /// Play pressed; the clip is baking.
+    Baking,
+    /// Counting since `start`: frames drawn then, clip frames shown since, the last one shown.
+    Counting { start: std::time::Instant, cpu: f64, drawn: u64, shown: usize, last: usize },
+    /// Printed; the window is closing.
+    Done,
 }

@@ -2,26 +2,10 @@
 //! events (progress) and returns one result; each event and the result wake the UI. The studio
 //! keeps its tasks by name and polls them in one place (`StudioApp::poll_tasks`).
 
+pub use crate::error::TaskError;
 use crossbeam_channel::{Receiver, Sender};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-
-/// Why a background task produced no result.
-#[derive(Debug, Clone, thiserror::Error)]
-pub enum TaskError {
-    /// The work returned an error (shown with its chain of causes, outermost first).
-    #[error("{0:#}")]
-    Failed(Arc<anyhow::Error>),
-    /// The work panicked: a bug, reported instead of taking the studio down.
-    #[error("the {0} stopped on an internal error")]
-    Panicked(&'static str),
-}
-
-impl From<anyhow::Error> for TaskError {
-    fn from(e: anyhow::Error) -> Self {
-        TaskError::Failed(Arc::new(e))
-    }
-}
 
 /// Called after every event and at the end (the studio asks egui for a repaint).
 pub type Wake = Arc<dyn Fn() + Send + Sync>;
@@ -59,7 +43,7 @@ pub struct Task<T, E = ()> {
 }
 
 impl<T: Send + 'static, E: Send + 'static> Task<T, E> {
-    pub fn spawn(name: &'static str, wake: Wake, work: impl FnOnce(&TaskContext<E>) -> anyhow::Result<T> + Send + 'static) -> Task<T, E> {
+    pub fn spawn(name: &'static str, wake: Wake, work: impl FnOnce(&TaskContext<E>) -> crate::error::Result<T> + Send + 'static) -> Task<T, E> {
         let (event_tx, events) = crossbeam_channel::unbounded();
         let (result_tx, result) = crossbeam_channel::bounded(1);
         let cancel = Arc::new(AtomicBool::new(false));
@@ -118,6 +102,7 @@ pub fn take_done<T, E>(slot: &mut Option<Task<T, E>>) -> Option<Result<T, TaskEr
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::StudioError;
     use std::time::{Duration, Instant};
 
     fn wait<T, E>(t: &Task<T, E>) -> Result<T, TaskError> {
@@ -147,7 +132,7 @@ mod tests {
         assert_eq!(wait(&t).unwrap(), 42);
         assert_eq!(t.drain_events(), vec![0, 1, 2]);
         assert!(wakes.load(Ordering::SeqCst) >= 4, "every event and the end wake the UI");
-        let t: Task<()> = Task::spawn("reader", wake.clone(), |_| Err(anyhow::anyhow!("no such file").context("reading x.json")));
+        let t: Task<()> = Task::spawn("reader", wake.clone(), |_| Err(StudioError::invalid("no such file").context("reading x.json")));
         assert_eq!(wait(&t).unwrap_err().to_string(), "reading x.json: no such file");
         let t: Task<()> = Task::spawn("crasher", wake, |_| panic!("bug"));
         assert!(matches!(wait(&t), Err(TaskError::Panicked("crasher"))));

@@ -77,16 +77,16 @@ impl Timeline {
         p
     }
 
-    pub fn load_file(path: &Path) -> anyhow::Result<Timeline> {
+    pub fn load_file(path: &Path) -> crate::error::Result<Timeline> {
         let clip = MotionClip::load(path)?;
         if clip.frames.is_empty() {
-            anyhow::bail!("{}: the motion has no frames", path.display());
+            return Err(crate::error::StudioError::file(path, "the motion has no frames"));
         }
         Ok(Timeline::new(clip, path.display().to_string()))
     }
 
     /// A library name or a file.
-    pub fn open(source: &str) -> anyhow::Result<Timeline> {
+    pub fn open(source: &str) -> crate::error::Result<Timeline> {
         match Timeline::library(source) {
             Some(t) => Ok(t),
             None => Timeline::load_file(Path::new(source)),

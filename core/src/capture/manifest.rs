@@ -21,7 +21,8 @@ pub const MAX_MANIFEST_BYTES: u64 = 64 << 20;
 pub const MAX_IMAGE_SIDE: u32 = 8192;
 pub const MAX_IMAGE_PIXELS: u64 = 4096 * 4096;
 
-/// Pinhole intrinsics in pixels (OpenCV convention: x right, y down, z forward).
+/// Pinhole intrinsics in pixels (OpenCV convention: x right, y down, z forward), as capture.json
+/// records them; `synth::camera::PinholeCamera` is the renderer's camera: these plus a depth range.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Intrinsics {
     pub fx: f32,

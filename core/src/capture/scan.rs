@@ -6,7 +6,7 @@
 
 use super::depth_png::write_depth_png;
 use super::import::check_output_dir;
-use super::manifest::{CaptureManifest, FrameRecord, Intrinsics};
+use super::manifest::{CaptureManifest, FrameRecord};
 use crate::body::{BodyModel, BodyParams};
 use crate::error::{Error, Result};
 use crate::mesh::bvh::Bvh;
@@ -105,7 +105,7 @@ pub fn import_scan(scan_path: &Path, fitting_path: &Path, out: &Path, body: &Bod
     if distance + radius > 65535.0 / SCAN_DEPTH_SCALE {
         return Err(Error::file(scan_path, format!("the scan is {:.1} m across: too large for a person (units?)", 2.0 * radius)));
     }
-    let intr = Intrinsics { fx: camera.fx, fy: camera.fy, cx: camera.cx, cy: camera.cy, width: side, height: side };
+    let intr = camera.intrinsics();
     let mut manifest = CaptureManifest::new(intr, SCAN_DEPTH_SCALE);
     let mut depth_pixels = 0;
     for k in 0..views.views {

@@ -5,9 +5,13 @@
 //! coordinates `(u, v)`, i.e. `x = (u - cx) z / fx`, `y = (v - cy) z / fy` (the convention of
 //! Open3D and TUM back-projection).
 
+use crate::capture::manifest::Intrinsics;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use serde::{Deserialize, Serialize};
 
+/// The renderer's camera: the capture's [`Intrinsics`] (what capture.json records, checked when
+/// read) plus a depth range, with projection and rays. Back-projection is written once, in
+/// `Intrinsics::unproject`; a ray is its point at depth 1 (bit for bit the old `(u - cx) / fx`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PinholeCamera {
     pub fx: f32,
@@ -28,6 +32,11 @@ impl PinholeCamera {
         PinholeCamera { fx: 250.0, fy: 250.0, cx: 125.0, cy: 125.0, width: 250, height: 250, near: 1.0, far: 10.0 }
     }
 
+    /// What a capture written with this camera records as its intrinsics.
+    pub fn intrinsics(&self) -> Intrinsics {
+        Intrinsics { fx: self.fx, fy: self.fy, cx: self.cx, cy: self.cy, width: self.width, height: self.height }
+    }
+
     /// Camera-space point -> pixel coordinates.
     pub fn project(&self, p: Vec3) -> Vec2 {
         Vec2::new(self.fx * p.x / p.z + self.cx, self.fy * p.y / p.z + self.cy)
@@ -35,12 +44,12 @@ impl PinholeCamera {
 
     /// Ray direction (camera space, z = 1) through pixel coordinates `(u, v)`.
     pub fn ray(&self, u: f32, v: f32) -> Vec3 {
-        Vec3::new((u - self.cx) / self.fx, (v - self.cy) / self.fy, 1.0)
+        self.intrinsics().unproject(u, v, 1.0)
     }
 
     /// Back-project a pixel with depth z (metres) to camera space.
     pub fn unproject(&self, u: f32, v: f32, z: f32) -> Vec3 {
-        self.ray(u, v) * z
+        self.intrinsics().unproject(u, v, z)
     }
 }
 

@@ -9,7 +9,7 @@ use super::noise::DepthNoise;
 use super::outfit::{ClothedTemplate, Outfit};
 use super::raster::{render_depth, NO_TRIANGLE};
 use crate::body::{BodyModel, BodyParams};
-use crate::capture::{write_depth_png, CaptureManifest, FrameRecord, Intrinsics, DEPTH_SCALE_MM};
+use crate::capture::{write_depth_png, CaptureManifest, FrameRecord, DEPTH_SCALE_MM};
 use crate::error::{Error, Result};
 use crate::motion::MotionClip;
 use glam::{Quat, Vec3};
@@ -105,7 +105,7 @@ pub fn generate_capture(dir: &Path, body: &BodyModel, job: &SynthJob) -> Result<
     // A fixed camera at the height of the pelvis, looking at the body along -Z.
     let centre = Vec3::new(0.0, body.rest_joints(&betas)[0].y, 0.0);
     let c2w = look_at(centre + Vec3::new(0.0, 0.0, CAMERA_DISTANCE), centre);
-    let intr = Intrinsics { fx: cam.fx, fy: cam.fy, cx: cam.cx, cy: cam.cy, width: cam.width, height: cam.height };
+    let intr = cam.intrinsics();
     let mut manifest = CaptureManifest::new(intr, DEPTH_SCALE_MM);
     manifest.fps = Some(job.clip.fps);
     let mut rng = ChaCha8Rng::seed_from_u64(job.noise_seed);

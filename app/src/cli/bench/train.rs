@@ -6,7 +6,8 @@
 
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::compute::{select, Compute};
-use avatar_neural::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers, PoseSample};
+use avatar_neural::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
+use avatar_neural::pose_sample::PoseSample;
 use avatar_neural::meta_training::MetaOptions;
 use avatar_neural::{fit_sdf, FitOptions, HyperConfig, HyperNet, Init, MetaAvatar, MetaModel};
 use std::path::Path;
