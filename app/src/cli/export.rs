@@ -42,12 +42,12 @@ pub struct Args {
 }
 
 /// "R,G,B" with each channel a number from 0 to 1.
-fn parse_color(s: &str) -> Result<[f32; 3], String> {
-    let v: Vec<f32> = s.split(',').map(|c| c.trim().parse::<f32>().map_err(|_| format!("{c:?} is not a number"))).collect::<Result<_, _>>()?;
+fn parse_color(s: &str) -> anyhow::Result<[f32; 3]> {
+    let v: Vec<f32> = s.split(',').map(|c| c.trim().parse::<f32>().map_err(|_| anyhow::anyhow!("{c:?} is not a number"))).collect::<anyhow::Result<_>>()?;
     match v[..] {
         [r, g, b] if v.iter().all(|c| (0.0..=1.0).contains(c)) => Ok([r, g, b]),
-        [_, _, _] => Err("each channel must be between 0 and 1 (linear RGB)".into()),
-        _ => Err(format!("expected three numbers R,G,B, got {}", v.len())),
+        [_, _, _] => bail!("each channel must be between 0 and 1 (linear RGB)"),
+        _ => bail!("expected three numbers R,G,B, got {}", v.len()),
     }
 }
 
