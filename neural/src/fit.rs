@@ -40,6 +40,19 @@ impl Default for FitOptions {
 /// Sign constraints of off-surface points (+1 outside, -1 inside, 0 unknown).
 pub type SignPrior<'a> = &'a (dyn Fn(&[Vec3]) -> Vec<f32> + Sync);
 
+/// The sign constraint of every off-surface point: +1 where `free` (a free-space sample: known
+/// to be outside), else the prior's (0 without one); `None` when neither constrains anything.
+/// The prior is asked once (a fit counts its calls as steps), and only for the other points:
+/// its closest-point queries are a tenth of a training step.
+pub fn off_surface_signs(prior: Option<SignPrior>, offs: &[Vec3], free: &[bool]) -> Option<Vec<f32>> {
+    if prior.is_none() && !free.contains(&true) {
+        return None;
+    }
+    let asked: Vec<Vec3> = offs.iter().zip(free).filter(|(_, f)| !**f).map(|(p, _)| *p).collect();
+    let mut from_prior = prior.map_or_else(|| vec![0.0; asked.len()], |p| p(&asked)).into_iter();
+    Some(free.iter().map(|&f| if f { 1.0 } else { from_prior.next().unwrap_or(0.0) }).collect())
+}
+
 /// Progress of a fit: step, total loss and the four IGR terms.
 pub type Progress<'a> = &'a mut dyn FnMut(usize, f32, [f32; 4]);
 
@@ -92,13 +105,9 @@ pub fn fit_sdf_resuming(
             break;
         }
         let (surface, surface_n, off, free) = sample_step(points, normals, outside, options, &mut rng);
-        let mut signs = prior.map(|p| p(&off));
-        if free > 0 {
-            // The free-space samples are the last `free` off-surface points.
-            let signs = signs.get_or_insert_with(|| vec![0.0; off.len()]);
-            let n = signs.len();
-            signs[n - free..].fill(1.0);
-        }
+        // The free-space samples are the last `free` off-surface points.
+        let is_free: Vec<bool> = (0..off.len()).map(|k| k >= off.len() - free).collect();
+        let signs = off_surface_signs(prior, &off, &is_free);
         let log = step % log_every == 0 || step + 1 == options.steps;
         if let Some((gradient, adam, grad, params)) = flat.as_mut() {
             let mut all: Vec<[f32; 3]> = surface.iter().map(|p| p.to_array()).collect();

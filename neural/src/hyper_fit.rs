@@ -172,14 +172,9 @@ pub struct SampledBatch {
 impl SampledBatch {
     /// The sign constraint of every off-surface point: the prior's, and +1 on free space.
     pub fn signs(&self, prior: Option<SignPrior>) -> Option<Vec<f32>> {
-        let mut signs = prior.map(|p| p(&self.offs));
-        if !self.outside.is_empty() {
-            let signs = signs.get_or_insert_with(|| vec![0.0; self.offs.len()]);
-            for &i in &self.outside {
-                signs[i] = 1.0;
-            }
-        }
-        signs
+        let mut is_free = vec![false; self.offs.len()];
+        self.outside.iter().for_each(|&i| is_free[i] = true);
+        crate::fit::off_surface_signs(prior, &self.offs, &is_free)
     }
 
     /// Points and normals as plain arrays (the training path's layout).
