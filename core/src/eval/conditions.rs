@@ -8,7 +8,7 @@ use crate::body::BodyParams;
 use crate::capture::CaptureManifest;
 use crate::error::{Error, Result};
 use crate::synth::noise::{gaussian, DepthNoise};
-use crate::synth::SynthJob;
+use crate::synth::{Outfit, SynthJob, ALL_OUTFITS};
 use glam::{Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -91,6 +91,16 @@ impl CaptureConditions {
             .collect()
     }
 
+    /// The random stream of this setting's captures. The diagnostic settings share `user`'s
+    /// (the same noise draw, the same fitting errors, the same turn), so that each shows one of
+    /// the user conditions on the same capture.
+    pub fn seed_stream(&self) -> u64 {
+        match self.name.as_str() {
+            "clean" => 1,
+            _ => 0,
+        }
+    }
+
     /// One line for the report's header.
     pub fn describe(&self) -> String {
         let noise = match &self.noise {
@@ -136,10 +146,14 @@ impl CaptureConditions {
 }
 
 /// The seed of one fine-tuning capture: the run's seed, the subject, the outfit and the
-/// setting, mixed so that neighbouring values give unrelated streams.
-pub fn capture_seed(seed: u64, subject: u64, outfit: usize, setting: usize) -> u64 {
+/// setting, mixed so that neighbouring values give unrelated streams. The outfit and the
+/// setting enter by identity, not by their place in the command's lists, so a capture does not
+/// change when other outfits or settings are evaluated beside it (`--outfits dress` draws the
+/// full table's dress capture).
+pub fn capture_seed(seed: u64, subject: u64, outfit: Outfit, conditions: &CaptureConditions) -> u64 {
+    let outfit = ALL_OUTFITS.iter().position(|o| *o == outfit).unwrap_or(0);
     let mut h = seed ^ 0x9e37_79b9_7f4a_7c15;
-    for v in [subject, outfit as u64, setting as u64] {
+    for v in [subject, outfit as u64, conditions.seed_stream()] {
         h = (h ^ v).wrapping_mul(0x1000_0000_01b3).rotate_left(29);
     }
     h
@@ -182,6 +196,20 @@ mod tests {
     }
 
     #[test]
+    fn a_capture_is_drawn_by_its_outfit_and_setting_not_by_their_place_in_the_lists() {
+        let [user, clean] = <[CaptureConditions; 2]>::try_from(CaptureConditions::parse_list("user,clean", None).unwrap()).unwrap();
+        let [noisy, misfit] = <[CaptureConditions; 2]>::try_from(CaptureConditions::parse_list("noisy,misfit", None).unwrap()).unwrap();
+        let seed = |o, c: &CaptureConditions| capture_seed(0, 1001, o, c);
+        let dress = crate::synth::Outfit::Dress;
+        // The diagnostic settings share the user capture's draw; clean has its own.
+        assert_eq!(seed(dress, &noisy), seed(dress, &user));
+        assert_eq!(seed(dress, &misfit), seed(dress, &user));
+        assert_ne!(seed(dress, &clean), seed(dress, &user));
+        assert_ne!(seed(crate::synth::Outfit::PoloLoose, &user), seed(dress, &user));
+        assert_ne!(capture_seed(0, 1002, dress, &user), seed(dress, &user));
+    }
+
+    #[test]
     fn conditions_parse_and_turns_stay_in_range() {
         let c = CaptureConditions::parse_list("user,clean", Some("kinect_v1")).unwrap();
         assert_eq!(c[0].noise, Some(DepthNoise::kinect_v1()));
@@ -193,7 +221,7 @@ mod tests {
         let mut turns = Vec::new();
         for s in 0..50 {
             let mut job = SynthJob::new(1, crate::synth::Outfit::Dress, clip.clone());
-            user.prepare(&mut job, capture_seed(0, 1001, 0, s));
+            user.prepare(&mut job, capture_seed(s, 1001, crate::synth::Outfit::Dress, &user));
             turns.push(job.turn_per_frame_deg);
             assert!(job.noise.is_some());
         }

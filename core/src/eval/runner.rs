@@ -148,7 +148,7 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
                 if predictors.iter().any(|p| p.needs_capture()) {
                     let frames: Vec<BodyParams> = train.iter().map(|&(c, f)| finetune[c].frames[f].clone()).collect();
                     let mut job = SynthJob::new(subject, outfit, MotionClip::new("finetune", finetune[0].fps, frames));
-                    let seed = capture_seed(config.seed, subject, oi, si);
+                    let seed = capture_seed(config.seed, subject, outfit, capture);
                     capture.prepare(&mut job, seed);
                     job.write_ground_truth = false;
                     generate_capture(&capture_dir, body, &job)?;
