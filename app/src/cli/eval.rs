@@ -265,7 +265,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 rows.push(Box::new(StaticOutfit::new(body.clone())));
                 continue;
             }
-            other => bail!("unknown --rows entry {other:?}: use meta, scratch, static, outfit-static or none"),
+            "outfit-static-field" => {
+                rows.push(Box::new(StaticOutfit::with_body_field(body.clone(), avatar_core::canonical::FieldOptions::default())));
+                continue;
+            }
+            other => bail!("unknown --rows entry {other:?}: use meta, scratch, static, outfit-static, outfit-static-field or none"),
         };
         let model = match &model {
             Some(m) => m.clone(),

@@ -3,6 +3,7 @@
 //! implements this in the neural crate; the reference rows live here.
 
 use crate::body::{BodyModel, BodyParams};
+use crate::canonical::{FieldOptions, SkinningField};
 use crate::error::Result;
 use crate::mesh::TriMesh;
 use crate::synth::{canonical_surface, pose_surface, ClothedTemplate, Outfit, PoseFeatures};
@@ -64,19 +65,31 @@ impl Predictor for NakedBody {
 /// pose-dependent clothing is worth on the table's frames.
 pub struct StaticOutfit {
     body: BodyModel,
-    /// The template and its canonical surface at the zero pose.
-    fitted: Option<(ClothedTemplate, Vec<glam::Vec3>)>,
+    /// Pose with the body's diffused skinning field built with these options instead of the
+    /// generator's garment weights: what an avatar's skinning costs with the shape exact.
+    field_options: Option<FieldOptions>,
+    /// The template, its canonical surface at the zero pose and the field, if any.
+    fitted: Option<(ClothedTemplate, Vec<glam::Vec3>, Option<SkinningField>)>,
 }
 
 impl StaticOutfit {
     pub fn new(body: BodyModel) -> Self {
-        StaticOutfit { body, fitted: None }
+        StaticOutfit { body, field_options: None, fitted: None }
+    }
+
+    /// The same outfit posed with the body's skinning field (`canonical::SkinningField`, the
+    /// one every avatar is posed with) instead of the garment's own weights.
+    pub fn with_body_field(body: BodyModel, options: FieldOptions) -> Self {
+        StaticOutfit { body, field_options: Some(options), fitted: None }
     }
 }
 
 impl Predictor for StaticOutfit {
     fn name(&self) -> String {
-        "ground-truth outfit, pose-independent".into()
+        match self.field_options {
+            None => "ground-truth outfit, pose-independent".into(),
+            Some(_) => "ground-truth outfit, pose-independent, body's field".into(),
+        }
     }
     fn needs_capture(&self) -> bool {
         false
@@ -86,12 +99,20 @@ impl Predictor for StaticOutfit {
         let zero = BodyParams { betas: data.betas.to_vec(), ..BodyParams::default() };
         // No joint is bent at the zero pose, so the folds' per-subject phase does not matter.
         let canonical = canonical_surface(&template, &PoseFeatures::of(&data.body.pose(&zero).bones), 0);
-        self.fitted = Some((template, canonical));
+        let field = match &self.field_options {
+            Some(o) => Some(crate::canonical::Canonicalizer::new(data.body, data.betas, o, crate::canonical::default_cache_dir().as_deref())?.field),
+            None => None,
+        };
+        self.fitted = Some((template, canonical, field));
         Ok(())
     }
     fn predict(&self, params: &BodyParams) -> Result<TriMesh> {
-        let (t, canonical) = self.fitted.as_ref().ok_or_else(|| crate::error::Error::invalid("predict called before fit"))?;
+        let (t, canonical, field) = self.fitted.as_ref().ok_or_else(|| crate::error::Error::invalid("predict called before fit"))?;
         let bones = self.body.pose(params).bones;
-        Ok(TriMesh::new(pose_surface(t, canonical, &bones), t.faces.clone()))
+        let mesh = TriMesh::new(canonical.clone(), t.faces.clone());
+        Ok(match field {
+            Some(field) => crate::canonical::forward_skin_mesh(field, &bones, &mesh),
+            None => TriMesh::new(pose_surface(t, canonical, &bones), t.faces.clone()),
+        })
     }
 }
