@@ -120,7 +120,8 @@ pub struct Args {
     seed: u64,
     /// Rows besides the naked body and the ground truth: meta (MetaAvatar), scratch (same
     /// networks from scratch), static (the static meta-SDF), outfit-static (the ground-truth
-    /// outfit without its pose-dependent deformation), comma-separated; none for no row.
+    /// outfit without its pose-dependent deformation), outfit-static-field (the same posed with
+    /// the body's skinning field, as avatars are), comma-separated; none for no row.
     #[arg(long, value_delimiter = ',')]
     rows: Option<Vec<String>>,
     /// Meta-learned model file (default: the shipped compact model).
