@@ -19,10 +19,16 @@ const TURNTABLE_SPEED: f32 = 0.5;
 
 impl StudioApp {
     pub fn new(cc: &eframe::CreationContext<'_>, options: StudioOptions) -> StudioApp {
-        if let Some(rs) = cc.wgpu_render_state.as_ref() {
-            viewport::install(rs);
-        }
-        crate::studio::style::apply(&cc.egui_ctx);
+        // On a software renderer the panels' fill is painted by the viewport's backdrop, not by
+        // egui (viewport/backdrop.rs: the same pixels, a fraction of the CPU).
+        let backdrop = cc.wgpu_render_state.as_ref().is_some_and(|rs| {
+            let software = viewport::install(rs);
+            if software {
+                viewport::backdrop::install(rs, crate::studio::style::PANEL_FILL);
+            }
+            software
+        });
+        crate::studio::style::apply(&cc.egui_ctx, backdrop);
         let settings: Settings = cc.storage.and_then(|s| eframe::get_value(s, SETTINGS_KEY)).unwrap_or_default();
         let ctx = cc.egui_ctx.clone();
         let wake_ctx = ctx.clone();
@@ -40,6 +46,7 @@ impl StudioApp {
             capture: None,
             capture_source: None,
             thumbnails: Vec::new(),
+            backdrop,
             body_rest: None,
             avatar: None,
             avatar_path: None,

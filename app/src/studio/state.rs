@@ -111,6 +111,8 @@ pub struct StudioApp {
     /// "demo" or a folder path.
     pub capture_source: Option<String>,
     pub(crate) thumbnails: Vec<Option<egui::TextureHandle>>,
+    /// The panels' fill is the viewport's backdrop (a software renderer), not egui's.
+    pub(crate) backdrop: bool,
     pub(crate) body_rest: Option<Arc<CanonicalMesh>>,
     // Avatar.
     pub avatar: Option<Arc<dyn StudioAvatar>>,
