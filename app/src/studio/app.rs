@@ -21,12 +21,13 @@ impl StudioApp {
     pub fn new(cc: &eframe::CreationContext<'_>, options: StudioOptions) -> StudioApp {
         // On a software renderer the panels' fill is painted by the viewport's backdrop, not by
         // egui (viewport/backdrop.rs: the same pixels, a fraction of the CPU).
+        // `AVATAR_STUDIO_BACKDROP=0` turns it off, for comparisons (docs/studio.md).
         let backdrop = cc.wgpu_render_state.as_ref().is_some_and(|rs| {
-            let software = viewport::install(rs);
-            if software {
+            let on = viewport::install(rs) && std::env::var("AVATAR_STUDIO_BACKDROP").map_or(true, |v| v != "0");
+            if on {
                 viewport::backdrop::install(rs, crate::studio::style::PANEL_FILL);
             }
-            software
+            on
         });
         crate::studio::style::apply(&cc.egui_ctx, backdrop);
         let settings: Settings = cc.storage.and_then(|s| eframe::get_value(s, SETTINGS_KEY)).unwrap_or_default();
