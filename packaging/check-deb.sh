@@ -50,8 +50,10 @@ fi
 log="$scratch/install.log"
 remove() { $SUDO dpkg -r "$name" >>"$log" 2>&1 || true; }
 if ! $SUDO env DEBIAN_FRONTEND=noninteractive dpkg -i "$deb" >"$log" 2>&1; then
-  # Missing dependencies leave the package unpacked: apt fetches them and configures it.
-  if ! $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -f -y -qq --no-install-recommends >>"$log" 2>&1; then
+  # Missing dependencies leave the package unpacked: apt fetches them and configures it (with
+  # fresh package lists if the first try finds none).
+  fix() { $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -f -y -qq --no-install-recommends >>"$log" 2>&1; }
+  if ! fix && ! { $SUDO env DEBIAN_FRONTEND=noninteractive apt-get update -qq >>"$log" 2>&1 && fix; }; then
     tail -n 20 "$log"; remove
     echo "error: could not install $deb" >&2; exit 1
   fi
