@@ -19,17 +19,17 @@ const TURNTABLE_SPEED: f32 = 0.5;
 
 impl StudioApp {
     pub fn new(cc: &eframe::CreationContext<'_>, options: StudioOptions) -> StudioApp {
-        // On a software renderer the panels' fill is painted by the viewport's backdrop, not by
-        // egui (viewport/backdrop.rs: the same pixels, a fraction of the CPU).
-        // `AVATAR_STUDIO_BACKDROP=0` turns it off, for comparisons (docs/studio.md).
-        let backdrop = cc.wgpu_render_state.as_ref().is_some_and(|rs| {
-            let on = viewport::install(rs) && std::env::var("AVATAR_STUDIO_BACKDROP").map_or(true, |v| v != "0");
+        // On a software renderer the panels' fill and the thumbnails are painted by
+        // viewport::flat, not by egui (the same pixels, a fraction of the CPU).
+        // `AVATAR_STUDIO_FLAT=0` turns that off, for comparisons (docs/studio.md).
+        let flat = cc.wgpu_render_state.as_ref().is_some_and(|rs| {
+            let on = viewport::install(rs) && std::env::var("AVATAR_STUDIO_FLAT").map_or(true, |v| v != "0");
             if on {
-                viewport::backdrop::install(rs, crate::studio::style::PANEL_FILL);
+                viewport::flat::install(rs, crate::studio::style::PANEL_FILL);
             }
             on
         });
-        crate::studio::style::apply(&cc.egui_ctx, backdrop);
+        crate::studio::style::apply(&cc.egui_ctx, flat);
         let settings: Settings = cc.storage.and_then(|s| eframe::get_value(s, SETTINGS_KEY)).unwrap_or_default();
         let ctx = cc.egui_ctx.clone();
         let wake_ctx = ctx.clone();
@@ -47,7 +47,7 @@ impl StudioApp {
             capture: None,
             capture_source: None,
             thumbnails: Vec::new(),
-            backdrop,
+            flat,
             body_rest: None,
             avatar: None,
             avatar_path: None,

@@ -22,12 +22,12 @@ use std::path::PathBuf;
 pub use capture::capture_panel;
 
 pub fn draw(app: &mut StudioApp, ui: &mut egui::Ui) -> Vec<Command> {
-    if !app.backdrop {
+    if !app.flat {
         return draw_panels(app, ui);
     }
-    // The panels are unfilled and the backdrop paints their colour (viewport/backdrop.rs);
-    // their colour still counts as the background where egui asks (the scroll areas' fades).
-    crate::studio::viewport::backdrop::paint(ui, ui.ctx().content_rect());
+    // The panels are unfilled and the backdrop paints their colour (viewport/flat.rs); their
+    // colour still counts as the background where egui asks (the scroll areas' fades).
+    crate::studio::viewport::flat::backdrop(ui.painter(), ui.ctx().content_rect());
     let behind = egui::UiStackInfo::new(egui::UiKind::Frame).with_frame(egui::Frame::new().fill(crate::studio::style::PANEL_FILL));
     ui.scope_builder(egui::UiBuilder::new().ui_stack_info(behind), |ui| draw_panels(app, ui)).inner
 }

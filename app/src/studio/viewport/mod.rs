@@ -16,7 +16,7 @@ const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// The viewport's background (linear RGB).
 pub const BACKGROUND: [f64; 3] = [0.018, 0.020, 0.026];
 
-pub mod backdrop;
+pub mod flat;
 mod pipelines;
 mod scene;
 use pipelines::ScenePipelines;
