@@ -66,17 +66,22 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
             let selected = app.view.selected_frame == i;
             let (rect, resp) = ui.allocate_exact_size(egui::vec2(size, size), egui::Sense::click());
             let painter = ui.painter_at(rect);
-            boxes.push(egui::Shape::rect_filled(rect, 3.0, egui::Color32::from_rgb(14, 15, 18)));
+            let mut covered = false; // by an opaque square image: only the box's rim shows
             if let Some(Some((tex, pixels))) = app.thumbnails.get(i) {
                 let img_size = tex.size_vec2();
                 let scale = (size - 4.0) / img_size.x.max(img_size.y);
                 let r = egui::Rect::from_center_size(rect.center(), img_size * scale);
+                covered = app.flat && r == rect.shrink(2.0);
                 if app.flat {
                     flat_images.push(crate::studio::viewport::flat::FlatImage { rect: r, id: tex.id(), pixels: pixels.clone() });
                 } else {
                     painter.image(tex.id(), r, egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)), egui::Color32::WHITE);
                 }
             }
+            // On a software renderer every pixel egui fills is dear (viewport/flat.rs): where
+            // the image covers the box's inside, only its 2-point rim is drawn.
+            let box_color = egui::Color32::from_rgb(14, 15, 18);
+            boxes.push(if covered { egui::Shape::rect_stroke(rect, 3.0, egui::Stroke::new(2.0, box_color), egui::StrokeKind::Inside) } else { egui::Shape::rect_filled(rect, 3.0, box_color) });
             let border = if f.problem.is_some() {
                 egui::Stroke::new(2.0, ERROR)
             } else if selected {
