@@ -9,7 +9,7 @@ pub const ERROR: egui::Color32 = egui::Color32::from_rgb(235, 85, 80);
 /// The panels' colour.
 pub const PANEL_FILL: egui::Color32 = egui::Color32::from_rgb(27, 29, 33);
 
-/// `backdrop`: the panels' colour is painted behind them (viewport/backdrop.rs), so egui leaves
+/// `backdrop`: the panels' colour is painted behind them (viewport/flat.rs), so egui leaves
 /// them unfilled.
 pub fn apply(ctx: &egui::Context, backdrop: bool) {
     ctx.set_theme(egui::Theme::Dark);

@@ -71,7 +71,7 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
                 let img_size = tex.size_vec2();
                 let scale = (size - 4.0) / img_size.x.max(img_size.y);
                 let r = egui::Rect::from_center_size(rect.center(), img_size * scale);
-                covered = app.flat && r == rect.shrink(2.0);
+                covered = app.flat && r.expand(0.01).contains_rect(rect.shrink(2.0));
                 if app.flat {
                     flat_images.push(crate::studio::viewport::flat::FlatImage { rect: r, id: tex.id(), pixels: pixels.clone() });
                 } else {
