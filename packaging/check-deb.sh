@@ -3,8 +3,9 @@
 # --version` and a headless `avatar-studio body` from /usr/bin; then removes it again.
 #   packaging/check-deb.sh PATH/avatar-studio_VERSION_ARCH.deb
 # Never replaces a package that is already installed, and never fails for lack of root:
-# - avatar-studio already installed (a developer's machine): the package is unpacked into a
-#   scratch folder (dpkg-deb -x) and checked there; the installed one is left alone.
+# - avatar-studio already installed (a developer's machine), or a /usr/bin/avatar-studio from
+#   elsewhere: the package is unpacked into a scratch folder (dpkg-deb -x) and checked there;
+#   the installed one is left alone.
 # - neither root nor password-less sudo: the same scratch check, with a note.
 # - otherwise: dpkg -i (apt fetches missing dependencies), the checks, dpkg -r.
 set -euo pipefail
@@ -38,6 +39,10 @@ unpacked() {
 
 if dpkg-query -W -f='${Status}' "$name" 2>/dev/null | grep -q "ok installed"; then
   unpacked "$name $(dpkg-query -W -f='${Version}' "$name") is installed on this machine and was left alone"
+  exit 0
+fi
+if [ -e /usr/bin/avatar-studio ]; then
+  unpacked "/usr/bin/avatar-studio exists outside any package and was left alone"
   exit 0
 fi
 if [ "$(id -u)" = 0 ]; then SUDO=""
