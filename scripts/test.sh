@@ -2,7 +2,8 @@
 # Runs every test of Avatar Studio. Installs what the tests need first (Debian/Ubuntu, as root
 # or with sudo): lavapipe (software Vulkan) for the studio's screenshot tests, Node.js for the
 # Khronos glTF validator, Blender and numpy (its glTF importer needs numpy, which the Debian
-# package does not pull in) for the headless Blender import check (about 40 s, 680 MB). The
+# package does not pull in) for the headless Blender import check (about 40 s, 680 MB). After
+# the tests it packages, installs and checks the .deb (packaging/build-deb.sh --binary). The
 # cargo target directory lives outside the checkout so that repeated runs (and CI on the same
 # machine) reuse the build.
 set -euo pipefail
@@ -34,3 +35,13 @@ if [ -f tests/gltf-validator/package-lock.json ] && [ ! -d tests/gltf-validator/
 fi
 
 cargo test --workspace --locked "$@"
+
+# The .deb (packaging/README.md): the binary the tests just built, packaged from
+# [package.metadata.deb], installed with dpkg -i, run from /usr/bin (--version, a headless
+# body) and removed again; a few seconds. Never replaces an installed avatar-studio and never
+# needs root (both fall back to checking the package unpacked in a scratch folder).
+if [ $# -eq 0 ]; then
+  packaging/build-deb.sh --binary "$CARGO_TARGET_DIR/debug/avatar-studio"
+else
+  echo "the .deb check runs only with the whole suite (scripts/test.sh without arguments)"
+fi

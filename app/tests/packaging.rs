@@ -1,5 +1,5 @@
-//! The .deb's description, checked in every CI run without the release build that
-//! `packaging/build-deb.sh` needs (too long for CI, see packaging/README.md): every file that
+//! The .deb's description, checked in every `cargo test` (CI also packages the test build's
+//! binary from it and installs it: scripts/test.sh, packaging/README.md): every file that
 //! `[package.metadata.deb]` in app/Cargo.toml installs exists, each icon is a PNG of the size
 //! its folder names, and the desktop entry launches the binary with the icon and the window's
 //! app id.

@@ -19,10 +19,17 @@ const TURNTABLE_SPEED: f32 = 0.5;
 
 impl StudioApp {
     pub fn new(cc: &eframe::CreationContext<'_>, options: StudioOptions) -> StudioApp {
-        if let Some(rs) = cc.wgpu_render_state.as_ref() {
-            viewport::install(rs);
-        }
-        crate::studio::style::apply(&cc.egui_ctx);
+        // On a software renderer the panels' fill and the thumbnails are painted by
+        // viewport::flat, not by egui (the same pixels, a fraction of the CPU).
+        // `AVATAR_STUDIO_FLAT=0` turns that off, for comparisons (docs/studio.md).
+        let flat = cc.wgpu_render_state.as_ref().is_some_and(|rs| {
+            let on = viewport::install(rs) && std::env::var("AVATAR_STUDIO_FLAT").map_or(true, |v| v != "0");
+            if on {
+                viewport::flat::install(rs, crate::studio::style::PANEL_FILL);
+            }
+            on
+        });
+        crate::studio::style::apply(&cc.egui_ctx, flat);
         let settings: Settings = cc.storage.and_then(|s| eframe::get_value(s, SETTINGS_KEY)).unwrap_or_default();
         let ctx = cc.egui_ctx.clone();
         let wake_ctx = ctx.clone();
@@ -40,6 +47,7 @@ impl StudioApp {
             capture: None,
             capture_source: None,
             thumbnails: Vec::new(),
+            flat,
             body_rest: None,
             avatar: None,
             avatar_path: None,

@@ -64,7 +64,7 @@ impl StudioApp {
         self.thumbnails = capture
             .frames
             .iter()
-            .map(|f| f.thumbnail.clone().map(|img| self.ctx.load_texture(format!("thumb-{}-{}", capture.name, f.index), img, egui::TextureOptions::LINEAR)))
+            .map(|f| f.thumbnail.clone().map(|img| (self.ctx.load_texture(format!("thumb-{}-{}", capture.name, f.index), img.clone(), egui::TextureOptions::LINEAR), Arc::new(img))))
             .collect();
         self.body_rest = Some(Arc::new(body_canonical(&capture.body, &capture.betas)));
         match self.pending_view.take() {

@@ -110,7 +110,11 @@ pub struct StudioApp {
     pub capture: Option<Arc<LoadedCapture>>,
     /// "demo" or a folder path.
     pub capture_source: Option<String>,
-    pub(crate) thumbnails: Vec<Option<egui::TextureHandle>>,
+    /// Each frame's thumbnail: egui's texture and its pixels (for `viewport::flat`).
+    pub(crate) thumbnails: Vec<Option<(egui::TextureHandle, Arc<egui::ColorImage>)>>,
+    /// The panels' fill and the thumbnails are painted by `viewport::flat` (a software
+    /// renderer), not by egui.
+    pub(crate) flat: bool,
     pub(crate) body_rest: Option<Arc<CanonicalMesh>>,
     // Avatar.
     pub avatar: Option<Arc<dyn StudioAvatar>>,

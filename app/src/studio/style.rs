@@ -6,13 +6,18 @@ pub const ACCENT: egui::Color32 = egui::Color32::from_rgb(88, 150, 235);
 pub const WARN: egui::Color32 = egui::Color32::from_rgb(235, 160, 60);
 pub const ERROR: egui::Color32 = egui::Color32::from_rgb(235, 85, 80);
 
-pub fn apply(ctx: &egui::Context) {
+/// The panels' colour.
+pub const PANEL_FILL: egui::Color32 = egui::Color32::from_rgb(27, 29, 33);
+
+/// `backdrop`: the panels' colour is painted behind them (viewport/flat.rs), so egui leaves
+/// them unfilled.
+pub fn apply(ctx: &egui::Context, backdrop: bool) {
     ctx.set_theme(egui::Theme::Dark);
     ctx.all_styles_mut(|style| {
         style.spacing.item_spacing = egui::vec2(6.0, 5.0);
         style.spacing.button_padding = egui::vec2(7.0, 3.0);
         let v = &mut style.visuals;
-        v.panel_fill = egui::Color32::from_rgb(27, 29, 33);
+        v.panel_fill = if backdrop { egui::Color32::TRANSPARENT } else { PANEL_FILL };
         v.window_fill = egui::Color32::from_rgb(30, 32, 37);
         v.extreme_bg_color = egui::Color32::from_rgb(17, 18, 21);
         v.faint_bg_color = egui::Color32::from_rgb(34, 36, 41);

@@ -56,18 +56,32 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
     ui.add_space(4.0);
     let size = 60.0;
     let cols = ((ui.available_width() + 4.0) / (size + 4.0)).floor().max(1.0) as usize;
+    // The thumbnails' boxes, and on a software renderer their images (viewport::flat: one
+    // callback for all), go into these slots below the borders and numbers.
+    let grid_painter = ui.painter().clone();
+    let (boxes_slot, images_slot) = (grid_painter.add(egui::Shape::Noop), grid_painter.add(egui::Shape::Noop));
+    let (mut boxes, mut flat_images) = (Vec::new(), Vec::new());
     egui::Grid::new("thumbs").spacing([4.0, 4.0]).show(ui, |ui| {
         for (i, f) in c.frames.iter().enumerate() {
             let selected = app.view.selected_frame == i;
             let (rect, resp) = ui.allocate_exact_size(egui::vec2(size, size), egui::Sense::click());
             let painter = ui.painter_at(rect);
-            painter.rect_filled(rect, 3.0, egui::Color32::from_rgb(14, 15, 18));
-            if let Some(Some(tex)) = app.thumbnails.get(i) {
+            let mut covered = false; // by an opaque square image: only the box's rim shows
+            if let Some(Some((tex, pixels))) = app.thumbnails.get(i) {
                 let img_size = tex.size_vec2();
                 let scale = (size - 4.0) / img_size.x.max(img_size.y);
                 let r = egui::Rect::from_center_size(rect.center(), img_size * scale);
-                painter.image(tex.id(), r, egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)), egui::Color32::WHITE);
+                covered = app.flat && r.expand(0.01).contains_rect(rect.shrink(2.0));
+                if app.flat {
+                    flat_images.push(crate::studio::viewport::flat::FlatImage { rect: r, id: tex.id(), pixels: pixels.clone() });
+                } else {
+                    painter.image(tex.id(), r, egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)), egui::Color32::WHITE);
+                }
             }
+            // On a software renderer every pixel egui fills is dear (viewport/flat.rs): where
+            // the image covers the box's inside, only its 2-point rim is drawn.
+            let box_color = egui::Color32::from_rgb(14, 15, 18);
+            boxes.push(if covered { egui::Shape::rect_stroke(rect, 3.0, egui::Stroke::new(2.0, box_color), egui::StrokeKind::Inside) } else { egui::Shape::rect_filled(rect, 3.0, box_color) });
             let border = if f.problem.is_some() {
                 egui::Stroke::new(2.0, ERROR)
             } else if selected {
@@ -92,6 +106,10 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
             }
         }
     });
+    grid_painter.set(boxes_slot, egui::Shape::Vec(boxes));
+    if !flat_images.is_empty() {
+        grid_painter.set(images_slot, crate::studio::viewport::flat::images(grid_painter.clip_rect(), flat_images));
+    }
     let flagged: Vec<_> = c.frames.iter().filter_map(|f| f.problem.as_ref().map(|p| (f.index, f.file.clone(), p.clone()))).collect();
     if !flagged.is_empty() {
         ui.add_space(6.0);

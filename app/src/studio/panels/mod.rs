@@ -22,6 +22,17 @@ use std::path::PathBuf;
 pub use capture::capture_panel;
 
 pub fn draw(app: &mut StudioApp, ui: &mut egui::Ui) -> Vec<Command> {
+    if !app.flat {
+        return draw_panels(app, ui);
+    }
+    // The panels are unfilled and the backdrop paints their colour (viewport/flat.rs); their
+    // colour still counts as the background where egui asks (the scroll areas' fades).
+    crate::studio::viewport::flat::backdrop(ui.painter(), ui.ctx().content_rect());
+    let behind = egui::UiStackInfo::new(egui::UiKind::Frame).with_frame(egui::Frame::new().fill(crate::studio::style::PANEL_FILL));
+    ui.scope_builder(egui::UiBuilder::new().ui_stack_info(behind), |ui| draw_panels(app, ui)).inner
+}
+
+fn draw_panels(app: &mut StudioApp, ui: &mut egui::Ui) -> Vec<Command> {
     let mut out = Vec::new();
     keys(app, ui.ctx(), &mut out);
     let dropped: Vec<PathBuf> = ui.ctx().input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).filter(|p| !p.as_os_str().is_empty()).collect());

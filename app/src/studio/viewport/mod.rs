@@ -16,6 +16,7 @@ const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// The viewport's background (linear RGB).
 pub const BACKGROUND: [f64; 3] = [0.018, 0.020, 0.026];
 
+pub mod flat;
 mod pipelines;
 mod scene;
 use pipelines::ScenePipelines;
@@ -106,10 +107,13 @@ struct Uploaded {
 }
 
 /// Create the viewport's pipelines once and store them in the renderer (call at start-up).
-pub fn install(render_state: &egui_wgpu::RenderState) {
+/// Returns whether the adapter is a software renderer (lavapipe, llvmpipe: wgpu's
+/// `DeviceType::Cpu`).
+pub fn install(render_state: &egui_wgpu::RenderState) -> bool {
     let software = render_state.adapter.get_info().device_type == wgpu::DeviceType::Cpu;
     let resources = ViewportResources::new(&render_state.device, render_state.target_format, software);
     render_state.renderer.write().callback_resources.insert(resources);
+    software
 }
 
 impl ViewportResources {
