@@ -3,7 +3,7 @@
 //! threads, and the blocks of a group are summed. Blocks, their scratch and their buffers are
 //! kept across steps (no allocation in the loop once the largest step has run).
 
-use super::siren_grad::{siren_backward, LossTerms, PointLoss, SirenScratch, SirenShape};
+use super::siren_grad::{siren_backward, transpose_weights, LossTerms, PointLoss, SirenScratch, SirenShape};
 use rayon::prelude::*;
 
 /// Points per block: a 128-wide block's activations stay in L2.
@@ -21,11 +21,13 @@ struct Block {
 pub struct BlockRunner {
     shape: SirenShape,
     blocks: Vec<Block>,
+    /// Every group's weights transposed (`transpose_weights`), shared by its blocks.
+    wt: Vec<Vec<Vec<f32>>>,
 }
 
 impl BlockRunner {
     pub fn new(shape: SirenShape) -> BlockRunner {
-        BlockRunner { shape, blocks: Vec::new() }
+        BlockRunner { shape, blocks: Vec::new(), wt: Vec::new() }
     }
 
     pub fn shape(&self) -> &SirenShape {
@@ -50,10 +52,13 @@ impl BlockRunner {
             }
         }
         let shape = &self.shape;
+        self.wt.resize_with(points.len(), Vec::new);
+        self.wt.par_iter_mut().zip(params).for_each(|(wt, p)| transpose_weights(shape, p, wt));
+        let wt = &self.wt;
         self.blocks[..k].par_iter_mut().for_each(|b| {
             b.grad.fill(0.0);
             let pts = &points[b.group][b.first..b.first + b.rows];
-            b.terms = siren_backward(shape, params[b.group], pts, loss, b.group, b.first, &mut b.scratch, &mut b.grad);
+            b.terms = siren_backward(shape, params[b.group], &wt[b.group], pts, loss, b.group, b.first, &mut b.scratch, &mut b.grad);
         });
         let mut terms = LossTerms::default();
         for g in grads.iter_mut() {
