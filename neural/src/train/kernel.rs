@@ -68,7 +68,7 @@ pub unsafe fn gemm(m: usize, k: usize, n: usize, a: *const f32, rsa: isize, csa:
 
 #[target_feature(enable = "avx512f")]
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(never)]
 unsafe fn tile<const R: usize>(k: usize, n: usize, a: *const f32, rsa: isize, csa: isize, b: *const f32, out: *mut f32, ep: Raw, i0: usize, j0: usize) {
     // SAFETY (whole body): indices stay within the caller's m x k, k x n and m x n views.
     // Pointer steps use wrapping arithmetic: the dev profile's overflow checks in the inner
@@ -79,58 +79,98 @@ unsafe fn tile<const R: usize>(k: usize, n: usize, a: *const f32, rsa: isize, cs
         let mut a_step: isize = 0;
         let mut bp = b.wrapping_add(j0);
         for _ in 0..k {
-            let b0 = _mm512_loadu_ps(bp);
-            let b1 = _mm512_loadu_ps(bp.wrapping_add(16));
+            let b0 = load(bp);
+            let b1 = load(bp.wrapping_add(16));
             for d in 0..R {
-                let av = _mm512_set1_ps(*rows[d].wrapping_offset(a_step));
+                // A load intrinsic, not a dereference: the dev profile checks every dereference's
+                // alignment, and those branches pushed accumulators out of registers.
+                let av = _mm512_broadcastss_ps(_mm_load_ss(rows[d].wrapping_offset(a_step)));
                 acc[d][0] = _mm512_fmadd_ps(av, b0, acc[d][0]);
                 acc[d][1] = _mm512_fmadd_ps(av, b1, acc[d][1]);
             }
             a_step = a_step.wrapping_add(csa);
             bp = bp.wrapping_add(n);
         }
-        for (d, acc) in acc.iter().enumerate() {
-            let at = (i0 + d).wrapping_mul(n).wrapping_add(j0);
-            finish(ep, acc[0], out, at, j0);
-            finish(ep, acc[1], out, at + 16, j0 + 16);
+        epilogue(&acc, n, out, ep, i0, j0);
+    }
+}
+
+/// A tile's epilogue over its accumulators (rows i0.., columns j0..j0 + 32), out of line: its
+/// constants (the sine's polynomial) would otherwise stay in registers across the products'
+/// inner loop and push accumulators onto the stack.
+#[target_feature(enable = "avx512f")]
+#[inline(never)]
+unsafe fn epilogue(acc: &[[__m512; 2]], n: usize, out: *mut f32, ep: Raw, i0: usize, j0: usize) {
+    let set = _mm512_set1_ps;
+    let tile_at = |d: usize, v: usize| (i0 + d).wrapping_mul(n).wrapping_add(j0).wrapping_add(16 * v);
+    // SAFETY (whole body): the tile lies inside the result and every buffer laid out like it
+    // (the caller's contract).
+    unsafe {
+        match ep {
+            Raw::Store { beta } => {
+                for (d, acc) in acc.iter().enumerate() {
+                    for (v, &p) in acc.iter().enumerate() {
+                        let o = out.add(tile_at(d, v));
+                        store(o, if beta == 0.0 { p } else { _mm512_add_ps(load(o), p) });
+                    }
+                }
+            }
+            Raw::Sine { w0, bias, deriv } => {
+                let bias = [load(bias.add(j0)), load(bias.add(j0 + 16))];
+                for (d, acc) in acc.iter().enumerate() {
+                    for (v, &p) in acc.iter().enumerate() {
+                        let at = tile_at(d, v);
+                        let (s, c) = sin_cos(_mm512_mul_ps(set(w0), _mm512_add_ps(p, bias[v])));
+                        store(out.add(at), s);
+                        store(deriv.add(at), _mm512_mul_ps(set(w0), c));
+                    }
+                }
+            }
+            Raw::AlsoTimes { factor, times } => {
+                for (d, acc) in acc.iter().enumerate() {
+                    for (v, &p) in acc.iter().enumerate() {
+                        let at = tile_at(d, v);
+                        store(out.add(at), p);
+                        store(times.add(at), _mm512_mul_ps(p, load(factor.add(at))));
+                    }
+                }
+            }
+            Raw::GradChain { scale, v: vb, h, c } => {
+                for (d, acc) in acc.iter().enumerate() {
+                    for (v, &p) in acc.iter().enumerate() {
+                        let at = tile_at(d, v);
+                        let t = _mm512_mul_ps(_mm512_mul_ps(set(scale), p), load(vb.add(at)));
+                        store(vb.add(at), _mm512_mul_ps(t, load(h.add(at))));
+                        store(out.add(at), _mm512_mul_ps(p, load(c.add(at))));
+                    }
+                }
+            }
+            Raw::AddTimes { factor } => {
+                for (d, acc) in acc.iter().enumerate() {
+                    for (v, &p) in acc.iter().enumerate() {
+                        let o = out.add(tile_at(d, v));
+                        store(o, _mm512_fmadd_ps(p, load(factor.add(tile_at(d, v))), load(o)));
+                    }
+                }
+            }
         }
     }
 }
 
-/// Apply the epilogue to 16 results `p` at element `at` of the result (column `col`).
+/// 16 floats from `p` (any alignment). Masked moves, not `_mm512_loadu_ps`: the dev profile
+/// checks the plain ones' pointers and copies through the stack, which took half the kernel.
 #[target_feature(enable = "avx512f")]
 #[inline]
-unsafe fn finish(ep: Raw, p: __m512, out: *mut f32, at: usize, col: usize) {
-    // SAFETY: `at..at + 16` lies inside the result and every buffer laid out like it, `col..col
-    // + 16` inside the bias (the caller's contract).
-    unsafe {
-        let o = out.add(at);
-        match ep {
-            Raw::Store { beta } => {
-                let v = if beta == 0.0 { p } else { _mm512_add_ps(_mm512_loadu_ps(o), p) };
-                _mm512_storeu_ps(o, v);
-            }
-            Raw::Sine { w0, bias, deriv } => {
-                let z = _mm512_mul_ps(_mm512_set1_ps(w0), _mm512_add_ps(p, _mm512_loadu_ps(bias.add(col))));
-                let (s, c) = sin_cos(z);
-                _mm512_storeu_ps(o, s);
-                _mm512_storeu_ps(deriv.add(at), _mm512_mul_ps(_mm512_set1_ps(w0), c));
-            }
-            Raw::AlsoTimes { factor, times } => {
-                _mm512_storeu_ps(o, p);
-                _mm512_storeu_ps(times.add(at), _mm512_mul_ps(p, _mm512_loadu_ps(factor.add(at))));
-            }
-            Raw::GradChain { scale, v, h, c } => {
-                let vp = v.add(at);
-                let t = _mm512_mul_ps(_mm512_mul_ps(_mm512_set1_ps(scale), p), _mm512_loadu_ps(vp));
-                _mm512_storeu_ps(vp, _mm512_mul_ps(t, _mm512_loadu_ps(h.add(at))));
-                _mm512_storeu_ps(o, _mm512_mul_ps(p, _mm512_loadu_ps(c.add(at))));
-            }
-            Raw::AddTimes { factor } => {
-                _mm512_storeu_ps(o, _mm512_fmadd_ps(p, _mm512_loadu_ps(factor.add(at)), _mm512_loadu_ps(o)));
-            }
-        }
-    }
+unsafe fn load(p: *const f32) -> __m512 {
+    // SAFETY: the caller's pointer addresses 16 floats.
+    unsafe { _mm512_maskz_loadu_ps(0xFFFF, p) }
+}
+
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn store(p: *mut f32, v: __m512) {
+    // SAFETY: the caller's pointer addresses 16 floats.
+    unsafe { _mm512_mask_storeu_ps(p, 0xFFFF, v) }
 }
 
 /// `siren_eval::sin_cos` on 16 lanes (the same reduction and polynomials, with fused
@@ -179,7 +219,7 @@ pub unsafe fn dots(m: usize, k: usize, r: usize, a: *const f32, rows: *const f32
                 let mut acc = _mm512_setzero_ps();
                 let mut p = 0;
                 while p < full {
-                    acc = _mm512_fmadd_ps(_mm512_loadu_ps(ai.add(p)), _mm512_loadu_ps(bj.add(p)), acc);
+                    acc = _mm512_fmadd_ps(load(ai.add(p)), load(bj.add(p)), acc);
                     p += 16;
                 }
                 if tail > 0 {
