@@ -161,11 +161,11 @@ pub fn transpose_weights(shape: &SirenShape, params: &[f32], wt: &mut Vec<Vec<f3
     }
 }
 
-/// Add the gradient of the loss over one block of points to `grad` (same layout as `params`)
-/// and return the block's loss terms. `wt`: `transpose_weights` of `params`; `group` and
+/// The gradient of the loss over one block of points into `grad` (same layout as `params`;
+/// added to it when `accumulate`, else overwritten) and the block's loss terms. `wt`: `transpose_weights` of `params`; `group` and
 /// `first` tell `loss` which points these are.
 #[allow(clippy::too_many_arguments)]
-pub fn siren_backward(shape: &SirenShape, params: &[f32], wt: &[Vec<f32>], points: &[[f32; 3]], loss: &dyn PointLoss, group: usize, first: usize, s: &mut SirenScratch, grad: &mut [f32]) -> LossTerms {
+pub fn siren_backward(shape: &SirenShape, params: &[f32], wt: &[Vec<f32>], points: &[[f32; 3]], loss: &dyn PointLoss, group: usize, first: usize, s: &mut SirenScratch, grad: &mut [f32], accumulate: bool) -> LossTerms {
     let n = points.len();
     assert!(n <= s.rows, "block larger than its scratch");
     let last = shape.layers() - 1;
@@ -211,7 +211,9 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], wt: &[Vec<f32>], point
     let (mut adj, mut next) = (&mut s.t1, &mut s.t2);
     for k in 0..last {
         let (fan_in, fan_out) = shape.dims(k);
-        gemm(Mat::new(&adj[..n * fan_in], n, fan_in).t(), Mat::new(&s.q[k][..n * fan_out], n, fan_out), 1.0, &mut grad[shape.w_range(k)]);
+        // The first of dW_k's two products overwrites unless accumulating (no pass to zero it).
+        let beta = if accumulate { 1.0 } else { 0.0 };
+        gemm(Mat::new(&adj[..n * fan_in], n, fan_in).t(), Mat::new(&s.q[k][..n * fan_out], n, fan_out), beta, &mut grad[shape.w_range(k)]);
         let ep = Epilogue::GradChain { scale: -W0 * W0, v: &mut s.v[k][..n * fan_out], h: &s.h[k][..n * fan_out], c: &s.c[k][..n * fan_out] };
         gemm_then(Mat::new(&adj[..n * fan_in], n, fan_in), Mat::new(w(k), fan_in, fan_out), &mut next[..n * fan_out], ep);
         std::mem::swap(&mut adj, &mut next);
@@ -220,6 +222,12 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], wt: &[Vec<f32>], point
     // v_{last-1} is W_last broadcast over the points, f = h_{last-1} . W_last + b_last: both
     // chains' adjoints sum into W_last. adj h_{last-1} = dL/df W_last, and adj z_{last-1} =
     // adj h_{last-1} c_{last-1} + its share from the gradient chain (in v's buffer).
+    if !accumulate {
+        for k in 0..=last {
+            grad[shape.b_range(k)].fill(0.0);
+        }
+        grad[shape.w_range(last)].fill(0.0);
+    }
     elementwise::last_layer_grad(&adj[..n * top], &s.h[last - 1][..n * top], &s.d_f[..n], &mut grad[shape.w_range(last)]);
     grad[shape.b_range(last)][0] += s.d_f[..n].iter().sum::<f32>();
     elementwise::add_outer_times(&s.d_f[..n], w(last), &s.c[last - 1][..n * top], &mut s.v[last - 1][..n * top]);
