@@ -98,6 +98,14 @@ pub fn gemm_then(a: Mat, b: Mat, out: &mut [f32], ep: Epilogue) {
         unsafe { kernel::gemm(m, k, n, a.data.as_ptr(), rsa, csa, b.data.as_ptr(), out.as_mut_ptr(), raw) };
         return;
     }
+    // a b^T with b row-major: dot products of rows, in place (matrixmultiply would pack b,
+    // and the heads' b is a whole weight matrix multiplied by a few rows).
+    #[cfg(target_arch = "x86_64")]
+    if b.t && !a.t && k > 0 && kernel::available() && let Epilogue::Store { beta } = ep {
+        // SAFETY: the CPU has AVX-512F (checked); a holds m x k, b's buffer n x k, out m x n.
+        unsafe { kernel::dots(m, k, n, a.data.as_ptr(), b.data.as_ptr(), beta, out.as_mut_ptr()) };
+        return;
+    }
     let (rsb, csb) = b.strides();
     let plain = |beta: f32, c: &mut [f32]| {
         // SAFETY: the views hold rows*cols elements (checked above), and the strides address
@@ -170,7 +178,7 @@ pub fn add_column_sums(m: &[f32], sums: &mut [f32]) {
 
 #[cfg(test)]
 mod tests {
-    use super::{gemm, Mat};
+    use super::{dots, gemm, gemm_then, Epilogue, Mat};
 
     fn naive(a: &[f32], b: &[f32], m: usize, k: usize, n: usize, at: bool, bt: bool) -> Vec<f32> {
         let mut c = vec![0f32; m * n];
@@ -207,6 +215,66 @@ mod tests {
                         assert!((acc[i] - 1.0 - expected[i]).abs() < 1e-4, "accumulate {m}x{k}x{n}");
                     }
                 }
+            }
+        }
+    }
+
+    fn data(len: usize, seed: usize) -> Vec<f32> {
+        (0..len).map(|i| (((i * 37 + seed * 11) % 101) as f32 - 50.0) * 0.01).collect()
+    }
+
+    #[test]
+    fn every_epilogue_matches_its_formula_on_the_plain_product() {
+        let w0 = 30.0;
+        for &(m, k, n) in &[(128, 128, 128), (13, 3, 64), (25, 37, 32)] {
+            let (a, b) = (data(m * k, 1), data(k * n, 2));
+            // The plain product from the same kernel (the sine's argument is w0 times it: a
+            // float-sum difference would show as 30 times larger).
+            let mut p = vec![0f32; m * n];
+            gemm(Mat::new(&a, m, k), Mat::new(&b, k, n), 0.0, &mut p);
+            let reference = naive(&a, &b, m, k, n, false, false);
+            assert!(p.iter().zip(&reference).all(|(x, y)| (x - y).abs() < 1e-4), "plain product {m}x{k}x{n}");
+            let (f1, f2, f3) = (data(m * n, 3), data(m * n, 4), data(m * n, 5));
+            let bias = data(n, 6);
+            let close = |x: f32, y: f32, what: &str| assert!((x - y).abs() <= 1e-4 * (1.0 + y.abs()), "{what} {m}x{k}x{n}: {x} vs {y}");
+            let (am, bm) = (Mat::new(&a, m, k), Mat::new(&b, k, n));
+
+            let (mut h, mut c) = (vec![0f32; m * n], vec![0f32; m * n]);
+            gemm_then(am, bm, &mut h, Epilogue::Sine { w0, bias: &bias, deriv: &mut c });
+            for i in 0..m * n {
+                let z = w0 * (p[i] + bias[i % n]);
+                close(h[i], z.sin(), "sine");
+                close(c[i] / w0, z.cos(), "cosine");
+            }
+            let (mut out, mut times) = (vec![0f32; m * n], vec![0f32; m * n]);
+            gemm_then(am, bm, &mut out, Epilogue::AlsoTimes { factor: &f1, times: &mut times });
+            for i in 0..m * n {
+                close(out[i], p[i], "product");
+                close(times[i], p[i] * f1[i], "times");
+            }
+            let mut v = f2.clone();
+            gemm_then(am, bm, &mut out, Epilogue::GradChain { scale: -2.0, v: &mut v, h: &f1, c: &f3 });
+            for i in 0..m * n {
+                close(v[i], -2.0 * p[i] * f2[i] * f1[i], "chain v");
+                close(out[i], p[i] * f3[i], "chain out");
+            }
+            let mut acc = f2.clone();
+            gemm_then(am, bm, &mut acc, Epilogue::AddTimes { factor: &f1 });
+            for i in 0..m * n {
+                close(acc[i], f2[i] + p[i] * f1[i], "add times");
+            }
+        }
+    }
+
+    #[test]
+    fn dots_match_a_plain_sum() {
+        for &(m, k, r) in &[(128, 128, 3), (7, 1152, 128), (5, 17, 1), (3, 8, 2)] {
+            let (a, rows) = (data(m * k, 7), data(r * k, 8));
+            let expected = naive(&a, &rows, m, k, r, false, true);
+            let mut out = vec![1f32; m * r];
+            dots(&a, &rows, k, 1.0, &mut out);
+            for i in 0..m * r {
+                assert!((out[i] - 1.0 - expected[i]).abs() < 1e-5 * (1.0 + expected[i].abs()), "{m}x{k}x{r}: {} vs {}", out[i] - 1.0, expected[i]);
             }
         }
     }
