@@ -1,5 +1,5 @@
 //! The element-wise passes of `siren_grad` that do not ride on a product's epilogue (the
-//! layer of width 1 at the top). Plain loops, compiled a second time with AVX-512 enabled
+//! layer of width 1 at the top), and Adam's update. Plain loops, compiled a second time with AVX-512 enabled
 //! when the CPU has it, so they vectorise to 16 lanes.
 
 macro_rules! with_avx512 {
@@ -7,9 +7,11 @@ macro_rules! with_avx512 {
         $(#[$doc])*
         pub fn $name($($arg: $ty),*) {
             #[inline(always)]
+            #[allow(clippy::too_many_arguments)]
             fn body($($arg: $ty),*) $body
             #[cfg(target_arch = "x86_64")]
             #[target_feature(enable = "avx512f")]
+            #[allow(clippy::too_many_arguments)]
             fn fast($($arg: $ty),*) {
                 body($($arg),*)
             }
@@ -55,6 +57,27 @@ with_avx512! {
             for ((c, v), w) in c.iter().zip(v.iter_mut()).zip(w) {
                 *v += d * w * c;
             }
+        }
+    }
+}
+
+with_avx512! {
+    /// Adam's update of parameters `p` from gradients `g` and moments `m`, `v` (`first`: the
+    /// moments start from this gradient, as burn's do). The same operations in the same order
+    /// on every lane, so the update is the scalar one bit for bit.
+    #[allow(clippy::too_many_arguments)]
+    pub fn adam_update(p: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32], first: bool, lr: f32, factor: f32, eps: f32) {
+        const BETA1: f32 = super::adam::BETA1;
+        const BETA2: f32 = super::adam::BETA2;
+        for (((p, &gr), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
+            if first {
+                *m = gr * (1.0 - BETA1);
+                *v = gr * gr * (1.0 - BETA2);
+            } else {
+                *m = *m * BETA1 + gr * (1.0 - BETA1);
+                *v = *v * BETA2 + gr * gr * (1.0 - BETA2);
+            }
+            *p -= lr * (*m * factor / (v.sqrt() + eps));
         }
     }
 }
