@@ -13,8 +13,7 @@ burn's defaults. Random data of the same shapes: the cost of a step does not dep
     python3 benches/train_step_torch.py --preset compact --threads 2 --steps 30
 
 Prints the median step time in milliseconds and the CPU time a step (all threads). Not part
-of the tests; without torch it says so
-and exits 0.
+of the tests; without torch it says so and exits 0.
 """
 import argparse
 import statistics
