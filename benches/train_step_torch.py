@@ -12,8 +12,8 @@ burn's defaults. Random data of the same shapes: the cost of a step does not dep
 
     python3 benches/train_step_torch.py --preset compact --threads 2 --steps 30
 
-Prints the median step time in milliseconds. Not part of the tests; without torch it says so
-and exits 0.
+Prints the median step time in milliseconds and the CPU time a step (all threads). Not part
+of the tests; without torch it says so and exits 0.
 """
 import argparse
 import statistics
@@ -126,6 +126,8 @@ def main():
     pose_inputs = torch.randn(b, 24 * 13)
     times = []
     for step in range(args.steps + 3):
+        if step == 3:
+            cpu = time.process_time()
         t = time.perf_counter()
         surf = torch.rand(b, s, 3) * 1.2 - 0.6
         off = torch.rand(b, o, 3) * 2 - 1
@@ -143,8 +145,12 @@ def main():
         opt.step()
         if step >= 3:
             times.append((time.perf_counter() - t) * 1e3)
+    # CPU time of all threads: steadier than wall time on a shared machine (with one thread;
+    # with more, the OpenMP threads' spin-waiting counts too).
+    cpu_ms = (time.process_time() - cpu) * 1e3 / args.steps
     print(f"pytorch {torch.__version__} {args.preset}: {statistics.median(times):.1f} ms a step "
-          f"(median of {args.steps}, {args.threads} threads, {b} poses x ({s} + {o}) points)")
+          f"(median of {args.steps}, {args.threads} threads, {b} poses x ({s} + {o}) points; "
+          f"{cpu_ms:.1f} ms CPU a step)")
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
-//! Wall and CPU time of training steps on the training path, for profiling:
-//! `cargo run -p avatar-neural --example train_step -- compact 40` (or `paper 5`). CPU time
-//! (all threads) is steadier than wall time on a shared machine.
+//! Wall and CPU time of training steps on the training path, for profiling: after
+//! `cargo build --workspace --locked --all-targets`, `$CARGO_TARGET_DIR/debug/examples/train_step
+//! compact 40` (or `paper 5`; `RAYON_NUM_THREADS=1` for one core). CPU time (all threads) is
+//! steadier than wall time on a shared machine.
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
 use avatar_neural::{HyperConfig, MetaModel};

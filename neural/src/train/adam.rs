@@ -6,8 +6,8 @@
 use rayon::prelude::*;
 use std::ops::Range;
 
-const BETA1: f32 = 0.9;
-const BETA2: f32 = 0.999;
+pub(super) const BETA1: f32 = 0.9;
+pub(super) const BETA2: f32 = 0.999;
 const EPSILON: f32 = 1e-5;
 
 struct Group {
@@ -49,19 +49,7 @@ impl Adam {
                 .zip(grad[range.clone()].par_chunks(CHUNK))
                 .zip(g.m.par_chunks_mut(CHUNK))
                 .zip(g.v.par_chunks_mut(CHUNK))
-                .for_each(|(((p, gr), m), v)| {
-                    for (((p, &gr), m), v) in p.iter_mut().zip(gr).zip(m.iter_mut()).zip(v.iter_mut()) {
-                        // burn starts the moments from the first gradient (no zero state).
-                        if first {
-                            *m = gr * (1.0 - BETA1);
-                            *v = gr * gr * (1.0 - BETA2);
-                        } else {
-                            *m = *m * BETA1 + gr * (1.0 - BETA1);
-                            *v = *v * BETA2 + gr * gr * (1.0 - BETA2);
-                        }
-                        *p -= lr * (*m * factor / (v.sqrt() + eps));
-                    }
-                });
+                .for_each(|(((p, gr), m), v)| super::elementwise::adam_update(p, gr, m, v, first, lr, factor, eps));
         }
     }
 }

@@ -5,9 +5,11 @@
 //! layer), where a packing GEMM spends as long copying its operands into panels as
 //! multiplying them (measured: 36 % packing, 27 % kernel). With AVX-512 (checked at run
 //! time), products whose right operand is row-major with a width that is a multiple of 32 run
-//! on a kernel that reads both operands in place: 8 rows x 32 columns of the result in 16
-//! registers, one broadcast of the left operand and two loads of the right one per 16 fused
-//! multiply-adds. Everything else goes to matrixmultiply's SGEMM.
+//! on `kernel`, which reads both operands in place and applies the product's [`Epilogue`] in
+//! registers. Everything else goes to matrixmultiply's SGEMM, then the epilogue in a loop.
+
+#[cfg(target_arch = "x86_64")]
+use super::kernel;
 
 /// A row-major matrix view: `rows x cols` with an optional transpose.
 #[derive(Clone, Copy)]
@@ -40,29 +42,127 @@ impl<'a> Mat<'a> {
     }
 }
 
+/// What a product does with its result p = a b before it is stored. Every slice is laid out
+/// like the result (`m x n` row-major), but `bias` (one row).
+pub enum Epilogue<'a> {
+    /// out = beta out + p (beta 0 or 1).
+    Store { beta: f32 },
+    /// A sine layer: z = w0 (p + bias); out = sin z, deriv = w0 cos z.
+    Sine { w0: f32, bias: &'a [f32], deriv: &'a mut [f32] },
+    /// out = p and times = p factor.
+    AlsoTimes { factor: &'a [f32], times: &'a mut [f32] },
+    /// v = scale p v h and out = p c (the reverse of a SIREN's spatial-gradient chain).
+    GradChain { scale: f32, v: &'a mut [f32], h: &'a [f32], c: &'a [f32] },
+    /// out += p factor.
+    AddTimes { factor: &'a [f32] },
+}
+
 /// c = beta c + a b, with c row-major `m x n` (`m`, `n` from a and b); beta is 0 or 1.
 pub fn gemm(a: Mat, b: Mat, beta: f32, c: &mut [f32]) {
+    gemm_then(a, b, c, Epilogue::Store { beta });
+}
+
+/// out = the epilogue of a b, with out row-major `m x n`.
+pub fn gemm_then(a: Mat, b: Mat, out: &mut [f32], ep: Epilogue) {
     let (m, k) = a.shape();
     let (k2, n) = b.shape();
     assert_eq!(k, k2, "inner dimensions of a matrix product");
     assert!(a.data.len() >= a.rows * a.cols && b.data.len() >= b.rows * b.cols, "operand views larger than their buffers");
-    assert!(c.len() >= m * n, "product buffer too small");
+    let size = m * n;
+    assert!(out.len() >= size, "product buffer too small");
+    let sized = match &ep {
+        Epilogue::Store { .. } => true,
+        Epilogue::Sine { bias, deriv, .. } => bias.len() >= n && deriv.len() >= size,
+        Epilogue::AlsoTimes { factor, times } => factor.len() >= size && times.len() >= size,
+        Epilogue::GradChain { v, h, c, .. } => v.len() >= size && h.len() >= size && c.len() >= size,
+        Epilogue::AddTimes { factor } => factor.len() >= size,
+    };
+    assert!(sized, "epilogue buffers smaller than the product");
     if m == 0 || n == 0 {
         return;
     }
     let (rsa, csa) = a.strides();
     #[cfg(target_arch = "x86_64")]
-    if !b.t && n % 32 == 0 && k > 0 && avx512::available() {
-        // SAFETY: the CPU has AVX-512F (checked); a's strides address its m x k view inside its
-        // buffer, b is row-major k x n, c holds m x n (all checked above).
-        unsafe { avx512::gemm(m, k, n, a.data.as_ptr(), rsa, csa, b.data.as_ptr(), beta, c.as_mut_ptr()) };
+    if !b.t && n % 32 == 0 && k > 0 && kernel::available() {
+        use kernel::Raw;
+        let raw = match ep {
+            Epilogue::Store { beta } => Raw::Store { beta },
+            Epilogue::Sine { w0, bias, deriv } => Raw::Sine { w0, bias: bias.as_ptr(), deriv: deriv.as_mut_ptr() },
+            Epilogue::AlsoTimes { factor, times } => Raw::AlsoTimes { factor: factor.as_ptr(), times: times.as_mut_ptr() },
+            Epilogue::GradChain { scale, v, h, c } => Raw::GradChain { scale, v: v.as_mut_ptr(), h: h.as_ptr(), c: c.as_ptr() },
+            Epilogue::AddTimes { factor } => Raw::AddTimes { factor: factor.as_ptr() },
+        };
+        // SAFETY: the CPU has AVX-512F (checked); a's strides address its m x k view inside
+        // its buffer, b is row-major k x n, out and the epilogue's buffers hold m x n (all
+        // checked above).
+        unsafe { kernel::gemm(m, k, n, a.data.as_ptr(), rsa, csa, b.data.as_ptr(), out.as_mut_ptr(), raw) };
+        return;
+    }
+    // a b^T with b row-major: dot products of rows, in place (matrixmultiply would pack b,
+    // and the heads' b is a whole weight matrix multiplied by a few rows).
+    #[cfg(target_arch = "x86_64")]
+    if b.t && !a.t && k > 0 && kernel::available() && let Epilogue::Store { beta } = ep {
+        // SAFETY: the CPU has AVX-512F (checked); a holds m x k, b's buffer n x k, out m x n.
+        unsafe { kernel::dots(m, k, n, a.data.as_ptr(), b.data.as_ptr(), beta, out.as_mut_ptr()) };
         return;
     }
     let (rsb, csb) = b.strides();
-    // SAFETY: the views hold rows*cols elements (checked above), and the strides address
-    // exactly those elements; c holds m*n.
-    unsafe {
-        matrixmultiply::sgemm(m, k, n, 1.0, a.data.as_ptr(), rsa, csa, b.data.as_ptr(), rsb, csb, beta, c.as_mut_ptr(), n as isize, 1);
+    let plain = |beta: f32, c: &mut [f32]| {
+        // SAFETY: the views hold rows*cols elements (checked above), and the strides address
+        // exactly those elements; c holds m*n.
+        unsafe { matrixmultiply::sgemm(m, k, n, 1.0, a.data.as_ptr(), rsa, csa, b.data.as_ptr(), rsb, csb, beta, c.as_mut_ptr(), n as isize, 1) }
+    };
+    let out = &mut out[..size];
+    match ep {
+        Epilogue::Store { beta } => plain(beta, out),
+        Epilogue::Sine { w0, bias, deriv } => {
+            plain(0.0, out);
+            for (row, d_row) in out.chunks_exact_mut(n).zip(deriv.chunks_exact_mut(n)) {
+                for ((o, d), b) in row.iter_mut().zip(d_row.iter_mut()).zip(bias) {
+                    let (s, c) = crate::siren_eval::sin_cos(w0 * (*o + b));
+                    (*o, *d) = (s, w0 * c);
+                }
+            }
+        }
+        Epilogue::AlsoTimes { factor, times } => {
+            plain(0.0, out);
+            for ((t, o), f) in times.iter_mut().zip(out.iter()).zip(factor) {
+                *t = o * f;
+            }
+        }
+        Epilogue::GradChain { scale, v, h, c } => {
+            plain(0.0, out);
+            for (((o, v), h), c) in out.iter_mut().zip(v.iter_mut()).zip(h).zip(c) {
+                *v *= scale * *o * h;
+                *o *= c;
+            }
+        }
+        Epilogue::AddTimes { factor } => {
+            let mut p = vec![0f32; size];
+            plain(0.0, &mut p);
+            for ((o, p), f) in out.iter_mut().zip(&p).zip(factor) {
+                *o += p * f;
+            }
+        }
+    }
+}
+
+/// out[i * r + j] = beta out[i * r + j] + a_i . rows_j, for a `m x k` and rows `r x k`, both
+/// row-major (out `m x r`): the products with a layer of width 1 or 3.
+pub fn dots(a: &[f32], rows: &[f32], k: usize, beta: f32, out: &mut [f32]) {
+    let (m, r) = (a.len() / k.max(1), rows.len() / k.max(1));
+    assert!(out.len() >= m * r, "product buffer too small");
+    #[cfg(target_arch = "x86_64")]
+    if kernel::available() && k > 0 {
+        // SAFETY: the CPU has AVX-512F; a holds m x k, rows r x k, out m x r (checked above).
+        unsafe { kernel::dots(m, k, r, a.as_ptr(), rows.as_ptr(), beta, out.as_mut_ptr()) };
+        return;
+    }
+    for (ai, oi) in a.chunks_exact(k.max(1)).zip(out.chunks_exact_mut(r.max(1))) {
+        for (bj, o) in rows.chunks_exact(k.max(1)).zip(oi.iter_mut()) {
+            let s: f32 = ai.iter().zip(bj).map(|(x, y)| x * y).sum();
+            *o = if beta == 0.0 { s } else { *o + s };
+        }
     }
 }
 
@@ -76,89 +176,9 @@ pub fn add_column_sums(m: &[f32], sums: &mut [f32]) {
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-mod avx512 {
-    use std::arch::x86_64::*;
-    use std::sync::OnceLock;
-
-    pub fn available() -> bool {
-        static AVAILABLE: OnceLock<bool> = OnceLock::new();
-        *AVAILABLE.get_or_init(|| std::arch::is_x86_feature_detected!("avx512f") && std::env::var_os("AVATAR_NO_AVX512").is_none())
-    }
-
-    const MR: usize = 8;
-    const NR: usize = 32;
-
-    /// c (m x n, row-major) = beta c + a b; a element (i, p) at a[i * rsa + p * csa]; b
-    /// row-major k x n; n a multiple of 32.
-    #[target_feature(enable = "avx512f")]
-    #[allow(clippy::too_many_arguments)]
-    pub unsafe fn gemm(m: usize, k: usize, n: usize, a: *const f32, rsa: isize, csa: isize, b: *const f32, beta: f32, c: *mut f32) {
-        let mut i0 = 0;
-        while i0 < m {
-            let rows = MR.min(m - i0);
-            let mut j0 = 0;
-            while j0 < n {
-                // SAFETY: the tile lies inside the m x n result and reads rows i0..i0+rows of
-                // a and columns j0..j0+32 of b (the caller's contract).
-                unsafe {
-                    match rows {
-                        8 => tile::<8>(k, n, a, rsa, csa, b, beta, c, i0, j0),
-                        7 => tile::<7>(k, n, a, rsa, csa, b, beta, c, i0, j0),
-                        6 => tile::<6>(k, n, a, rsa, csa, b, beta, c, i0, j0),
-                        5 => tile::<5>(k, n, a, rsa, csa, b, beta, c, i0, j0),
-                        4 => tile::<4>(k, n, a, rsa, csa, b, beta, c, i0, j0),
-                        3 => tile::<3>(k, n, a, rsa, csa, b, beta, c, i0, j0),
-                        2 => tile::<2>(k, n, a, rsa, csa, b, beta, c, i0, j0),
-                        _ => tile::<1>(k, n, a, rsa, csa, b, beta, c, i0, j0),
-                    }
-                }
-                j0 += NR;
-            }
-            i0 += MR;
-        }
-    }
-
-    #[target_feature(enable = "avx512f")]
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    unsafe fn tile<const R: usize>(k: usize, n: usize, a: *const f32, rsa: isize, csa: isize, b: *const f32, beta: f32, c: *mut f32, i0: usize, j0: usize) {
-        // SAFETY (whole body): indices stay within the caller's m x k, k x n and m x n views.
-        // Pointer steps use wrapping arithmetic: the dev profile's overflow checks in the inner
-        // loop kept the accumulators out of registers.
-        unsafe {
-            let mut acc = [[_mm512_setzero_ps(); 2]; R];
-            let rows: [*const f32; R] = std::array::from_fn(|d| a.wrapping_offset(rsa.wrapping_mul((i0 + d) as isize)));
-            let mut a_step: isize = 0;
-            let mut bp = b.wrapping_add(j0);
-            for _ in 0..k {
-                let b0 = _mm512_loadu_ps(bp);
-                let b1 = _mm512_loadu_ps(bp.wrapping_add(16));
-                for d in 0..R {
-                    let av = _mm512_set1_ps(*rows[d].wrapping_offset(a_step));
-                    acc[d][0] = _mm512_fmadd_ps(av, b0, acc[d][0]);
-                    acc[d][1] = _mm512_fmadd_ps(av, b1, acc[d][1]);
-                }
-                a_step = a_step.wrapping_add(csa);
-                bp = bp.wrapping_add(n);
-            }
-            for (d, acc) in acc.iter().enumerate() {
-                let cp = c.wrapping_add((i0 + d).wrapping_mul(n).wrapping_add(j0));
-                if beta == 0.0 {
-                    _mm512_storeu_ps(cp, acc[0]);
-                    _mm512_storeu_ps(cp.add(16), acc[1]);
-                } else {
-                    _mm512_storeu_ps(cp, _mm512_add_ps(_mm512_loadu_ps(cp), acc[0]));
-                    _mm512_storeu_ps(cp.add(16), _mm512_add_ps(_mm512_loadu_ps(cp.add(16)), acc[1]));
-                }
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{gemm, Mat};
+    use super::{dots, gemm, gemm_then, Epilogue, Mat};
 
     fn naive(a: &[f32], b: &[f32], m: usize, k: usize, n: usize, at: bool, bt: bool) -> Vec<f32> {
         let mut c = vec![0f32; m * n];
@@ -195,6 +215,66 @@ mod tests {
                         assert!((acc[i] - 1.0 - expected[i]).abs() < 1e-4, "accumulate {m}x{k}x{n}");
                     }
                 }
+            }
+        }
+    }
+
+    fn data(len: usize, seed: usize) -> Vec<f32> {
+        (0..len).map(|i| (((i * 37 + seed * 11) % 101) as f32 - 50.0) * 0.01).collect()
+    }
+
+    #[test]
+    fn every_epilogue_matches_its_formula_on_the_plain_product() {
+        let w0 = 30.0;
+        for &(m, k, n) in &[(128, 128, 128), (13, 3, 64), (25, 37, 32)] {
+            let (a, b) = (data(m * k, 1), data(k * n, 2));
+            // The plain product from the same kernel (the sine's argument is w0 times it: a
+            // float-sum difference would show as 30 times larger).
+            let mut p = vec![0f32; m * n];
+            gemm(Mat::new(&a, m, k), Mat::new(&b, k, n), 0.0, &mut p);
+            let reference = naive(&a, &b, m, k, n, false, false);
+            assert!(p.iter().zip(&reference).all(|(x, y)| (x - y).abs() < 1e-4), "plain product {m}x{k}x{n}");
+            let (f1, f2, f3) = (data(m * n, 3), data(m * n, 4), data(m * n, 5));
+            let bias = data(n, 6);
+            let close = |x: f32, y: f32, what: &str| assert!((x - y).abs() <= 1e-4 * (1.0 + y.abs()), "{what} {m}x{k}x{n}: {x} vs {y}");
+            let (am, bm) = (Mat::new(&a, m, k), Mat::new(&b, k, n));
+
+            let (mut h, mut c) = (vec![0f32; m * n], vec![0f32; m * n]);
+            gemm_then(am, bm, &mut h, Epilogue::Sine { w0, bias: &bias, deriv: &mut c });
+            for i in 0..m * n {
+                let z = w0 * (p[i] + bias[i % n]);
+                close(h[i], z.sin(), "sine");
+                close(c[i] / w0, z.cos(), "cosine");
+            }
+            let (mut out, mut times) = (vec![0f32; m * n], vec![0f32; m * n]);
+            gemm_then(am, bm, &mut out, Epilogue::AlsoTimes { factor: &f1, times: &mut times });
+            for i in 0..m * n {
+                close(out[i], p[i], "product");
+                close(times[i], p[i] * f1[i], "times");
+            }
+            let mut v = f2.clone();
+            gemm_then(am, bm, &mut out, Epilogue::GradChain { scale: -2.0, v: &mut v, h: &f1, c: &f3 });
+            for i in 0..m * n {
+                close(v[i], -2.0 * p[i] * f2[i] * f1[i], "chain v");
+                close(out[i], p[i] * f3[i], "chain out");
+            }
+            let mut acc = f2.clone();
+            gemm_then(am, bm, &mut acc, Epilogue::AddTimes { factor: &f1 });
+            for i in 0..m * n {
+                close(acc[i], f2[i] + p[i] * f1[i], "add times");
+            }
+        }
+    }
+
+    #[test]
+    fn dots_match_a_plain_sum() {
+        for &(m, k, r) in &[(128, 128, 3), (7, 1152, 128), (5, 17, 1), (3, 8, 2)] {
+            let (a, rows) = (data(m * k, 7), data(r * k, 8));
+            let expected = naive(&a, &rows, m, k, r, false, true);
+            let mut out = vec![1f32; m * r];
+            dots(&a, &rows, k, 1.0, &mut out);
+            for i in 0..m * r {
+                assert!((out[i] - 1.0 - expected[i]).abs() < 1e-5 * (1.0 + expected[i].abs()), "{m}x{k}x{r}: {} vs {}", out[i] - 1.0, expected[i]);
             }
         }
     }

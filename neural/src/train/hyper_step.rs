@@ -107,29 +107,35 @@ impl HyperGradient {
         for v in [&mut self.pose_params, &mut self.residuals, &mut self.pose_grads] {
             v.resize_with(poses, || vec![0f32; shape.len()]);
         }
-        let mut residual_sq = 0f64;
-        for p in 0..poses {
-            let res = &mut self.residuals[p];
-            for l in 0..shape.layers() {
-                let (fan_in, fan_out) = shape.dims(l);
-                let out = &self.head_passes[l].out;
-                let width = out.len() / poses;
-                let row = &out[p * width..(p + 1) * width];
-                let coeffs = width - fan_out;
-                match lay.rank(l) {
-                    Some(r) => {
-                        let u = &params[lay.bases[l].range()];
-                        gemm(Mat::new(u, fan_in, r), Mat::new(&row[..coeffs], r, fan_out), 0.0, &mut res[shape.w_range(l)]);
+        let (heads_out, layout) = (&self.head_passes, &*lay);
+        let residual_sq: f64 = self.residuals[..poses]
+            .par_iter_mut()
+            .zip(&mut self.pose_params[..poses])
+            .enumerate()
+            .map(|(p, (res, pose))| {
+                for l in 0..shape.layers() {
+                    let (fan_in, fan_out) = shape.dims(l);
+                    let out = &heads_out[l].out;
+                    let width = out.len() / poses;
+                    let row = &out[p * width..(p + 1) * width];
+                    let coeffs = width - fan_out;
+                    match layout.rank(l) {
+                        Some(r) => {
+                            let u = &params[layout.bases[l].range()];
+                            gemm(Mat::new(u, fan_in, r), Mat::new(&row[..coeffs], r, fan_out), 0.0, &mut res[shape.w_range(l)]);
+                        }
+                        None => res[shape.w_range(l)].copy_from_slice(&row[..coeffs]),
                     }
-                    None => res[shape.w_range(l)].copy_from_slice(&row[..coeffs]),
+                    res[shape.b_range(l)].copy_from_slice(&row[coeffs..]);
                 }
-                res[shape.b_range(l)].copy_from_slice(&row[coeffs..]);
-            }
-            residual_sq += res.iter().map(|v| (v * v) as f64).sum::<f64>();
-            for ((w, b), r) in self.pose_params[p].iter_mut().zip(base).zip(res.iter()) {
-                *w = b + r;
-            }
-        }
+                for ((w, b), r) in pose.iter_mut().zip(base).zip(res.iter()) {
+                    *w = b + r;
+                }
+                res.iter().map(|v| (v * v) as f64).sum::<f64>()
+            })
+            .collect::<Vec<f64>>()
+            .into_iter()
+            .sum();
         let residual_sq = (residual_sq / poses as f64) as f32;
 
         // Every pose's SIREN over its points, on all cores.
@@ -137,21 +143,24 @@ impl HyperGradient {
         let terms = self.runner.run(&pose_params, &batch.points, &batch.loss, &mut self.pose_grads[..poses]);
 
         // The base SDF collects every pose's gradient (the regulariser does not see it).
-        let g_sdf = &mut grad[lay.sdf_range.clone()];
-        for pg in &self.pose_grads[..poses] {
-            for (a, v) in g_sdf.iter_mut().zip(pg) {
-                *a += v;
+        const CHUNK: usize = 1 << 13;
+        let pose_grads = &self.pose_grads[..poses];
+        grad[lay.sdf_range.clone()].par_chunks_mut(CHUNK).enumerate().for_each(|(c, g)| {
+            for pg in pose_grads {
+                for (a, v) in g.iter_mut().zip(&pg[c * CHUNK..]) {
+                    *a += v;
+                }
             }
-        }
+        });
         // Residual regulariser: coef sqrt(mean over poses of |residual|^2 + 1e-12).
         let coef = batch.residual_weight / shape.len() as f32;
         let root = (residual_sq + 1e-12).sqrt();
         let k_reg = coef / (poses as f32 * root);
-        for (pg, res) in self.pose_grads[..poses].iter_mut().zip(&self.residuals) {
+        self.pose_grads[..poses].par_iter_mut().zip(&self.residuals).for_each(|(pg, res)| {
             for (g, r) in pg.iter_mut().zip(res) {
                 *g += k_reg * r;
             }
-        }
+        });
 
         // Adjoints of the heads' outputs (and the low-rank bases' gradient).
         for l in 0..shape.layers() {

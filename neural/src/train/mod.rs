@@ -12,7 +12,10 @@
 
 pub mod adam;
 pub mod blocks;
+mod elementwise;
 pub mod gemm;
+#[cfg(target_arch = "x86_64")]
+mod kernel;
 pub mod heads;
 pub mod hyper_step;
 pub mod igr;

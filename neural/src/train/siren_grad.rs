@@ -12,9 +12,9 @@
 //! The adjoints follow the two chains backwards; the sine's second derivative enters through
 //! c_k: d c_k / d z_k = -W0^2 h_k.
 
-use super::gemm::{add_column_sums, gemm, Mat};
+use super::elementwise;
+use super::gemm::{add_column_sums, dots, gemm, gemm_then, Epilogue, Mat};
 use crate::siren::W0;
-use crate::siren_eval::sin_cos;
 
 /// Where each layer's weights and biases sit in a SIREN's flat parameter vector (the burn
 /// module's visit order: every weight matrix [in, out], then every bias).
@@ -120,9 +120,6 @@ pub struct SirenScratch {
     d_g: Vec<f32>,
     t1: Vec<f32>,
     t2: Vec<f32>,
-    /// Each layer's weights transposed ([out, in]): products with W^T then read both operands
-    /// row-major (the fast kernel of `gemm`).
-    wt: Vec<Vec<f32>>,
 }
 
 impl SirenScratch {
@@ -143,15 +140,32 @@ impl SirenScratch {
             d_g: vec![0f32; rows * 3],
             t1: vec![0f32; wide],
             t2: vec![0f32; wide],
-            wt: (0..shape.layers()).map(|k| vec![0f32; shape.widths[k] * shape.widths[k + 1]]).collect(),
         }
     }
 }
 
-/// Add the gradient of the loss over one block of points to `grad` (same layout as `params`)
-/// and return the block's loss terms. `group` and `first` tell `loss` which points these are.
+/// Each layer's weights transposed ([out, in]) into `wt`: products with W^T then read both
+/// operands row-major (the fast kernel of `gemm`). Once per SIREN and step, shared by its
+/// blocks.
+pub fn transpose_weights(shape: &SirenShape, params: &[f32], wt: &mut Vec<Vec<f32>>) {
+    wt.resize_with(shape.layers(), Vec::new);
+    for (k, dst) in wt.iter_mut().enumerate() {
+        let (fan_in, fan_out) = shape.dims(k);
+        let src = &params[shape.w_range(k)];
+        dst.resize(fan_in * fan_out, 0.0);
+        for i in 0..fan_in {
+            for j in 0..fan_out {
+                dst[j * fan_in + i] = src[i * fan_out + j];
+            }
+        }
+    }
+}
+
+/// The gradient of the loss over one block of points into `grad` (same layout as `params`;
+/// added to it when `accumulate`, else overwritten) and the block's loss terms. `wt`: `transpose_weights` of `params`; `group` and
+/// `first` tell `loss` which points these are.
 #[allow(clippy::too_many_arguments)]
-pub fn siren_backward(shape: &SirenShape, params: &[f32], points: &[[f32; 3]], loss: &dyn PointLoss, group: usize, first: usize, s: &mut SirenScratch, grad: &mut [f32]) -> LossTerms {
+pub fn siren_backward(shape: &SirenShape, params: &[f32], wt: &[Vec<f32>], points: &[[f32; 3]], loss: &dyn PointLoss, group: usize, first: usize, s: &mut SirenScratch, grad: &mut [f32], accumulate: bool) -> LossTerms {
     let n = points.len();
     assert!(n <= s.rows, "block larger than its scratch");
     let last = shape.layers() - 1;
@@ -160,89 +174,75 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], points: &[[f32; 3]], l
     for (row, p) in s.x.chunks_exact_mut(3).zip(points) {
         row.copy_from_slice(p);
     }
-    for k in 0..=last {
-        let (fan_in, fan_out) = shape.dims(k);
-        let (src, dst) = (w(k), &mut s.wt[k]);
-        for i in 0..fan_in {
-            for j in 0..fan_out {
-                dst[j * fan_in + i] = src[i * fan_out + j];
-            }
-        }
-    }
+    let top = shape.widths[last];
 
-    // Forward: z_k = h_{k-1} W_k + b_k; h_k = sin(W0 z_k), c_k = W0 cos(W0 z_k).
-    for k in 0..=last {
+    // Forward: h_k = sin(W0 z_k), c_k = W0 cos(W0 z_k) from z_k = h_{k-1} W_k + b_k in the
+    // product's epilogue; f = h_{last-1} . W_last + b_last.
+    for k in 0..last {
         let (fan_in, fan_out) = shape.dims(k);
-        let z: &mut [f32] = if k == last { &mut s.f[..n] } else { &mut s.t1[..n * fan_out] };
-        for row in z.chunks_exact_mut(fan_out) {
-            row.copy_from_slice(b(k));
-        }
-        let input = if k == 0 { &s.x[..n * 3] } else { &s.h[k - 1][..n * fan_in] };
-        gemm(Mat::new(input, n, fan_in), Mat::new(w(k), fan_in, fan_out), 1.0, z);
-        if k < last {
-            let (h, c) = (&mut s.h[k][..n * fan_out], &mut s.c[k][..n * fan_out]);
-            for ((z, h), c) in s.t1[..n * fan_out].iter().zip(h.iter_mut()).zip(c.iter_mut()) {
-                let (sin, cos) = sin_cos(W0 * z);
-                *h = sin;
-                *c = W0 * cos;
-            }
-        }
+        let (below, above) = s.h.split_at_mut(k);
+        let input = if k == 0 { &s.x[..n * 3] } else { &below[k - 1][..n * fan_in] };
+        let ep = Epilogue::Sine { w0: W0, bias: b(k), deriv: &mut s.c[k][..n * fan_out] };
+        gemm_then(Mat::new(input, n, fan_in), Mat::new(w(k), fan_in, fan_out), &mut above[0][..n * fan_out], ep);
     }
+    dots(&s.h[last - 1][..n * top], w(last), top, 0.0, &mut s.f[..n]);
+    let b_last = b(last)[0];
+    s.f[..n].iter_mut().for_each(|f| *f += b_last);
 
     // Spatial gradient: v_{last-1} = W_last (one column) for every point; q_k = v_k c_k;
-    // v_{k-1} = q_k W_k^T; the input's gradient is the last v.
-    let top = shape.widths[last];
-    for row in s.v[last - 1][..n * top].chunks_exact_mut(top) {
-        row.copy_from_slice(w(last));
-    }
-    for k in (0..last).rev() {
+    // v_{k-1} = q_k W_k^T (q_{k-1} in the same product's epilogue); the input's gradient
+    // is the last v.
+    elementwise::broadcast_times(w(last), &s.c[last - 1][..n * top], &mut s.v[last - 1][..n * top], &mut s.q[last - 1][..n * top]);
+    for k in (1..last).rev() {
         let (fan_in, fan_out) = shape.dims(k);
-        for ((q, v), c) in s.q[k][..n * fan_out].iter_mut().zip(&s.v[k][..n * fan_out]).zip(&s.c[k][..n * fan_out]) {
-            *q = v * c;
-        }
-        let out: &mut [f32] = if k == 0 { &mut s.g[..n * 3] } else { &mut s.v[k - 1][..n * fan_in] };
-        gemm(Mat::new(&s.q[k][..n * fan_out], n, fan_out), Mat::new(&s.wt[k], fan_out, fan_in), 0.0, out);
+        let (q_below, q_above) = s.q.split_at_mut(k);
+        let ep = Epilogue::AlsoTimes { factor: &s.c[k - 1][..n * fan_in], times: &mut q_below[k - 1][..n * fan_in] };
+        gemm_then(Mat::new(&q_above[0][..n * fan_out], n, fan_out), Mat::new(&wt[k], fan_out, fan_in), &mut s.v[k - 1][..n * fan_in], ep);
     }
+    dots(&s.q[0][..n * shape.widths[1]], w(0), shape.widths[1], 0.0, &mut s.g[..n * 3]);
 
     let terms = loss.adjoint(group, first, &s.f[..n], &s.g[..n * 3], &mut s.d_f[..n], &mut s.d_g[..n * 3]);
 
-    // Reverse of the gradient chain, from the input up. t1 holds the adjoint of v_{k-1}
-    // (the adjoint of the input's gradient first); per layer: adj q_k = adj v_{k-1} W_k,
-    // dW_k += adj v_{k-1}^T q_k, adj v_k = adj q_k c_k, and adj z_k gets
-    // adj q_k v_k (-W0^2 h_k), kept in v_k's buffer (v_k is not needed any more).
+    // Reverse of the gradient chain, from the input up. `adj` holds the adjoint of v_{k-1}
+    // (the adjoint of the input's gradient first); per layer: dW_k += adj v_{k-1}^T q_k,
+    // adj q_k = adj v_{k-1} W_k, and in that product's epilogue adj v_k = adj q_k c_k and
+    // v_k's buffer takes adj z_k's share adj q_k v_k (-W0^2 h_k) (v_k is not needed any more).
     s.t1[..n * 3].copy_from_slice(&s.d_g[..n * 3]);
+    let (mut adj, mut next) = (&mut s.t1, &mut s.t2);
     for k in 0..last {
         let (fan_in, fan_out) = shape.dims(k);
-        gemm(Mat::new(&s.t1[..n * fan_in], n, fan_in), Mat::new(w(k), fan_in, fan_out), 0.0, &mut s.t2[..n * fan_out]);
-        gemm(Mat::new(&s.t1[..n * fan_in], n, fan_in).t(), Mat::new(&s.q[k][..n * fan_out], n, fan_out), 1.0, &mut grad[shape.w_range(k)]);
-        let second = -W0 * W0;
-        for ((((aq, v), h), c), av) in s.t2[..n * fan_out].iter().zip(s.v[k][..n * fan_out].iter_mut()).zip(&s.h[k][..n * fan_out]).zip(&s.c[k][..n * fan_out]).zip(s.t1[..n * fan_out].iter_mut()) {
-            *v = second * aq * *v * h;
-            *av = aq * c;
-        }
+        // The first of dW_k's two products overwrites unless accumulating (no pass to zero it).
+        let beta = if accumulate { 1.0 } else { 0.0 };
+        gemm(Mat::new(&adj[..n * fan_in], n, fan_in).t(), Mat::new(&s.q[k][..n * fan_out], n, fan_out), beta, &mut grad[shape.w_range(k)]);
+        let ep = Epilogue::GradChain { scale: -W0 * W0, v: &mut s.v[k][..n * fan_out], h: &s.h[k][..n * fan_out], c: &s.c[k][..n * fan_out] };
+        gemm_then(Mat::new(&adj[..n * fan_in], n, fan_in), Mat::new(w(k), fan_in, fan_out), &mut next[..n * fan_out], ep);
+        std::mem::swap(&mut adj, &mut next);
     }
-    // v_{last-1} is W_last broadcast over the points: its adjoint sums into W_last.
-    add_column_sums(&s.t1[..n * top], &mut grad[shape.w_range(last)]);
 
-    // Reverse of the forward chain: adj z_last = dL/df; adj h_{last-1} = adj z_last W_last^T.
-    gemm(Mat::new(&s.h[last - 1][..n * top], n, top).t(), Mat::new(&s.d_f[..n], n, 1), 1.0, &mut grad[shape.w_range(last)]);
-    grad[shape.b_range(last)][0] += s.d_f[..n].iter().sum::<f32>();
-    for (row, &a) in s.t1[..n * top].chunks_exact_mut(top).zip(&s.d_f[..n]) {
-        for (r, wv) in row.iter_mut().zip(w(last)) {
-            *r = a * wv;
+    // v_{last-1} is W_last broadcast over the points, f = h_{last-1} . W_last + b_last: both
+    // chains' adjoints sum into W_last. adj h_{last-1} = dL/df W_last, and adj z_{last-1} =
+    // adj h_{last-1} c_{last-1} + its share from the gradient chain (in v's buffer).
+    if !accumulate {
+        for k in 0..=last {
+            grad[shape.b_range(k)].fill(0.0);
         }
+        grad[shape.w_range(last)].fill(0.0);
     }
+    elementwise::last_layer_grad(&adj[..n * top], &s.h[last - 1][..n * top], &s.d_f[..n], &mut grad[shape.w_range(last)]);
+    grad[shape.b_range(last)][0] += s.d_f[..n].iter().sum::<f32>();
+    elementwise::add_outer_times(&s.d_f[..n], w(last), &s.c[last - 1][..n * top], &mut s.v[last - 1][..n * top]);
+
+    // Reverse of the forward chain: dW_k += h_{k-1}^T adj z_k, db_k += adj z_k, and adj
+    // z_{k-1} = (adj z_k W_k^T) c_{k-1} + its gradient-chain share, in the product's epilogue.
     for k in (0..last).rev() {
         let (fan_in, fan_out) = shape.dims(k);
-        // adj z_k = adj h_k c_k + (the gradient chain's share, in v_k's buffer).
-        for ((az, ah), c) in s.v[k][..n * fan_out].iter_mut().zip(&s.t1[..n * fan_out]).zip(&s.c[k][..n * fan_out]) {
-            *az += ah * c;
-        }
         let input = if k == 0 { &s.x[..n * 3] } else { &s.h[k - 1][..n * fan_in] };
         gemm(Mat::new(input, n, fan_in).t(), Mat::new(&s.v[k][..n * fan_out], n, fan_out), 1.0, &mut grad[shape.w_range(k)]);
         add_column_sums(&s.v[k][..n * fan_out], &mut grad[shape.b_range(k)]);
         if k > 0 {
-            gemm(Mat::new(&s.v[k][..n * fan_out], n, fan_out), Mat::new(&s.wt[k], fan_out, fan_in), 0.0, &mut s.t1[..n * fan_in]);
+            let (below, above) = s.v.split_at_mut(k);
+            let ep = Epilogue::AddTimes { factor: &s.c[k - 1][..n * fan_in] };
+            gemm_then(Mat::new(&above[0][..n * fan_out], n, fan_out), Mat::new(&wt[k], fan_out, fan_in), &mut below[k - 1][..n * fan_in], ep);
         }
     }
     terms

@@ -1,0 +1,83 @@
+//! The element-wise passes of `siren_grad` that do not ride on a product's epilogue (the
+//! layer of width 1 at the top), and Adam's update. Plain loops, compiled a second time with AVX-512 enabled
+//! when the CPU has it, so they vectorise to 16 lanes.
+
+macro_rules! with_avx512 {
+    ($(#[$doc:meta])* pub fn $name:ident($($arg:ident: $ty:ty),*) $body:block) => {
+        $(#[$doc])*
+        pub fn $name($($arg: $ty),*) {
+            #[inline(always)]
+            #[allow(clippy::too_many_arguments)]
+            fn body($($arg: $ty),*) $body
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx512f")]
+            #[allow(clippy::too_many_arguments)]
+            fn fast($($arg: $ty),*) {
+                body($($arg),*)
+            }
+            #[cfg(target_arch = "x86_64")]
+            if super::kernel::available() {
+                // SAFETY: the CPU has AVX-512F (checked).
+                unsafe { fast($($arg),*) };
+                return;
+            }
+            body($($arg),*)
+        }
+    };
+}
+
+with_avx512! {
+    /// v[i, j] = w[j] and q[i, j] = w[j] c[i, j] (rows of `w.len()`).
+    pub fn broadcast_times(w: &[f32], c: &[f32], v: &mut [f32], q: &mut [f32]) {
+        for ((c, v), q) in c.chunks_exact(w.len()).zip(v.chunks_exact_mut(w.len())).zip(q.chunks_exact_mut(w.len())) {
+            for (((c, v), q), w) in c.iter().zip(v.iter_mut()).zip(q.iter_mut()).zip(w) {
+                *v = *w;
+                *q = w * c;
+            }
+        }
+    }
+}
+
+with_avx512! {
+    /// grad[j] += the sum over rows i of adj[i, j] + d_f[i] h[i, j] (rows of `grad.len()`).
+    pub fn last_layer_grad(adj: &[f32], h: &[f32], d_f: &[f32], grad: &mut [f32]) {
+        let width = grad.len();
+        for ((a, h), d) in adj.chunks_exact(width).zip(h.chunks_exact(width)).zip(d_f) {
+            for ((g, a), h) in grad.iter_mut().zip(a).zip(h) {
+                *g += a + d * h;
+            }
+        }
+    }
+}
+
+with_avx512! {
+    /// v[i, j] += d_f[i] w[j] c[i, j] (rows of `w.len()`).
+    pub fn add_outer_times(d_f: &[f32], w: &[f32], c: &[f32], v: &mut [f32]) {
+        for ((c, v), d) in c.chunks_exact(w.len()).zip(v.chunks_exact_mut(w.len())).zip(d_f) {
+            for ((c, v), w) in c.iter().zip(v.iter_mut()).zip(w) {
+                *v += d * w * c;
+            }
+        }
+    }
+}
+
+with_avx512! {
+    /// Adam's update of parameters `p` from gradients `g` and moments `m`, `v` (`first`: the
+    /// moments start from this gradient, as burn's do). The same operations in the same order
+    /// on every lane, so the update is the scalar one bit for bit.
+    #[allow(clippy::too_many_arguments)]
+    pub fn adam_update(p: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32], first: bool, lr: f32, factor: f32, eps: f32) {
+        const BETA1: f32 = super::adam::BETA1;
+        const BETA2: f32 = super::adam::BETA2;
+        for (((p, &gr), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
+            if first {
+                *m = gr * (1.0 - BETA1);
+                *v = gr * gr * (1.0 - BETA2);
+            } else {
+                *m = *m * BETA1 + gr * (1.0 - BETA1);
+                *v = *v * BETA2 + gr * gr * (1.0 - BETA2);
+            }
+            *p -= lr * (*m * factor / (v.sqrt() + eps));
+        }
+    }
+}
