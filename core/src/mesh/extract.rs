@@ -43,6 +43,9 @@ pub struct ExtractOptions {
     pub batch_size: usize,
     /// Keep only the largest connected component (MetaAvatar's clean-up).
     pub largest_component_only: bool,
+    /// Taubin smoothing iterations on the result (`super::smooth`): the terraces of the grid
+    /// go, the shape stays.
+    pub smoothing_iterations: usize,
 }
 
 impl ExtractOptions {
@@ -58,6 +61,7 @@ impl ExtractOptions {
             level: 0.0,
             batch_size: 1 << 16,
             largest_component_only: true,
+            smoothing_iterations: 0,
         }
     }
 
@@ -300,6 +304,7 @@ where
     if options.largest_component_only {
         mesh = largest_component(&mesh);
     }
+    super::smooth::taubin(&mut mesh, options.smoothing_iterations);
     Ok(Extraction { mesh, stats })
 }
 

@@ -5,6 +5,7 @@ pub mod extract;
 pub mod io;
 mod marching_cubes;
 pub mod point_index;
+pub mod smooth;
 pub mod topology;
 
 use glam::Vec3;

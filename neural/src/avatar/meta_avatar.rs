@@ -17,7 +17,7 @@ use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
 use avatar_core::canonical::{forward_skin_mesh, Normalisation, SkinningField};
 use crate::error::{Error, Result};
 use avatar_core::avatar::AvatarSource;
-use avatar_core::mesh::extract::{extract, ExtractOptions};
+use avatar_core::mesh::extract::extract;
 use avatar_core::mesh::TriMesh;
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
@@ -195,15 +195,7 @@ impl MetaAvatar {
     /// The clothed surface at a pose in canonical space (metres).
     pub fn canonical_mesh_at(&self, params: &BodyParams, resolution: usize) -> Result<TriMesh> {
         let sdf = self.sdf_at(params);
-        let n = self.header.normalisation;
-        let (lo, hi) = (n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)));
-        // Only blocks whose corners come within a quarter block diagonal of the surface are
-        // refined: the SIREN's far field is flatter than a true distance, so the default margin
-        // refines almost every block; a quarter gives the same mesh with 7x fewer evaluations
-        // (neural/examples/pose_timing.rs).
-        let mut options = ExtractOptions::new(lo, hi, resolution);
-        options.margin = 0.25;
-        Ok(extract(|p: &[Vec3]| sdf.sdf(p), &options)?.mesh)
+        Ok(extract(|p: &[Vec3]| sdf.sdf(p), &super::header::extract_options(&self.header.normalisation, resolution))?.mesh)
     }
 
     /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh).

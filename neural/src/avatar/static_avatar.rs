@@ -14,7 +14,7 @@ use avatar_core::body::{BodyModel, BodyParams, Weights};
 use avatar_core::canonical::{Normalisation, SkinningField};
 use crate::error::Result;
 use avatar_core::avatar::AvatarSource;
-use avatar_core::mesh::extract::{extract, ExtractOptions};
+use avatar_core::mesh::extract::extract;
 use avatar_core::mesh::TriMesh;
 use burn::module::Module;
 use glam::Vec3;
@@ -124,12 +124,7 @@ impl AvatarSource for StaticAvatar {
     /// Pose-independent: the same canonical surface for every pose (coarse-to-fine marching
     /// cubes over the normalised cube, largest component).
     fn canonical_mesh(&self, _params: &BodyParams) -> avatar_core::Result<TriMesh> {
-        let n = self.header.normalisation;
-        let (lo, hi) = (n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)));
-        // The quarter-diagonal refinement margin of the meta avatar (see its canonical_mesh_at).
-        let mut options = ExtractOptions::new(lo, hi, self.resolution);
-        options.margin = 0.25;
-        Ok(extract(|p: &[Vec3]| self.sdf_metres(p), &options)?.mesh)
+        Ok(extract(|p: &[Vec3]| self.sdf_metres(p), &super::header::extract_options(&self.header.normalisation, self.resolution))?.mesh)
     }
     fn sdf(&self, _params: &BodyParams, points: &[Vec3]) -> avatar_core::Result<Vec<f32>> {
         Ok(self.sdf_metres(points))
