@@ -26,6 +26,10 @@ fn main() {
         let e = extract(|p: &[Vec3]| sdf.sdf(p), &ExtractOptions::new(lo, hi, res)).unwrap();
         let ex = t.elapsed().as_secs_f64();
         let t = Instant::now();
+        let mut smoothed = e.mesh.clone();
+        avatar_core::mesh::smooth::taubin(&mut smoothed, avatar_neural::avatar::header::MESH_SMOOTHING);
+        println!("  smoothing ({} Taubin iterations): {:.3} s", avatar_neural::avatar::header::MESH_SMOOTHING, t.elapsed().as_secs_f64());
+        let t = Instant::now();
         let _ = avatar.posed_mesh(&params).unwrap();
         println!("res {res}: predict {predict:.3} s, extract {ex:.2} s ({} evaluations, {} vertices), full posed_mesh {:.2} s", e.stats.evaluations(), e.mesh.positions.len(), t.elapsed().as_secs_f64());
     }

@@ -8,7 +8,7 @@ use crate::body::BodyParams;
 use crate::capture::CaptureManifest;
 use crate::error::{Error, Result};
 use crate::synth::noise::{gaussian, DepthNoise};
-use crate::synth::{Outfit, SynthJob, ALL_OUTFITS};
+use crate::synth::{Outfit, SynthJob};
 use glam::{Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -151,8 +151,8 @@ impl CaptureConditions {
 /// change when other outfits or settings are evaluated beside it (`--outfits dress` draws the
 /// full table's dress capture).
 pub fn capture_seed(seed: u64, subject: u64, outfit: Outfit, conditions: &CaptureConditions) -> u64 {
-    let outfit = ALL_OUTFITS.iter().position(|o| *o == outfit).unwrap_or(0);
     let mut h = seed ^ 0x9e37_79b9_7f4a_7c15;
+    // The outfit's declaration order, which is `ALL_OUTFITS`' (the full preset's) order.
     for v in [subject, outfit as u64, conditions.seed_stream()] {
         h = (h ^ v).wrapping_mul(0x1000_0000_01b3).rotate_left(29);
     }
@@ -207,6 +207,10 @@ mod tests {
         assert_ne!(seed(dress, &clean), seed(dress, &user));
         assert_ne!(seed(crate::synth::Outfit::PoloLoose, &user), seed(dress, &user));
         assert_ne!(capture_seed(0, 1002, dress, &user), seed(dress, &user));
+        // The seeds take an outfit's declaration order: the full preset's list order.
+        for (i, o) in crate::synth::ALL_OUTFITS.iter().enumerate() {
+            assert_eq!(*o as usize, i, "{o:?}");
+        }
     }
 
     #[test]

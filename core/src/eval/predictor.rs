@@ -69,7 +69,7 @@ pub struct StaticOutfit {
     /// generator's garment weights: what an avatar's skinning costs with the shape exact.
     field_options: Option<FieldOptions>,
     /// The template, its canonical surface at the zero pose and the field, if any.
-    fitted: Option<(ClothedTemplate, Vec<glam::Vec3>, Option<SkinningField>)>,
+    fitted: Option<(ClothedTemplate, TriMesh, Option<SkinningField>)>,
 }
 
 impl StaticOutfit {
@@ -98,7 +98,7 @@ impl Predictor for StaticOutfit {
         let template = ClothedTemplate::build(data.body, data.betas, data.outfit);
         let zero = BodyParams { betas: data.betas.to_vec(), ..BodyParams::default() };
         // No joint is bent at the zero pose, so the folds' per-subject phase does not matter.
-        let canonical = canonical_surface(&template, &PoseFeatures::of(&data.body.pose(&zero).bones), 0);
+        let canonical = TriMesh::new(canonical_surface(&template, &PoseFeatures::of(&data.body.pose(&zero).bones), 0), template.faces.clone());
         let field = match &self.field_options {
             Some(o) => Some(crate::canonical::Canonicalizer::new(data.body, data.betas, o, crate::canonical::default_cache_dir().as_deref())?.field),
             None => None,
@@ -109,10 +109,9 @@ impl Predictor for StaticOutfit {
     fn predict(&self, params: &BodyParams) -> Result<TriMesh> {
         let (t, canonical, field) = self.fitted.as_ref().ok_or_else(|| crate::error::Error::invalid("predict called before fit"))?;
         let bones = self.body.pose(params).bones;
-        let mesh = TriMesh::new(canonical.clone(), t.faces.clone());
         Ok(match field {
-            Some(field) => crate::canonical::forward_skin_mesh(field, &bones, &mesh),
-            None => TriMesh::new(pose_surface(t, canonical, &bones), t.faces.clone()),
+            Some(field) => crate::canonical::forward_skin_mesh(field, &bones, canonical),
+            None => TriMesh::new(pose_surface(t, &canonical.positions, &bones), canonical.faces.clone()),
         })
     }
 }
