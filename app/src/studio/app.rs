@@ -26,6 +26,7 @@ impl StudioApp {
             let on = viewport::install(rs) && std::env::var("AVATAR_STUDIO_FLAT").map_or(true, |v| v != "0");
             if on {
                 viewport::flat::install(rs, crate::studio::style::PANEL_FILL);
+                viewport::ui_meshes::install(rs);
             }
             on
         });
@@ -73,6 +74,7 @@ impl StudioApp {
             viewport_rect: None,
             turntable: false,
             viewport_moving: false,
+            ui_meshes_painted: false,
             playback_measure: None,
             show_shortcuts: false,
             status: None,
@@ -139,7 +141,7 @@ impl StudioApp {
 }
 
 impl eframe::App for StudioApp {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         self.update_state();
         let mut commands = crate::studio::panels::draw(self, ui);
         commands.extend(self.path_dialog(ui.ctx()));
@@ -147,6 +149,9 @@ impl eframe::App for StudioApp {
         self.frames_drawn += 1;
         self.after_frame();
         self.measure_playback();
+        // While the view moves on a software renderer, the panels' text and widgets too are
+        // painted by our shader (viewport/ui_meshes.rs); a still window is egui's.
+        self.ui_meshes_painted = self.flat && self.viewport_moving && frame.wgpu_render_state().is_some_and(|rs| viewport::ui_meshes::take_over(ui.ctx(), rs));
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {

@@ -147,6 +147,9 @@ pub struct StudioApp {
     /// The viewport redraws every frame (playing, turntable, orbiting): drawn without MSAA on a
     /// software renderer.
     pub viewport_moving: bool,
+    /// The last frame's panels were painted by `viewport::ui_meshes` (the view moved, on a
+    /// software renderer).
+    pub ui_meshes_painted: bool,
     pub(crate) playback_measure: Option<PlaybackMeasure>,
     /// The shortcuts window (?) is open.
     pub show_shortcuts: bool,
@@ -173,6 +176,12 @@ impl StudioApp {
     /// The viewport's rectangle in the last frame (points).
     pub fn viewport_rect(&self) -> Option<egui::Rect> {
         self.viewport_rect
+    }
+
+    /// Parts of the UI are painted by the studio's own shaders (`viewport::flat`, and while the
+    /// view moves `viewport::ui_meshes`): on a software renderer.
+    pub fn flat_painting(&self) -> bool {
+        self.flat
     }
 
     /// Replace the file dialogs (tests answer them with fixed paths, or disable them).

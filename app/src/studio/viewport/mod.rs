@@ -17,6 +17,7 @@ const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 pub const BACKGROUND: [f64; 3] = [0.018, 0.020, 0.026];
 
 pub mod flat;
+pub mod ui_meshes;
 mod pipelines;
 mod scene;
 use pipelines::ScenePipelines;
