@@ -138,6 +138,7 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
     // While playing (moving) as the studio draws it, then paused (4x MSAA) for comparison.
     for moving in [true, false] {
         let samples = resources.samples(moving);
+        let drawn = resources.render_size(size, moving);
         // The first frame (not timed) builds this sample count's pipelines and targets.
         let mut t = Instant::now();
         for (i, m) in std::iter::once(first).chain(baked.frames.iter()).enumerate() {
@@ -146,7 +147,7 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
             }
             let scene = scene_of(m);
             let mut encoder = device.create_command_encoder(&Default::default());
-            resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), crate::studio::viewport::Shading::Lit, 3.0, size, crate::studio::project::default_light(), samples);
+            resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), crate::studio::viewport::Shading::Lit, 3.0, drawn, crate::studio::project::default_light(), samples);
             queue.submit([encoder.finish()]);
             if let Err(e) = device.poll(eframe::egui_wgpu::wgpu::PollType::wait_indefinitely()) {
                 return out + &format!("| playback | | {e} |\n");
@@ -154,7 +155,7 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
         }
         let fps = baked.frames.len() as f64 / t.elapsed().as_secs_f64();
         let what = if moving { "playing" } else { "the paused look, for comparison" };
-        out += &format!("| playback of the baked clip ({what}): each frame's scene rebuilt, uploaded and drawn at 1280 x 800, {samples} sample(s) a pixel, on {} ({:?}) | {fps:.1} fps | target: the clip's 30 fps |\n", info.name, info.device_type);
+        out += &format!("| playback of the baked clip ({what}): each frame's scene rebuilt, uploaded and drawn for a 1280 x 800 view ({} x {} pixels), {samples} sample(s) a pixel, on {} ({:?}) | {fps:.1} fps | target: the clip's 30 fps |\n", drawn[0], drawn[1], info.name, info.device_type);
     }
     out
 }

@@ -1,8 +1,9 @@
 //! The 3D viewport: an egui wgpu paint callback. It takes a [`Scene`] (meshes, points and
 //! lines, already in world space), camera matrices and a shading mode, never the app. The
-//! scene is rendered offscreen (4x MSAA colour + 32-bit depth; one sample while the view moves
-//! on a software renderer) in `prepare()`, resolved, and copied into egui's render pass in
-//! `paint()` (egui's pass has neither depth nor MSAA).
+//! scene is rendered offscreen (4x MSAA colour + 32-bit depth; while the view moves on a
+//! software renderer one sample a pixel and [`SOFTWARE_MOVING_SCALE`] of the pixels) in
+//! `prepare()`, resolved, and copied into egui's render pass in `paint()` (egui's pass has
+//! neither depth nor MSAA; a smaller image is stretched bilinearly).
 
 use bytemuck::{Pod, Zeroable};
 use eframe::egui;
@@ -11,6 +12,11 @@ use glam::Mat4;
 use std::sync::Arc;
 
 pub const MSAA: u32 = 4;
+/// The scene's resolution (per axis) while the view moves on a software renderer: a quarter
+/// of the pixels took playback in a 1280 x 800 window on lavapipe from 31 to 24 ms of CPU a
+/// frame (0.75: 28 ms; docs/studio.md), and the moving image hides the softer, blockier
+/// edges. 1 when still (every screenshot) and on a GPU.
+pub const SOFTWARE_MOVING_SCALE: f32 = 0.5;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// The viewport's background (linear RGB).
@@ -74,6 +80,9 @@ pub struct ViewportResources {
     /// One set per sample count drawn with so far (built on first use).
     pipelines: Vec<ScenePipelines>,
     blit_pipeline: wgpu::RenderPipeline,
+    /// The same copy, stretched: the scene drawn smaller than the viewport.
+    blit_scaled_pipeline: wgpu::RenderPipeline,
+    blit_sampler: wgpu::Sampler,
     blit_layout: wgpu::BindGroupLayout,
     globals: wgpu::Buffer,
     globals_group: wgpu::BindGroup,
@@ -132,12 +141,15 @@ impl ViewportResources {
         });
         let blit_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("viewport blit"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: false }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
-                count: None,
-            }],
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: true }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry { binding: 1, visibility: wgpu::ShaderStages::FRAGMENT, ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering), count: None },
+            ],
         });
         let scene_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("viewport scene"), bind_group_layouts: &[Some(&globals_layout)], immediate_size: 0 });
         let blit_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("viewport blit"), bind_group_layouts: &[Some(&blit_layout)], immediate_size: 0 });
@@ -152,24 +164,35 @@ impl ViewportResources {
             layout: &globals_layout,
             entries: &[wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() }],
         });
-        let blit_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        let blit = |entry_point: &str| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("viewport blit"),
+                layout: Some(&blit_pipeline_layout),
+                vertex: wgpu::VertexState { module: &shader, entry_point: Some("vs_blit"), compilation_options: Default::default(), buffers: &[] },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some(entry_point),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState { format: target_format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let (blit_pipeline, blit_scaled_pipeline) = (blit("fs_blit"), blit("fs_blit_scaled"));
+        let blit_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("viewport blit"),
-            layout: Some(&blit_pipeline_layout),
-            vertex: wgpu::VertexState { module: &shader, entry_point: Some("vs_blit"), compilation_options: Default::default(), buffers: &[] },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &shader,
-                entry_point: Some("fs_blit"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState { format: target_format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
-            }),
-            multiview_mask: None,
-            cache: None,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            ..Default::default()
         });
         let pipelines = vec![ScenePipelines::new(device, &shader, &scene_layout, MSAA)];
-        ViewportResources { shader, scene_layout, pipelines, blit_pipeline, blit_layout, globals, globals_group, targets: None, uploaded: None, software }
+        ViewportResources { shader, scene_layout, pipelines, blit_pipeline, blit_scaled_pipeline, blit_sampler, blit_layout, globals, globals_group, targets: None, uploaded: None, software }
     }
 
     /// Samples a pixel for a view that is `moving` (playback, the turntable, an orbit): 4x MSAA,
@@ -177,6 +200,11 @@ impl ViewportResources {
     /// two thirds of a frame (docs/studio.md) and the moving image hides the jagged edges.
     pub fn samples(&self, moving: bool) -> u32 {
         if moving && self.software { 1 } else { MSAA }
+    }
+
+    /// The size to draw the scene at for a viewport of `size` pixels (see [`render_scale`]).
+    pub fn render_size(&self, size: [u32; 2], moving: bool) -> [u32; 2] {
+        scaled_size(size, render_scale(self.software, moving))
     }
 
     /// Draw the scene offscreen with `samples` per pixel (resolved into `resolved` when above
@@ -269,7 +297,10 @@ impl ViewportResources {
         let blit_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("viewport blit"),
             layout: &self.blit_layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&resolved) }],
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&resolved) },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.blit_sampler) },
+            ],
         });
         self.targets = Some(Targets { size, samples, msaa, depth, resolved, blit_group });
     }
@@ -314,7 +345,10 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
     ) -> Vec<wgpu::CommandBuffer> {
         if let Some(res) = resources.get_mut::<ViewportResources>() {
             let samples = res.samples(self.moving);
-            res.render(device, queue, encoder, &self.scene, &self.camera, self.shading, self.point_size, self.size, self.light, samples);
+            let size = res.render_size(self.size, self.moving);
+            // Points keep their size on screen.
+            let point_size = self.point_size * size[0] as f32 / self.size[0].max(1) as f32;
+            res.render(device, queue, encoder, &self.scene, &self.camera, self.shading, point_size, size, self.light, samples);
         }
         Vec::new()
     }
@@ -326,8 +360,41 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
         let Some(targets) = &res.targets else {
             return;
         };
-        pass.set_pipeline(&res.blit_pipeline);
+        // Pixel for pixel when the scene has the viewport's size (the still look), else stretched.
+        pass.set_pipeline(if targets.size == self.size { &res.blit_pipeline } else { &res.blit_scaled_pipeline });
         pass.set_bind_group(0, &targets.blit_group, &[]);
         pass.draw(0..3, 0..1);
+    }
+}
+
+/// The scene's resolution per axis, relative to the viewport's pixels: all of them, except
+/// while the view moves on a software renderer ([`SOFTWARE_MOVING_SCALE`]).
+pub fn render_scale(software: bool, moving: bool) -> f32 {
+    if moving && software { SOFTWARE_MOVING_SCALE } else { 1.0 }
+}
+
+/// `size` scaled by `scale` per axis, rounded, at least one pixel.
+pub fn scaled_size(size: [u32; 2], scale: f32) -> [u32; 2] {
+    size.map(|s| ((s as f32 * scale).round() as u32).max(1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_a_moving_view_on_a_software_renderer_is_drawn_smaller() {
+        assert_eq!(render_scale(true, true), SOFTWARE_MOVING_SCALE);
+        assert!(SOFTWARE_MOVING_SCALE < 1.0 && SOFTWARE_MOVING_SCALE >= 0.5, "a moving view stays recognisable");
+        assert_eq!(render_scale(true, false), 1.0, "still: every pixel (the look of the screenshots)");
+        assert_eq!(render_scale(false, true), 1.0, "a GPU draws every pixel");
+        assert_eq!(render_scale(false, false), 1.0);
+    }
+
+    #[test]
+    fn scaled_sizes_round_and_stay_positive() {
+        assert_eq!(scaled_size([787, 714], 1.0), [787, 714]);
+        assert_eq!(scaled_size([787, 714], 0.5), [394, 357]);
+        assert_eq!(scaled_size([1, 3], 0.25), [1, 1]);
     }
 }

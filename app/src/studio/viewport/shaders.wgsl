@@ -126,10 +126,18 @@ fn vs_blit(@builtin(vertex_index) vi: u32) -> BlitOut {
 }
 
 @group(0) @binding(0) var blit_src: texture_2d<f32>;
+@group(0) @binding(1) var blit_sampler: sampler;
 
 @fragment
 fn fs_blit(in: BlitOut) -> @location(0) vec4<f32> {
     let dims = vec2<f32>(textureDimensions(blit_src));
     let p = vec2<i32>(clamp(in.uv * dims, vec2<f32>(0.0), dims - vec2<f32>(1.0)));
     return textureLoad(blit_src, p, 0);
+}
+
+// The scene drawn smaller than the viewport (moving, on a software renderer): stretched
+// bilinearly.
+@fragment
+fn fs_blit_scaled(in: BlitOut) -> @location(0) vec4<f32> {
+    return textureSample(blit_src, blit_sampler, in.uv);
 }
