@@ -27,8 +27,10 @@ pub struct UiMeshes {
     screen: wgpu::Buffer,
     /// egui's font texture and our bind group for it.
     font: Option<(wgpu::Texture, wgpu::BindGroup)>,
-    /// The font atlas's fill ratio at the last take-over (a drop means it was rebuilt).
+    /// The font atlas's fill ratio and the pixels per point at the last take-over (a drop, or
+    /// a new scale, means the atlas was rebuilt).
     last_fill: f32,
+    last_ppp: f32,
     buffers: Option<(wgpu::Buffer, wgpu::Buffer)>,
     /// Which frame's meshes the buffers hold.
     uploaded: usize,
@@ -103,7 +105,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
         ..Default::default()
     });
     let screen = device.create_buffer(&wgpu::BufferDescriptor { label: Some("ui meshes screen"), size: 16, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
-    let resources = UiMeshes { pipeline, layout, sampler, screen, font: None, last_fill: 0.0, buffers: None, uploaded: 0 };
+    let resources = UiMeshes { pipeline, layout, sampler, screen, font: None, last_fill: 0.0, last_ppp: 0.0, buffers: None, uploaded: 0 };
     render_state.renderer.write().callback_resources.insert(resources);
 }
 
@@ -117,16 +119,17 @@ pub fn take_over(ctx: &egui::Context, render_state: &egui_wgpu::RenderState) -> 
         return false;
     }
     let (atlas_size, fill) = ctx.fonts(|f| (f.font_image_size(), f.font_atlas_fill_ratio()));
+    let ppp = ctx.pixels_per_point();
     let font = render_state.renderer.read().texture(&egui::TextureId::default()).and_then(|t| t.texture.clone());
     {
         let mut renderer = render_state.renderer.write();
         let Some(res) = renderer.callback_resources.get_mut::<UiMeshes>() else {
             return false;
         };
-        // egui rebuilds the atlas when it is 80 % full (at the next frame's start); a fill
-        // ratio that dropped means it was rebuilt, perhaps at the same size.
-        let rebuilt = fill < res.last_fill || res.last_fill > 0.8;
-        res.last_fill = fill;
+        // egui rebuilds the atlas when it is 80 % full (at the next frame's start) or the scale
+        // changes; a fill ratio that dropped means it was rebuilt, perhaps at the same size.
+        let rebuilt = fill < res.last_fill || res.last_fill > 0.8 || ppp != res.last_ppp;
+        (res.last_fill, res.last_ppp) = (fill, ppp);
         let Some(font) = font.filter(|t| [t.width() as usize, t.height() as usize] == atlas_size) else {
             return false;
         };
@@ -149,7 +152,7 @@ pub fn take_over(ctx: &egui::Context, render_state: &egui_wgpu::RenderState) -> 
     }
     let shapes: Vec<ClippedShape> = ctx.graphics_mut(|g| std::mem::take(g.entry(layer))).all_entries().cloned().collect();
     let screen = ctx.content_rect().union(ctx.viewport_rect());
-    let list = split(ctx.tessellate(shapes, ctx.pixels_per_point()), screen);
+    let list = split(ctx.tessellate(shapes, ppp), screen);
     ctx.graphics_mut(|g| *g.entry(layer) = list);
     true
 }
