@@ -630,39 +630,49 @@ fn an_obj_scan_opens_as_a_capture() {
 
 /// While the view moves on lavapipe (the turntable here), the panels are painted by the
 /// studio's own shader (viewport::ui_meshes, a fraction of egui-wgpu's cost there) and look as
-/// egui paints them: outside the 3D view (and the Turntable button, now on) the window is the
-/// still window's, up to the filtering of glyph edges (egui's test renderer filters by hand,
-/// ours with the sampler).
+/// egui paints them: outside the 3D view (and the Turntable button, on while moving) a moving
+/// frame is the still window's, up to the filtering of glyph edges (egui's test renderer
+/// filters by hand, ours with the sampler); also after the panels changed between two moving
+/// frames (the timeline's frame).
 #[test]
 fn a_moving_view_paints_the_panels_as_egui_does() {
     let mut h = harness(StudioOptions { load_demo: true, ..Default::default() });
     settle(&mut h, "loading the demo");
     h.remove_cursor();
-    h.step();
-    let still = h.render().expect("render");
-    assert!(!h.state().ui_meshes_painted, "a still window is painted by egui");
-    h.state_mut().turntable = true;
-    h.step();
-    h.step();
-    let moving = h.render().expect("render");
-    let software = h.state().viewport_moving && h.state().flat_painting();
-    assert_eq!(h.state().ui_meshes_painted, software, "the panels are ours exactly when moving on a software renderer");
-    let view = h.state().viewport_rect().expect("a viewport");
-    let button = h.get_by_label("Turntable").rect(); // selected now
-    let ppp = h.ctx.pixels_per_point();
-    let (mut compared, mut differing, mut worst) = (0, 0, 0);
-    for (x, y, a) in still.enumerate_pixels() {
-        let p = egui::pos2(x as f32 / ppp, y as f32 / ppp);
-        if view.expand(1.0).contains(p) || button.expand(1.0).contains(p) {
-            continue;
+    let mut compare = |h: &mut Harness<'static, StudioApp>, frame: usize| {
+        h.state_mut().turntable = false;
+        h.state_mut().timeline.set_frame(frame);
+        h.step();
+        h.step();
+        let still = h.render().expect("render");
+        assert!(!h.state().ui_meshes_painted, "a still window is painted by egui");
+        h.state_mut().turntable = true;
+        h.step();
+        h.step();
+        let moving = h.render().expect("render");
+        let software = h.state().viewport_moving && h.state().flat_painting();
+        assert_eq!(h.state().ui_meshes_painted, software, "the panels are ours exactly when moving on a software renderer");
+        let view = h.state().viewport_rect().expect("a viewport");
+        let button = h.get_by_label("Turntable").rect();
+        let ppp = h.ctx.pixels_per_point();
+        let (mut compared, mut differing, mut worst) = (0, 0, 0);
+        for (x, y, a) in still.enumerate_pixels() {
+            let p = egui::pos2(x as f32 / ppp, y as f32 / ppp);
+            if view.expand(1.0).contains(p) || button.expand(1.0).contains(p) {
+                continue;
+            }
+            let b = moving.get_pixel(x, y);
+            let d = a.0.iter().zip(b.0).map(|(a, b)| a.abs_diff(b)).max().unwrap_or(0);
+            compared += 1;
+            worst = worst.max(d);
+            differing += usize::from(d > 8);
         }
-        let b = moving.get_pixel(x, y);
-        let d = a.0.iter().zip(b.0).map(|(a, b)| a.abs_diff(b)).max().unwrap_or(0);
-        compared += 1;
-        worst = worst.max(d);
-        differing += usize::from(d > 8);
-    }
-    // Measured: none differs at all (a texture coordinate 1 % off: 12,000 pixels).
-    assert!(compared > 100_000, "{compared} pixels outside the view");
-    assert!(differing <= compared / 10_000, "{differing} of {compared} pixels differ by more than 8 levels (worst {worst})");
+        // Measured: none differs at all (a texture coordinate 1 % off: 12,000 pixels).
+        assert!(compared > 100_000, "{compared} pixels outside the view");
+        assert!(differing <= compared / 10_000, "frame {frame}: {differing} of {compared} pixels differ by more than 8 levels (worst {worst})");
+        moving
+    };
+    let first = compare(&mut h, 0);
+    let second = compare(&mut h, 40);
+    assert_ne!(first, second, "the timeline moved on between the two moving frames");
 }

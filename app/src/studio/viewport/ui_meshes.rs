@@ -32,8 +32,8 @@ pub struct UiMeshes {
     last_fill: f32,
     last_ppp: f32,
     buffers: Option<(wgpu::Buffer, wgpu::Buffer)>,
-    /// Which frame's meshes the buffers hold.
-    uploaded: usize,
+    /// Which frame's meshes the buffers hold ([`FrameMeshes::generation`]).
+    uploaded: u64,
 }
 
 /// Create the pipeline (call at start-up on a software renderer).
@@ -160,7 +160,9 @@ pub fn take_over(ctx: &egui::Context, render_state: &egui_wgpu::RenderState) -> 
 /// The layer again, as egui will paint it: runs of font-textured meshes become one callback
 /// each (drawn by this module), everything else is handed back in its place.
 fn split(primitives: Vec<ClippedPrimitive>, screen: egui::Rect) -> egui::layers::PaintList {
-    let mut frame_data = FrameMeshes::default();
+    // A number per frame (an address could be reused by the next frame's meshes).
+    static GENERATION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    let mut frame_data = FrameMeshes { generation: GENERATION.fetch_add(1, std::sync::atomic::Ordering::Relaxed), ..Default::default() };
     let mut pending: Vec<(usize, egui::Shape, egui::Rect)> = Vec::new(); // (run index or MAX, shape, clip)
     let mut run: Option<usize> = None;
     for ClippedPrimitive { clip_rect, primitive } in primitives {
@@ -195,6 +197,7 @@ fn split(primitives: Vec<ClippedPrimitive>, screen: egui::Rect) -> egui::layers:
 /// One frame's meshes: all vertices and indices, and per run its draws.
 #[derive(Default)]
 struct FrameMeshes {
+    generation: u64,
     vertices: Vec<egui::epaint::Vertex>,
     indices: Vec<u32>,
     runs: Vec<Vec<Draw>>,
@@ -227,11 +230,10 @@ impl egui_wgpu::CallbackTrait for Run {
             return Vec::new();
         };
         // The frame's first run uploads all of its meshes.
-        let id = Arc::as_ptr(&self.frame) as usize;
-        if res.uploaded == id {
+        if res.uploaded == self.frame.generation {
             return Vec::new();
         }
-        res.uploaded = id;
+        res.uploaded = self.frame.generation;
         let points = [screen.size_in_pixels[0] as f32 / screen.pixels_per_point, screen.size_in_pixels[1] as f32 / screen.pixels_per_point, 0.0, 0.0];
         queue.write_buffer(&res.screen, 0, bytemuck::cast_slice(&points));
         let vertices: &[u8] = bytemuck::cast_slice(&self.frame.vertices);
