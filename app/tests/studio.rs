@@ -639,7 +639,7 @@ fn a_moving_view_paints_the_panels_as_egui_does() {
     let mut h = harness(StudioOptions { load_demo: true, ..Default::default() });
     settle(&mut h, "loading the demo");
     h.remove_cursor();
-    let mut compare = |h: &mut Harness<'static, StudioApp>, frame: usize| {
+    let compare = |h: &mut Harness<'static, StudioApp>, frame: usize| {
         h.state_mut().turntable = false;
         h.state_mut().timeline.set_frame(frame);
         h.step();
