@@ -20,6 +20,11 @@ fn main() -> avatar_core::error::Result<()> {
         let canonical = canonical_surface(&template, &PoseFeatures::of(&capture.body.pose(&zero).bones), subject);
         surfaces.push(("the true clothing at the zero pose", avatar_core::mesh::TriMesh::new(canonical, template.faces.clone())));
     }
+    // MESH=FILE.obj: also the distance to a fitted mesh at the zero pose (how closely the fit
+    // follows the points; `avatar-studio pose AVATAR --motion ZERO.json` writes one).
+    if let Ok(mesh) = std::env::var("MESH") {
+        surfaces.push(("the mesh in MESH", avatar_core::mesh::io::read_obj(&mesh)?));
+    }
     for (name, mesh) in surfaces {
         let bvh = Bvh::build(&mesh);
         println!("distance to {name}\nframe  points  free  p50(cm)  p90  p99  >2cm  >5cm  >10cm");

@@ -6,7 +6,7 @@
 use crate::encoder::PoseEncoding;
 use crate::pose_sample::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS};
-use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions, Normalisation, SkinningField};
+use avatar_core::canonical::{default_cache_dir, shell_samples, Canonicalizer, FieldOptions, Normalisation, ShellOptions, SkinningField};
 use avatar_core::capture::{free_space_samples, Capture, CaptureOptions, FreeSpaceOptions};
 use crate::error::{Error, Result};
 use avatar_core::mesh::bvh::Bvh;
@@ -103,6 +103,7 @@ impl CapturePoints {
             dropped,
             warnings,
         };
+        capture.add_shell_samples(&ShellOptions::default());
         capture.drop_free_space_inside_body();
         Ok(capture)
     }
@@ -117,6 +118,22 @@ impl CapturePoints {
         for (frame, signs) in self.frames.iter_mut().zip(signs) {
             let kept = frame.free_space.iter().zip(&signs).filter(|(_, s)| **s >= 0.0).map(|(p, _)| *p).collect();
             frame.free_space = kept;
+        }
+    }
+
+    /// Outside constraints a little behind loose clothing (`canonical::shell`): without them
+    /// a skirt is fitted as a solid bell whose inner wall lies centimetres inside the cloth.
+    /// They join each frame's free-space samples (and move with its refined pose).
+    fn add_shell_samples(&mut self, options: &ShellOptions) {
+        let norm = self.normalisation;
+        let body = self.body.mesh(self.rest.clone());
+        let (bvh, body_normals) = (Bvh::build(&body), body.face_normals());
+        let metric: Vec<Vec<Vec3>> = self.frames.iter().map(|f| f.points.iter().map(|p| norm.from_unit(*p)).collect()).collect();
+        let Ok(observed) = avatar_core::mesh::point_index::PointIndex::new(&metric.concat()) else { return };
+        for (k, (frame, points)) in self.frames.iter_mut().zip(&metric).enumerate() {
+            let options = ShellOptions { seed: options.seed ^ k as u64, ..*options };
+            let samples = shell_samples(points, &frame.normals, &bvh, &body_normals, &observed, &options);
+            frame.free_space.extend(samples.iter().map(|p| norm.to_unit(*p)));
         }
     }
 
