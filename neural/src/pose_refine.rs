@@ -48,6 +48,15 @@ pub struct PoseRefineOptions {
     pub max_step_m: f32,
     /// Keep the frames' mean correction at zero (see `remove_common_correction`).
     pub zero_mean: bool,
+    /// Pre-alignment before the first fitting step (`PoseRefiner::prealign`): rounds against
+    /// the subject's own body, Gauss-Newton steps a round, and the residual (metres, beyond the
+    /// clothing's typical offset) above which a point is taken for loose clothing and left out.
+    #[serde(default)]
+    pub prealign_rounds: usize,
+    #[serde(default)]
+    pub prealign_iterations: usize,
+    #[serde(default)]
+    pub prealign_cutoff: f32,
 }
 
 impl Default for PoseRefineOptions {
@@ -64,6 +73,9 @@ impl Default for PoseRefineOptions {
             max_step_rad: 3f32.to_radians(),
             max_step_m: 0.01,
             zero_mean: true,
+            prealign_rounds: 0,
+            prealign_iterations: 4,
+            prealign_cutoff: 0.03,
         }
     }
 }
@@ -88,6 +100,9 @@ pub type FrameSdf<'a> = &'a (dyn Fn(usize, &[Vec3]) -> (Vec<f32>, Vec<Vec3>) + S
 struct Frame {
     given: BodyParams,
     correction: PoseCorrection,
+    /// The correction pre-alignment found: the zero-mean constraint holds the later rounds'
+    /// corrections relative to it.
+    anchor: PoseCorrection,
     /// Depth points and normals (world, metres).
     posed: Vec<Vec3>,
     posed_normals: Vec<Vec3>,
@@ -111,6 +126,9 @@ pub struct PoseRefiner<'a> {
     rest_joints: [Vec3; NUM_JOINTS],
     frames: Vec<Frame>,
     pub options: PoseRefineOptions,
+    /// The true fittings when known (`pose_trace`): each round then prints its errors.
+    pub truth: Option<Vec<BodyParams>>,
+    rounds_done: usize,
 }
 
 impl<'a> PoseRefiner<'a> {
@@ -135,15 +153,26 @@ impl<'a> PoseRefiner<'a> {
                     .unzip();
                 let free_canonical: Vec<Vec3> = f.free_space.iter().map(|q| norm.from_unit(*q)).collect();
                 let free_posed = free_canonical.par_iter().map(|&x| blend_transform(&bones.transforms, &capture.field.weights_at(x)).transform_point3(x)).collect();
-                Frame { given: f.params.clone(), correction, posed, posed_normals, canonical, free_posed, free_canonical }
+                Frame { given: f.params.clone(), correction, anchor: correction, posed, posed_normals, canonical, free_posed, free_canonical }
             })
             .collect();
-        PoseRefiner { capture, rest_joints, frames, options }
+        let given: Vec<BodyParams> = capture.frames.iter().map(|f| f.params.clone()).collect();
+        let truth = crate::pose_trace::truth_from_env(&given);
+        let refiner = PoseRefiner { capture, rest_joints, frames, options, truth, rounds_done: 0 };
+        if let Some(e) = refiner.errors() {
+            eprintln!("pose trace: given fittings: {e}\n  per joint: {}", e.per_joint());
+        }
+        refiner
     }
 
     /// The corrected fitting of each frame.
     pub fn refined(&self) -> Vec<BodyParams> {
         self.frames.iter().map(|f| f.correction.apply(&f.given)).collect()
+    }
+
+    /// The refined fittings' errors against the truth, when it is known.
+    pub fn errors(&self) -> Option<crate::pose_trace::PoseErrors> {
+        self.truth.as_ref().map(|t| crate::pose_trace::pose_errors(&self.refined(), t, &self.rest_joints))
     }
 
     pub fn corrections(&self) -> Vec<PoseCorrection> {
@@ -154,8 +183,9 @@ impl<'a> PoseRefiner<'a> {
     pub fn round(&mut self, sdf: FrameSdf) -> RoundReport {
         let mut report = RoundReport { residual_before: 0.0, residual_after: 0.0 };
         let n = self.frames.len().max(1) as f32;
+        let (iterations, cutoff) = (self.options.iterations, 10.0 * self.options.huber);
         for k in 0..self.frames.len() {
-            let r = self.refine_frame(k, sdf);
+            let r = self.refine_frame(k, sdf, iterations, (-cutoff, cutoff));
             report.residual_before += r.residual_before / n;
             report.residual_after += r.residual_after / n;
         }
@@ -164,6 +194,10 @@ impl<'a> PoseRefiner<'a> {
         }
         for k in 0..self.frames.len() {
             self.recanonicalise(k);
+        }
+        self.rounds_done += 1;
+        if let Some(e) = self.errors() {
+            eprintln!("pose trace: round {}: |sdf| {:.2} -> {:.2} mm; {e}", self.rounds_done, report.residual_before * 1e3, report.residual_after * 1e3);
         }
         report
     }
@@ -176,7 +210,7 @@ impl<'a> PoseRefiner<'a> {
         let n = self.frames.len() as f32;
         let mut mean = vec![0f32; POSE_DOF];
         for f in &self.frames {
-            mean.iter_mut().zip(f.correction.to_vec()).for_each(|(m, v)| *m += v / n);
+            mean.iter_mut().zip(f.correction.to_vec()).zip(f.anchor.to_vec()).for_each(|((m, v), a)| *m += (v - a) / n);
         }
         let minus: Vec<f32> = mean.iter().map(|v| -v).collect();
         for f in self.frames.iter_mut() {
@@ -210,7 +244,41 @@ impl<'a> PoseRefiner<'a> {
         (0..m).map(|i| i * n / m).collect()
     }
 
-    fn refine_frame(&mut self, k: usize, sdf: FrameSdf) -> RoundReport {
+    /// Pre-alignment (before the avatar's SDF has learned from the misaligned points): rounds
+    /// of Gauss-Newton steps of every frame against `sdf`, a fixed target that knows the
+    /// subject's shape (the shaped body, `BodySdf`, less the clothing's offset). A point whose
+    /// residual is beyond `prealign_cutoff` outside is loose clothing (a skirt, hair) and left
+    /// out; one inside the body always counts. Against a fixed shape the error the frames
+    /// share is observable, so no zero-mean constraint here; the later rounds keep their mean
+    /// correction relative to this one.
+    pub fn prealign(&mut self, sdf: FrameSdf) -> RoundReport {
+        let o = self.options;
+        let mut report: Option<RoundReport> = None;
+        let n = self.frames.len().max(1) as f32;
+        for round in 0..o.prealign_rounds {
+            let mut r = RoundReport { residual_before: 0.0, residual_after: 0.0 };
+            for k in 0..self.frames.len() {
+                let f = self.refine_frame(k, sdf, o.prealign_iterations, (-0.1, o.prealign_cutoff));
+                r.residual_before += f.residual_before / n;
+                r.residual_after += f.residual_after / n;
+            }
+            for k in 0..self.frames.len() {
+                self.recanonicalise(k);
+            }
+            if let Some(e) = self.errors() {
+                eprintln!("pose trace: pre-alignment {}: |sdf| {:.2} -> {:.2} mm; {e}", round + 1, r.residual_before * 1e3, r.residual_after * 1e3);
+            }
+            report = Some(report.map_or(r, |first| RoundReport { residual_before: first.residual_before, residual_after: r.residual_after }));
+        }
+        for f in self.frames.iter_mut() {
+            f.anchor = f.correction;
+        }
+        report.unwrap_or(RoundReport { residual_before: 0.0, residual_after: 0.0 })
+    }
+
+    /// `iterations` Gauss-Newton steps of frame `k`; residuals outside `keep` (metres, below
+    /// and above) are left out.
+    fn refine_frame(&mut self, k: usize, sdf: FrameSdf, iterations: usize, keep: (f32, f32)) -> RoundReport {
         let idx = self.subset(k);
         let field = &self.capture.field;
         let frame = &self.frames[k];
@@ -218,7 +286,7 @@ impl<'a> PoseRefiner<'a> {
         let weights: Vec<_> = idx.iter().map(|&i| field.weights_at(frame.canonical[i])).collect();
         let posed: Vec<Vec3> = idx.iter().map(|&i| frame.posed[i]).collect();
         let mut before = None;
-        for _ in 0..self.options.iterations.max(1) {
+        for _ in 0..iterations.max(1) {
             let frame = &self.frames[k];
             let bones = frame.correction.bones(&self.rest_joints, &frame.given);
             let blends: Vec<_> = weights.iter().map(|w| blend_transform(&bones.transforms, w)).collect();
@@ -234,7 +302,7 @@ impl<'a> PoseRefiner<'a> {
                     || (vec![0f64; POSE_DOF * POSE_DOF], vec![0f64; POSE_DOF]),
                     |(mut h, mut b), p| {
                         let r = f[p];
-                        if r.abs() > 10.0 * huber || !r.is_finite() {
+                        if r < keep.0 || r > keep.1 || !r.is_finite() {
                             return (h, b);
                         }
                         let rho = if r.abs() <= huber { 1.0 } else { huber / r.abs() };
