@@ -20,8 +20,9 @@ pub struct PoseErrors {
     pub posed_joints_cm: f32,
     /// Mean over joints of the length of the frames' mean error (the shared part).
     pub common_deg: f32,
-    /// Length of the frames' mean translation error.
+    /// Length of the frames' mean translation error, and that error (world, cm).
     pub common_trans_cm: f32,
+    pub common_trans: Vec3,
     /// Mean over joints of the error's component about the bone (twist) and across it (swing).
     pub twist_deg: f32,
     pub swing_deg: f32,
@@ -48,7 +49,7 @@ fn joint_error(refined: Vec3, truth: Vec3) -> Vec3 {
 pub fn pose_errors(refined: &[BodyParams], truth: &[BodyParams], rest_joints: &[Vec3; NUM_JOINTS]) -> PoseErrors {
     let n = refined.len().min(truth.len()).max(1) as f32;
     let nj = NUM_JOINTS as f32;
-    let mut e = PoseErrors { joint_deg: 0.0, trans_cm: 0.0, posed_joints_cm: 0.0, common_deg: 0.0, common_trans_cm: 0.0, twist_deg: 0.0, swing_deg: 0.0, per_joint_deg: [0.0; NUM_JOINTS] };
+    let mut e = PoseErrors { joint_deg: 0.0, trans_cm: 0.0, posed_joints_cm: 0.0, common_deg: 0.0, common_trans_cm: 0.0, common_trans: Vec3::ZERO, twist_deg: 0.0, swing_deg: 0.0, per_joint_deg: [0.0; NUM_JOINTS] };
     let mut mean_err = [Vec3::ZERO; NUM_JOINTS];
     let mut mean_trans = Vec3::ZERO;
     for (r, t) in refined.iter().zip(truth) {
@@ -69,6 +70,7 @@ pub fn pose_errors(refined: &[BodyParams], truth: &[BodyParams], rest_joints: &[
     }
     e.common_deg = mean_err.iter().map(|v| v.length().to_degrees()).sum::<f32>() / nj;
     e.common_trans_cm = mean_trans.length() * 100.0;
+    e.common_trans = mean_trans * 100.0;
     e
 }
 
@@ -76,8 +78,8 @@ impl std::fmt::Display for PoseErrors {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "joint {:.2} deg (shared {:.2}, twist {:.2}, swing {:.2}), translation {:.2} cm (shared {:.2}), posed joints {:.2} cm",
-            self.joint_deg, self.common_deg, self.twist_deg, self.swing_deg, self.trans_cm, self.common_trans_cm, self.posed_joints_cm
+            "joint {:.2} deg (shared {:.2}, twist {:.2}, swing {:.2}), translation {:.2} cm (shared {:.2} {:.2?}), posed joints {:.2} cm",
+            self.joint_deg, self.common_deg, self.twist_deg, self.swing_deg, self.trans_cm, self.common_trans_cm, self.common_trans.to_array(), self.posed_joints_cm
         )
     }
 }

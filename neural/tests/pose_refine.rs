@@ -7,7 +7,9 @@ use avatar_core::canonical::{canonicalize_points, forward_point, FieldOptions, N
 use avatar_core::eval::conditions::FitError;
 use avatar_core::mesh::bvh::Bvh;
 use avatar_neural::capture_points::{CapturePoints, FramePoints};
+use avatar_neural::body_sdf::BodySdf;
 use avatar_neural::pose_refine::{PoseRefineOptions, PoseRefiner};
+use avatar_neural::pose_trace::pose_errors;
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -96,12 +98,42 @@ fn refinement_against_the_true_surface_recovers_perturbed_poses() {
 }
 
 #[test]
-fn fits_refine_early_and_often_and_not_at_all_when_off() {
+fn prealignment_against_the_body_recovers_perturbed_poses() {
+    let (capture, truth) = capture(open_body_lowpoly(), 4);
+    let body = BodySdf::new(&capture);
+    // The body's own SDF: positive 2 mm out along the vertex normals, negative 2 mm in, never
+    // further than that (curvature brings the surface closer; the low-poly body's thin, folded
+    // parts, fingers and toes, may flip a few signs).
+    let rest = &capture.rest;
+    let normals = capture.body.mesh(rest.clone()).vertex_normals();
+    let probe: Vec<Vec3> = (0..rest.len()).step_by(37).flat_map(|i| [rest[i] + normals[i] * 0.002, rest[i] - normals[i] * 0.002]).collect();
+    let (d, _) = body.eval(&probe);
+    assert!(d.iter().all(|v| v.abs() < 0.0021), "{d:?}");
+    let right = d.chunks(2).filter(|p| p[0] > 0.0 && p[1] < 0.0).count();
+    assert!(right * 100 >= 90 * d.len() / 2, "{right} of {} signs right", d.len() / 2);
+    let mut refiner = PoseRefiner::new(&capture, PoseRefineOptions::default());
+    let given: Vec<BodyParams> = capture.frames.iter().map(|f| f.params.clone()).collect();
+    let before = pose_errors(&given, &truth, &capture.rest_joints());
+    let report = refiner.prealign(&|_, p: &[Vec3]| body.beyond_clothing(p, 0.03));
+    let after = pose_errors(&refiner.refined(), &truth, &capture.rest_joints());
+    eprintln!("before: {before}\nafter: {after}\n{report:?}");
+    assert!(before.joint_deg > 3.5 && before.posed_joints_cm > 3.0, "the perturbation has its stated size: {before}");
+    // The extremities (head, hands, feet) are left to the prior, the rest is recovered.
+    assert!(after.posed_joints_cm < 0.5 * before.posed_joints_cm, "{before} -> {after}");
+    assert!(after.swing_deg < 0.7 * before.swing_deg, "{before} -> {after}");
+    assert!(report.residual_after < 0.5 * report.residual_before, "{report:?}");
+    // The shared translation stays the given fittings' (clothing biases it against the body).
+    assert!((after.common_trans - before.common_trans).length() < 0.01, "{before} -> {after}");
+}
+
+#[test]
+fn fits_prealign_then_refine_once_and_not_at_all_when_off() {
     let o = PoseRefineOptions::default();
+    assert!(o.prealign_rounds > 0);
     let rounds = o.round_steps(256);
-    assert_eq!(rounds.first(), Some(&1));
+    assert_eq!(rounds.first(), Some(&o.first));
     assert!(rounds.iter().all(|&s| s < o.until) && rounds.windows(2).all(|w| w[1] - w[0] == o.every));
-    // A short fit still refines (the studio's quick fit, a 3-step test fit).
-    assert_eq!(o.round_steps(3), vec![1]);
+    // A short fit (the studio's quick fit, a 3-step test fit) is only pre-aligned.
+    assert!(o.round_steps(3).is_empty());
     assert!(PoseRefineOptions::off().round_steps(256).is_empty());
 }

@@ -153,7 +153,7 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
                     job.write_ground_truth = false;
                     generate_capture(&capture_dir, body, &job)?;
                     // Diagnostics of pose refinement (neural/src/pose_trace.rs): the exact fittings.
-                    if let Some(dir) = std::env::var_os("AVATAR_POSE_TRUTH").filter(|_| !capture.fit_error.is_none()) {
+                    if let Some(dir) = std::env::var_os("AVATAR_POSE_TRUTH") {
                         let dir = std::path::PathBuf::from(dir);
                         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
                         crate::capture::CaptureManifest::load(&capture_dir)?.save(&dir)?;

@@ -154,13 +154,13 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
     // Pose refinement (PINA 3.2) runs between chunks, after the steps `rounds` names. Its
     // early rounds need the meta-learned SDF as their target: a random one (the from-scratch
     // baseline) would only move the poses away.
-    let mut refine_options = options.refine_poses;
-    experiment_overrides(&mut refine_options);
+    let refine_options = options.refine_poses;
     let rounds = match init {
         Init::MetaLearned(_) => refine_options.round_steps(options.steps),
         Init::Scratch { .. } => Vec::new(),
     };
-    let mut refiner = (!rounds.is_empty()).then(|| PoseRefiner::new(capture, refine_options));
+    let refine = matches!(init, Init::MetaLearned(_)) && refine_options.enabled;
+    let mut refiner = refine.then(|| PoseRefiner::new(capture, refine_options));
     // Pre-alignment against the subject's own body, before the SDF learns the misalignment.
     if let Some(r) = refiner.as_mut().filter(|r| r.options.prealign_rounds > 0) {
         let body = crate::body_sdf::BodySdf::new(capture);
@@ -253,21 +253,4 @@ impl StaticAvatar {
     pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
         fit_static(capture, siren, init, options, 0, cancel, &mut progress_only(progress))
     }
-}
-
-// TEMPORARY (session 4 experiments): REFINE_* variables override the refinement options.
-fn experiment_overrides(r: &mut crate::pose_refine::PoseRefineOptions) {
-    let env = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f32>().ok());
-    r.rotation_prior = env("REFINE_ROTATION_PRIOR").unwrap_or(r.rotation_prior);
-    r.translation_prior = env("REFINE_TRANSLATION_PRIOR").unwrap_or(r.translation_prior);
-    r.every = env("REFINE_EVERY").map_or(r.every, |v| v as usize);
-    r.until = env("REFINE_UNTIL").map_or(r.until, |v| v as usize);
-    r.iterations = env("REFINE_ITERATIONS").map_or(r.iterations, |v| v as usize);
-    r.huber = env("REFINE_HUBER").unwrap_or(r.huber);
-    r.points_per_frame = env("REFINE_POINTS").map_or(r.points_per_frame, |v| v as usize);
-    r.zero_mean = env("REFINE_ZERO_MEAN").map_or(r.zero_mean, |v| v != 0.0);
-    r.prealign_rounds = env("REFINE_PREALIGN").map_or(r.prealign_rounds, |v| v as usize);
-    r.prealign_iterations = env("REFINE_PREALIGN_ITER").map_or(r.prealign_iterations, |v| v as usize);
-    r.prealign_cutoff = env("REFINE_PREALIGN_CUTOFF").unwrap_or(r.prealign_cutoff);
-    r.max_step_rad = env("REFINE_MAX_STEP_DEG").map_or(r.max_step_rad, |v| v.to_radians());
 }
