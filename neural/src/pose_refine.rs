@@ -98,6 +98,12 @@ impl PoseRefineOptions {
         PoseRefineOptions { enabled: false, ..Self::default() }
     }
 
+    /// Session 3's schedule (a round after step 1 and every 3 steps up to 64), for captures
+    /// that pre-alignment leaves alone (loose clothing).
+    pub fn without_prealignment(&self) -> Self {
+        PoseRefineOptions { first: 1, until: 64, prealign_rounds: 0, ..*self }
+    }
+
     /// The fitting steps after which a round runs (none when off), for a fit of `steps` steps.
     pub fn round_steps(&self, steps: usize) -> Vec<usize> {
         if !self.enabled || self.every == 0 || steps < 2 {
@@ -255,6 +261,27 @@ impl<'a> PoseRefiner<'a> {
         let n = self.frames[k].posed.len();
         let m = self.options.points_per_frame.clamp(1, n.max(1));
         (0..m).map(|i| i * n / m).collect()
+    }
+
+    /// The share of the frames' points (extremities left out) within `prealign_cutoff` of
+    /// `sdf` at the current poses: high for tight clothing, low for a dress, whose skirt the
+    /// body does not explain (pre-alignment then pulls the legs toward the skirt).
+    pub fn near_share(&self, sdf: FrameSdf) -> f32 {
+        let field = &self.capture.field;
+        let (mut near, mut all) = (0usize, 0usize);
+        for (k, frame) in self.frames.iter().enumerate() {
+            let bones = frame.correction.bones(&self.rest_joints, &frame.given);
+            let xc: Vec<Vec3> = self
+                .subset(k)
+                .into_iter()
+                .filter(|&i| !on_extremity(&field.weights_at(frame.canonical[i])))
+                .map(|i| blend_transform(&bones.transforms, &field.weights_at(frame.canonical[i])).inverse().transform_point3(frame.posed[i]))
+                .collect();
+            let (f, _) = sdf(k, &xc);
+            near += f.iter().filter(|v| v.abs() <= self.options.prealign_cutoff).count();
+            all += f.len();
+        }
+        near as f32 / all.max(1) as f32
     }
 
     /// Pre-alignment (before the avatar's SDF has learned from the misaligned points): rounds
