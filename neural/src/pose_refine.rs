@@ -287,10 +287,10 @@ impl<'a> PoseRefiner<'a> {
     /// Pre-alignment (before the avatar's SDF has learned from the misaligned points): rounds
     /// of Gauss-Newton steps of every frame against `sdf`, a fixed target that knows the
     /// subject's shape (the shaped body, `BodySdf`, less the clothing's offset). A point whose
-    /// residual is beyond `prealign_cutoff` outside is loose clothing (a skirt, hair) and left
-    /// out; one inside the body always counts. Against a fixed shape the error the frames
-    /// share is observable, so no zero-mean constraint here; the later rounds keep their mean
-    /// correction relative to this one.
+    /// residual is beyond `prealign_cutoff` either side (loose clothing: a skirt, hair) or on
+    /// the head, hands or feet is left out. Against a fixed shape the error the frames share is
+    /// observable, so no zero-mean constraint here but along the body's axis; the later rounds
+    /// keep their mean correction relative to this one.
     pub fn prealign(&mut self, sdf: FrameSdf) -> RoundReport {
         let o = self.options;
         let mut report: Option<RoundReport> = None;
@@ -302,11 +302,14 @@ impl<'a> PoseRefiner<'a> {
                 r.residual_before += f.residual_before / n;
                 r.residual_after += f.residual_after / n;
             }
-            // The frames' shared translation is left to the given fittings: against the naked
-            // body it is biased by the clothing (exact fittings moved 4 mm, all one way).
+            // The frames' shared translation along the body's axis is left to the given
+            // fittings: against the naked body it is biased by the clothing, shoes and hair
+            // (exact fittings moved 4 mm down, all frames alike). Across the body it is free.
             if self.frames.len() > 1 {
-                let mean = self.frames.iter().map(|f| f.correction.translation).sum::<Vec3>() / n;
-                self.frames.iter_mut().for_each(|f| f.correction.translation -= mean);
+                // Each frame's body axis: the root's rotation of canonical up.
+                let up: Vec<Vec3> = self.frames.iter().map(|f| glam::Quat::from_scaled_axis(f.correction.apply(&f.given).pose[0]) * Vec3::Y).collect();
+                let mean = self.frames.iter().zip(&up).map(|(f, u)| f.correction.translation.dot(*u)).sum::<f32>() / n;
+                self.frames.iter_mut().zip(&up).for_each(|(f, u)| f.correction.translation -= *u * mean);
             }
             for k in 0..self.frames.len() {
                 self.recanonicalise(k);
