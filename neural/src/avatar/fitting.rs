@@ -139,7 +139,7 @@ fn in_chunks(steps: usize, chunk: usize, breaks: &[usize], cancel: Option<&Atomi
 }
 
 /// Pre-alignment runs when at least this share of the points is near the body (midway between
-/// the tight outfit's 86-100 % and the dress's 41-46 %, exact and perturbed fittings).
+/// the tight outfit's 86-100 % and the dress's 41-50 %, exact and perturbed fittings).
 const PREALIGN_MIN_NEAR: f32 = 0.65;
 
 /// The hypernetwork's fine-tuning: every frame of the capture is one pose sample.
