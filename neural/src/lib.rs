@@ -4,6 +4,7 @@
 //! kinds, file, fitting and loading).
 
 pub mod avatar;
+pub mod body_sdf;
 pub mod encoder;
 pub mod error;
 pub mod eval_rows;
@@ -14,6 +15,7 @@ pub mod hyper;
 pub mod hyper_fit;
 pub mod loss;
 pub mod pose_refine;
+pub mod pose_trace;
 pub mod pose_sample;
 pub mod meta_training;
 pub mod meta_data;

@@ -7,8 +7,10 @@ use avatar_core::canonical::{canonicalize_points, forward_point, FieldOptions, N
 use avatar_core::eval::conditions::FitError;
 use avatar_core::mesh::bvh::Bvh;
 use avatar_neural::capture_points::{CapturePoints, FramePoints};
+use avatar_neural::body_sdf::BodySdf;
 use avatar_neural::pose_refine::{PoseRefineOptions, PoseRefiner};
-use glam::Vec3;
+use avatar_neural::pose_trace::pose_errors;
+use glam::{Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -96,12 +98,83 @@ fn refinement_against_the_true_surface_recovers_perturbed_poses() {
 }
 
 #[test]
-fn fits_refine_early_and_often_and_not_at_all_when_off() {
+fn prealignment_against_the_body_recovers_perturbed_poses() {
+    let (capture, truth) = capture(open_body_lowpoly(), 4);
+    let body = BodySdf::new(&capture);
+    // The body's own SDF: positive 2 mm out along the vertex normals, negative 2 mm in, never
+    // further than that (curvature brings the surface closer; the low-poly body's thin, folded
+    // parts, fingers and toes, may flip a few signs).
+    let rest = &capture.rest;
+    let normals = capture.body.mesh(rest.clone()).vertex_normals();
+    let probe: Vec<Vec3> = (0..rest.len()).step_by(37).flat_map(|i| [rest[i] + normals[i] * 0.002, rest[i] - normals[i] * 0.002]).collect();
+    let (d, _) = body.eval(&probe);
+    assert!(d.iter().all(|v| v.abs() < 0.0021), "{d:?}");
+    let right = d.chunks(2).filter(|p| p[0] > 0.0 && p[1] < 0.0).count();
+    assert!(right * 100 >= 90 * d.len() / 2, "{right} of {} signs right", d.len() / 2);
+    // A uniform clothing offset is taken off: points 5 mm out read as on the surface.
+    let (d, _) = body.beyond_clothing(&rest.iter().zip(&normals).map(|(x, n)| *x + *n * 0.005).collect::<Vec<_>>(), 0.03);
+    let on = d.iter().filter(|v| v.abs() < 0.002).count();
+    assert!(on * 10 >= 9 * d.len(), "{on} of {} at the clothing's offset", d.len());
+    let mut refiner = PoseRefiner::new(&capture, PoseRefineOptions::default());
+    // The gate: the naked body explains nearly all points even with 5 degree errors.
+    let share = refiner.near_share(&|_, p: &[Vec3]| body.beyond_clothing(p, 0.03));
+    assert!(share > 0.8, "share of points near the body {share}");
+    let given: Vec<BodyParams> = capture.frames.iter().map(|f| f.params.clone()).collect();
+    let before = pose_errors(&given, &truth, &capture.rest_joints());
+    let report = refiner.prealign(&|_, p: &[Vec3]| body.beyond_clothing(p, 0.03));
+    let after = pose_errors(&refiner.refined(), &truth, &capture.rest_joints());
+    eprintln!("before: {before}\nafter: {after}\n{report:?}");
+    assert!(before.joint_deg > 3.5 && before.posed_joints_cm > 3.0, "the perturbation has its stated size: {before}");
+    // The extremities (head, hands, feet) are left to the prior, the rest is recovered.
+    assert!(after.posed_joints_cm < 0.25 * before.posed_joints_cm, "{before} -> {after}");
+    assert!(after.swing_deg < 0.7 * before.swing_deg, "{before} -> {after}");
+    assert!(report.residual_after < 0.5 * report.residual_before, "{report:?}");
+    // The translation's shared part along the body's axis stays the given fittings' (clothing,
+    // shoes and hair bias it against the naked body); across the body it is recovered.
+    let refined = refiner.refined();
+    let shared_up = refined.iter().zip(&given).map(|(r, g)| (Quat::from_scaled_axis(r.pose[0]) * Vec3::Y).dot(r.trans - g.trans)).sum::<f32>() / given.len() as f32;
+    assert!(shared_up.abs() < 1e-4, "shared correction along the body's axis {shared_up}");
+    assert!(after.trans_cm < 0.5 * before.trans_cm, "{before} -> {after}");
+}
+
+#[test]
+fn fits_prealign_then_refine_once_and_not_at_all_when_off() {
     let o = PoseRefineOptions::default();
+    assert!(o.prealign_rounds > 0);
     let rounds = o.round_steps(256);
-    assert_eq!(rounds.first(), Some(&1));
+    assert_eq!(rounds.first(), Some(&o.first));
     assert!(rounds.iter().all(|&s| s < o.until) && rounds.windows(2).all(|w| w[1] - w[0] == o.every));
-    // A short fit still refines (the studio's quick fit, a 3-step test fit).
-    assert_eq!(o.round_steps(3), vec![1]);
+    // A short fit (the studio's quick fit, a 3-step test fit) is only pre-aligned.
+    assert!(o.round_steps(3).is_empty());
     assert!(PoseRefineOptions::off().round_steps(256).is_empty());
+}
+
+#[test]
+fn pose_errors_split_shared_twist_and_swing() {
+    let body = open_body_lowpoly();
+    let joints = body.rest_joints(&[]);
+    let truth: Vec<BodyParams> = (0..4).map(|k| BodyParams { trans: Vec3::new(0.0, 0.9, 2.0 + k as f32), ..BodyParams::default() }).collect();
+    // The left elbow (18) twisted by 4 degrees about its bone (toward the wrist, 20) in every
+    // frame: a shared, pure twist; the right knee (5) swung by +-2 degrees across its bone,
+    // alternating: per-frame, nothing shared.
+    let axis = (joints[20] - joints[18]).normalize();
+    let across = (joints[8] - joints[5]).normalize().any_orthonormal_vector();
+    let refined: Vec<BodyParams> = truth
+        .iter()
+        .enumerate()
+        .map(|(k, t)| {
+            let mut p = t.clone();
+            p.pose[18] = axis * 4f32.to_radians();
+            p.pose[5] = across * if k % 2 == 0 { 2f32 } else { -2.0 }.to_radians();
+            p
+        })
+        .collect();
+    let e = pose_errors(&refined, &truth, &joints);
+    let n = 24.0;
+    assert!((e.joint_deg - 6.0 / n).abs() < 1e-3, "{e}");
+    assert!((e.twist_deg - 4.0 / n).abs() < 1e-3 && (e.swing_deg - 2.0 / n).abs() < 1e-3, "{e}");
+    assert!((e.common_deg - 4.0 / n).abs() < 1e-3 && e.trans_cm == 0.0, "{e}");
+    assert!((e.per_joint_deg[18] - 4.0).abs() < 1e-3 && (e.per_joint_deg[5] - 2.0).abs() < 1e-3);
+    // The swing moves the ankle.
+    assert!(e.posed_joints_cm > 0.0);
 }

@@ -1,0 +1,98 @@
+//! The signed distance to the subject's own shaped body at rest (canonical space, metres): the
+//! target of pose pre-alignment (`pose_refine`), which the fittings' errors cannot bend, unlike
+//! an SDF learned from the misaligned points.
+
+use crate::capture_points::CapturePoints;
+use avatar_core::mesh::bvh::Bvh;
+use avatar_core::mesh::TriMesh;
+use glam::Vec3;
+use rayon::prelude::*;
+
+pub struct BodySdf {
+    mesh: TriMesh,
+    bvh: Bvh,
+    vertex_normals: Vec<Vec3>,
+    /// Each vertex's body part: the joint with the largest skinning weight.
+    parts: Vec<usize>,
+}
+
+impl BodySdf {
+    pub fn new(capture: &CapturePoints) -> BodySdf {
+        let parts = capture.body.weights.iter().map(|w| (0..w.len()).max_by(|&a, &b| w[a].total_cmp(&w[b])).unwrap_or(0)).collect();
+        Self::of_mesh(capture.body.mesh(capture.rest.clone()), parts)
+    }
+
+    /// `parts`: a body-part label per vertex (the clothing's offset is taken per part).
+    pub fn of_mesh(mesh: TriMesh, parts: Vec<usize>) -> BodySdf {
+        let bvh = Bvh::build(&mesh);
+        let vertex_normals = mesh.vertex_normals();
+        BodySdf { mesh, bvh, vertex_normals, parts }
+    }
+
+    /// Signed distance (positive outside) and its gradient at each point. The sign comes from
+    /// the vertex normals interpolated at the closest point, which holds at edges and corners
+    /// where one face's normal does not.
+    pub fn eval(&self, points: &[Vec3]) -> (Vec<f32>, Vec<Vec3>) {
+        let (d, g, _) = self.eval_parts(points);
+        (d, g)
+    }
+
+    /// [`BodySdf::eval`] with the body part of each point's closest surface point.
+    fn eval_parts(&self, points: &[Vec3]) -> (Vec<f32>, Vec<Vec3>, Vec<usize>) {
+        let rows: Vec<(f32, Vec3, usize)> = points
+            .par_iter()
+            .map(|&p| {
+                let Some(h) = self.bvh.closest_point(p) else { return (f32::NAN, Vec3::ZERO, 0) };
+                let [a, b, c] = self.mesh.faces[h.face as usize].map(|i| i as usize);
+                let n = interpolate(h.point, [self.mesh.positions[a], self.mesh.positions[b], self.mesh.positions[c]], [self.vertex_normals[a], self.vertex_normals[b], self.vertex_normals[c]]);
+                let d = p - h.point;
+                let sign = if d.dot(n) >= 0.0 { 1.0 } else { -1.0 };
+                let g = if h.distance > 1e-6 { d / h.distance * sign } else { n };
+                (sign * h.distance, g, self.parts.get(a).copied().unwrap_or(0))
+            })
+            .collect();
+        (rows.iter().map(|r| r.0).collect(), rows.iter().map(|r| r.1).collect(), rows.iter().map(|r| r.2).collect())
+    }
+
+    /// The signed distance less the clothing's offset over these points: per body part (the
+    /// closest vertex's largest skinning weight), the median of the distances between 1 cm
+    /// inside and `band` outside (the median over all parts for a part with fewer than 20).
+    /// Tight clothing sits a few millimetres out, more on some parts than on others; without
+    /// the offset every point would pull inward.
+    pub fn beyond_clothing(&self, points: &[Vec3], band: f32) -> (Vec<f32>, Vec<Vec3>) {
+        let (mut d, g, parts) = self.eval_parts(points);
+        let near = |part: Option<usize>| -> Vec<f32> { d.iter().zip(&parts).filter(|(v, p)| (-0.01..band).contains(*v) && part.is_none_or(|q| q == **p)).map(|(v, _)| *v).collect() };
+        let global = median(near(None)).unwrap_or(0.0);
+        let mut offsets = vec![global; avatar_core::body::NUM_JOINTS];
+        for (j, o) in offsets.iter_mut().enumerate() {
+            let v = near(Some(j));
+            // A part with few points keeps the global offset.
+            if v.len() >= 20 {
+                *o = median(v).unwrap_or(global);
+            }
+        }
+        d.iter_mut().zip(&parts).for_each(|(v, &p)| *v -= offsets.get(p).copied().unwrap_or(global));
+        (d, g)
+    }
+}
+
+fn median(mut v: Vec<f32>) -> Option<f32> {
+    if v.is_empty() {
+        return None;
+    }
+    let mid = v.len() / 2;
+    Some(*v.select_nth_unstable_by(mid, f32::total_cmp).1)
+}
+
+/// The vertex normals' barycentric blend at `p` (a point of the triangle).
+fn interpolate(p: Vec3, [a, b, c]: [Vec3; 3], [na, nb, nc]: [Vec3; 3]) -> Vec3 {
+    let (v0, v1, v2) = (b - a, c - a, p - a);
+    let (d00, d01, d11, d20, d21) = (v0.dot(v0), v0.dot(v1), v1.dot(v1), v2.dot(v0), v2.dot(v1));
+    let den = d00 * d11 - d01 * d01;
+    if den.abs() < 1e-20 {
+        return (na + nb + nc).normalize_or_zero();
+    }
+    let v = (d11 * d20 - d01 * d21) / den;
+    let w = (d00 * d21 - d01 * d20) / den;
+    (na * (1.0 - v - w) + nb * v + nc * w).normalize_or_zero()
+}

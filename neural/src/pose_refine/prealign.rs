@@ -1,0 +1,81 @@
+//! Pre-alignment of the frames' poses against a fixed target that knows the subject's shape
+//! (the shaped body, `crate::body_sdf::BodySdf`), before the avatar's SDF has learned anything
+//! from the misaligned points (docs/neural.md, "Pose refinement").
+
+use super::{FrameSdf, PoseRefiner, RoundReport};
+use avatar_core::body::blend_transform;
+use glam::Vec3;
+
+impl PoseRefiner<'_> {
+    /// The share of the frames' points (extremities left out) within `prealign_cutoff` of
+    /// `sdf` at the current poses: high for tight clothing, low for a dress, whose skirt the
+    /// body does not explain (pre-alignment then pulls the legs toward the skirt).
+    pub fn near_share(&self, sdf: FrameSdf) -> f32 {
+        let field = &self.capture.field;
+        let (mut near, mut all) = (0usize, 0usize);
+        for (k, frame) in self.frames.iter().enumerate() {
+            let bones = frame.correction.bones(&self.rest_joints, &frame.given);
+            let xc: Vec<Vec3> = self
+                .subset(k)
+                .into_iter()
+                .filter(|&i| !on_extremity(&field.weights_at(frame.canonical[i])))
+                .map(|i| blend_transform(&bones.transforms, &field.weights_at(frame.canonical[i])).inverse().transform_point3(frame.posed[i]))
+                .collect();
+            let (f, _) = sdf(k, &xc);
+            near += f.iter().filter(|v| v.abs() <= self.options.prealign_cutoff).count();
+            all += f.len();
+        }
+        near as f32 / all.max(1) as f32
+    }
+
+    /// Pre-alignment (before the avatar's SDF has learned from the misaligned points): rounds
+    /// of Gauss-Newton steps of every frame against `sdf`, a fixed target that knows the
+    /// subject's shape (the shaped body, `BodySdf`, less the clothing's offset). A point whose
+    /// residual is beyond `prealign_cutoff` either side (loose clothing: a skirt, hair) or on
+    /// the head, hands or feet is left out. Against a fixed shape the error the frames share is
+    /// observable, so no zero-mean constraint here but along the body's axis; the later rounds
+    /// keep their mean correction relative to this one.
+    pub fn prealign(&mut self, sdf: FrameSdf) -> RoundReport {
+        let o = self.options;
+        let mut report: Option<RoundReport> = None;
+        let n = self.frames.len().max(1) as f32;
+        for round in 0..o.prealign_rounds {
+            let mut r = RoundReport { residual_before: 0.0, residual_after: 0.0 };
+            for k in 0..self.frames.len() {
+                let f = self.refine_frame(k, sdf, o.prealign_iterations, (-o.prealign_cutoff, o.prealign_cutoff), true);
+                r.residual_before += f.residual_before / n;
+                r.residual_after += f.residual_after / n;
+            }
+            // The frames' shared translation along the body's axis is left to the given
+            // fittings: against the naked body it is biased by the clothing, shoes and hair
+            // (exact fittings moved 4 mm down, all frames alike). Across the body it is free.
+            if self.frames.len() > 1 {
+                // Each frame's body axis: the root's rotation of canonical up.
+                let up: Vec<Vec3> = self.frames.iter().map(|f| glam::Quat::from_scaled_axis(f.correction.apply(&f.given).pose[0]) * Vec3::Y).collect();
+                let mean = self.frames.iter().zip(&up).map(|(f, u)| f.correction.translation.dot(*u)).sum::<f32>() / n;
+                self.frames.iter_mut().zip(&up).for_each(|(f, u)| f.correction.translation -= *u * mean);
+            }
+            for k in 0..self.frames.len() {
+                self.recanonicalise(k);
+            }
+            if let Some(e) = self.errors() {
+                eprintln!("pose trace: pre-alignment {}: |sdf| {:.2} -> {:.2} mm; {e}", round + 1, r.residual_before * 1e3, r.residual_after * 1e3);
+            }
+            report = Some(report.map_or(r, |first| RoundReport { residual_before: first.residual_before, residual_after: r.residual_after }));
+        }
+        for f in self.frames.iter_mut() {
+            f.anchor = f.correction;
+        }
+        report.unwrap_or(RoundReport { residual_before: 0.0, residual_after: 0.0 })
+    }
+}
+
+/// Joints whose surface a person's clothing and hair change most against the naked body
+/// (shoes, hair, hands in gloves or sleeves): head, ankles, feet, wrists and hands.
+const EXTREMITIES: [usize; 9] = [7, 8, 10, 11, 15, 20, 21, 22, 23];
+
+/// Whether a point belongs mostly to an extremity (pre-alignment against the naked body leaves
+/// it out: a shoe's sole would pull the body down).
+pub(super) fn on_extremity(w: &avatar_core::body::skinning::Weights) -> bool {
+    EXTREMITIES.iter().map(|&j| w[j]).sum::<f32>() > 0.5
+}

@@ -1,0 +1,116 @@
+//! How far refined poses are from the true ones, when those are known (the evaluation's
+//! perturbed captures, synthetic tests): the mean joint angle, the translation, the posed
+//! joints' positions, and the error split into what the frames share (the part a zero-mean
+//! constraint cannot correct) and each joint's twist about its bone and swing of the bone.
+//!
+//! `AVATAR_POSE_TRUTH=DIR` (a folder holding the exact `capture.json`; `eval` writes it there
+//! before perturbing its fittings) makes a fit print these errors after every refinement round.
+
+use avatar_core::body::{forward_kinematics, skeleton::parent, BodyParams, JOINT_NAMES, NUM_JOINTS};
+use avatar_core::capture::CaptureManifest;
+use glam::{Quat, Vec3};
+
+/// Errors of refined fittings against the truth (means over frames; angles in degrees).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseErrors {
+    /// Mean over joints of the angle between the refined and the true rotation.
+    pub joint_deg: f32,
+    pub trans_cm: f32,
+    /// Mean distance of the posed joints (the skeleton at each fitting) from the true ones.
+    pub posed_joints_cm: f32,
+    /// Mean over joints of the length of the frames' mean error (the shared part).
+    pub common_deg: f32,
+    /// Length of the frames' mean translation error, and that error (world, cm).
+    pub common_trans_cm: f32,
+    pub common_trans: Vec3,
+    /// Mean over joints of the error's component about the bone (twist) and across it (swing).
+    pub twist_deg: f32,
+    pub swing_deg: f32,
+    pub per_joint_deg: [f32; NUM_JOINTS],
+}
+
+/// A joint's bone direction in its own frame at rest (the rest pose has no rotations): toward
+/// its first child, or from its parent for a leaf.
+fn bone_axis(rest: &[Vec3; NUM_JOINTS], j: usize) -> Vec3 {
+    let d = match (0..NUM_JOINTS).find(|&c| parent(c) == Some(j)) {
+        Some(c) => rest[c] - rest[j],
+        None => rest[j] - parent(j).map_or(rest[j], |p| rest[p]),
+    };
+    d.normalize_or_zero()
+}
+
+/// Error rotation of a joint (rotation vector, in the joint's frame after the true rotation).
+fn joint_error(refined: Vec3, truth: Vec3) -> Vec3 {
+    let q = Quat::from_scaled_axis(truth).inverse() * Quat::from_scaled_axis(refined);
+    let q = if q.w < 0.0 { -q } else { q };
+    q.to_scaled_axis()
+}
+
+pub fn pose_errors(refined: &[BodyParams], truth: &[BodyParams], rest_joints: &[Vec3; NUM_JOINTS]) -> PoseErrors {
+    let n = refined.len().min(truth.len()).max(1) as f32;
+    let nj = NUM_JOINTS as f32;
+    let mut e = PoseErrors { joint_deg: 0.0, trans_cm: 0.0, posed_joints_cm: 0.0, common_deg: 0.0, common_trans_cm: 0.0, common_trans: Vec3::ZERO, twist_deg: 0.0, swing_deg: 0.0, per_joint_deg: [0.0; NUM_JOINTS] };
+    let mut mean_err = [Vec3::ZERO; NUM_JOINTS];
+    let mut mean_trans = Vec3::ZERO;
+    for (r, t) in refined.iter().zip(truth) {
+        for j in 0..NUM_JOINTS {
+            let err = joint_error(r.pose[j], t.pose[j]);
+            let angle = err.length().to_degrees();
+            let twist = err.dot(bone_axis(rest_joints, j)).abs().to_degrees();
+            e.per_joint_deg[j] += angle / n;
+            e.joint_deg += angle / (n * nj);
+            e.twist_deg += twist / (n * nj);
+            e.swing_deg += (angle * angle - twist * twist).max(0.0).sqrt() / (n * nj);
+            mean_err[j] += err / n;
+        }
+        e.trans_cm += (r.trans - t.trans).length() * 100.0 / n;
+        mean_trans += (r.trans - t.trans) / n;
+        let (pr, pt) = (forward_kinematics(rest_joints, &r.rotations(), r.trans).posed_joints(), forward_kinematics(rest_joints, &t.rotations(), t.trans).posed_joints());
+        e.posed_joints_cm += pr.iter().zip(&pt).map(|(a, b)| (*a - *b).length()).sum::<f32>() * 100.0 / (n * nj);
+    }
+    e.common_deg = mean_err.iter().map(|v| v.length().to_degrees()).sum::<f32>() / nj;
+    e.common_trans_cm = mean_trans.length() * 100.0;
+    e.common_trans = mean_trans * 100.0;
+    e
+}
+
+impl std::fmt::Display for PoseErrors {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "joint {:.2} deg (shared {:.2}, twist {:.2}, swing {:.2}), translation {:.2} cm (shared {:.2} {:.2?}), posed joints {:.2} cm",
+            self.joint_deg, self.common_deg, self.twist_deg, self.swing_deg, self.trans_cm, self.common_trans_cm, self.common_trans.to_array(), self.posed_joints_cm
+        )
+    }
+}
+
+impl PoseErrors {
+    /// Each joint's mean angle error, by name.
+    pub fn per_joint(&self) -> String {
+        (0..NUM_JOINTS).map(|j| format!("{} {:.1}", JOINT_NAMES[j], self.per_joint_deg[j])).collect::<Vec<_>>().join(", ")
+    }
+}
+
+/// The true fitting of each given one: the record of `exact` nearest to it (the perturbation is
+/// a few degrees; the frames of a capture are further apart than that).
+pub fn match_truth(given: &[BodyParams], exact: &[BodyParams]) -> Vec<BodyParams> {
+    given
+        .iter()
+        .map(|g| {
+            let cost = |t: &BodyParams| {
+                let (a, d) = avatar_core::body::pose_error(g, t);
+                a + d * 10.0
+            };
+            exact.iter().min_by(|a, b| cost(a).total_cmp(&cost(b))).cloned().unwrap_or_else(|| g.clone())
+        })
+        .collect()
+}
+
+/// The true fittings named by `AVATAR_POSE_TRUTH` for these given ones (`None` when unset or
+/// unreadable).
+pub fn truth_from_env(given: &[BodyParams]) -> Option<Vec<BodyParams>> {
+    let dir = std::env::var_os("AVATAR_POSE_TRUTH")?;
+    let manifest = CaptureManifest::load(std::path::Path::new(&dir)).ok()?;
+    let exact: Vec<BodyParams> = manifest.frames.iter().filter_map(|r| r.params().ok()).collect();
+    Some(match_truth(given, &exact))
+}
