@@ -37,15 +37,7 @@ pub fn install(render_state: &egui_wgpu::RenderState, backdrop: egui::Color32) {
     let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("flat"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
     let image_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("flat image"),
-        entries: &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: true }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry { binding: 1, visibility: wgpu::ShaderStages::FRAGMENT, ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering), count: None },
-        ],
+        entries: &super::texture_and_sampler_entries(0),
     });
     // egui's target holds gamma-encoded 8-bit values (as egui's own shader writes them).
     let [r, g, b, a] = backdrop.to_normalized_gamma_f32();

@@ -141,15 +141,7 @@ impl ViewportResources {
         });
         let blit_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("viewport blit"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: true }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry { binding: 1, visibility: wgpu::ShaderStages::FRAGMENT, ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering), count: None },
-            ],
+            entries: &texture_and_sampler_entries(0),
         });
         let scene_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("viewport scene"), bind_group_layouts: &[Some(&globals_layout)], immediate_size: 0 });
         let blit_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("viewport blit"), bind_group_layouts: &[Some(&blit_layout)], immediate_size: 0 });
@@ -397,4 +389,18 @@ mod tests {
         assert_eq!(scaled_size([787, 714], 0.5), [394, 357]);
         assert_eq!(scaled_size([1, 3], 0.25), [1, 1]);
     }
+}
+
+/// A filterable 2D texture at `binding` and its sampler at `binding + 1`, both for the fragment
+/// stage: what every copy of an image into egui's pass binds.
+pub(super) fn texture_and_sampler_entries(binding: u32) -> [wgpu::BindGroupLayoutEntry; 2] {
+    [
+        wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: true }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
+            count: None,
+        },
+        wgpu::BindGroupLayoutEntry { binding: binding + 1, visibility: wgpu::ShaderStages::FRAGMENT, ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering), count: None },
+    ]
 }
