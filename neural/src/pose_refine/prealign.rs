@@ -3,7 +3,7 @@
 //! from the misaligned points (docs/neural.md, "Pose refinement").
 
 use super::{FrameSdf, PoseRefiner, RoundReport};
-use avatar_core::body::blend_transform;
+use avatar_core::body::{blend_transform, PoseCorrection};
 use glam::Vec3;
 
 impl PoseRefiner<'_> {
@@ -39,13 +39,34 @@ impl PoseRefiner<'_> {
         let o = self.options;
         let mut report: Option<RoundReport> = None;
         let n = self.frames.len().max(1) as f32;
+        // The corrections at the start of the best round so far, and that round's residual.
+        let mut best: Option<(f32, Vec<PoseCorrection>)> = None;
         for round in 0..o.prealign_rounds {
+            let start: Vec<PoseCorrection> = self.frames.iter().map(|f| f.correction).collect();
             let mut r = RoundReport { residual_before: 0.0, residual_after: 0.0 };
             for k in 0..self.frames.len() {
                 let f = self.refine_frame(k, sdf, o.prealign_iterations, (-o.prealign_cutoff, o.prealign_cutoff), true);
                 r.residual_before += f.residual_before / n;
                 r.residual_after += f.residual_after / n;
             }
+            // A round whose start fits the body no better than the previous round's did: that
+            // round only moved the poses (exact fittings drift by half a centimetre over four
+            // rounds, the residual growing). Back to the best start, and stop.
+            if let Some((best_residual, best_start)) = &best
+                && r.residual_before >= *best_residual
+            {
+                for (f, c) in self.frames.iter_mut().zip(best_start) {
+                    f.correction = *c;
+                }
+                for k in 0..self.frames.len() {
+                    self.recanonicalise(k);
+                }
+                if let Some(e) = self.errors() {
+                    eprintln!("pose trace: pre-alignment {}: |sdf| {:.2} mm, no better than {:.2}: back to round {}'s start; {e}", round + 1, r.residual_before * 1e3, best_residual * 1e3, round);
+                }
+                break;
+            }
+            best = Some((r.residual_before, start));
             // The frames' shared translation along the body's axis is left to the given
             // fittings: against the naked body it is biased by the clothing, shoes and hair
             // (exact fittings moved 4 mm down, all frames alike). Across the body it is free.
