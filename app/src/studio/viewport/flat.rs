@@ -47,7 +47,7 @@ pub fn install(render_state: &egui_wgpu::RenderState, backdrop: egui::Color32) {
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(label),
             layout: Some(&layout),
-            vertex: wgpu::VertexState { module: &shader, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
+            vertex: wgpu::VertexState { module: &shader, entry_point: Some("vs_fullscreen"), compilation_options: Default::default(), buffers: &[] },
             primitive: wgpu::PrimitiveState::default(),
             depth_stencil: None,
             multisample: wgpu::MultisampleState::default(),
@@ -175,27 +175,14 @@ impl Flat {
     }
 }
 
-/// One triangle over the callback's viewport; `uv` runs 0..1 across the viewport.
-const SHADER: &str = "
+/// Fills and images over the callback's viewport (fullscreen.wgsl's triangle).
+const SHADER: &str = concat!(
+    include_str!("fullscreen.wgsl"),
+    "
 override r: f32 = 0.0;
 override g: f32 = 0.0;
 override b: f32 = 0.0;
 override a: f32 = 1.0;
-
-struct Out {
-    @builtin(position) position: vec4<f32>,
-    @location(0) uv: vec2<f32>,
-};
-
-@vertex
-fn vs_main(@builtin(vertex_index) vi: u32) -> Out {
-    let x = f32((vi << 1u) & 2u);
-    let y = f32(vi & 2u);
-    var out: Out;
-    out.position = vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
-    out.uv = vec2<f32>(x, y);
-    return out;
-}
 
 @fragment
 fn fs_backdrop() -> @location(0) vec4<f32> {
@@ -206,7 +193,8 @@ fn fs_backdrop() -> @location(0) vec4<f32> {
 @group(0) @binding(1) var image_sampler: sampler;
 
 @fragment
-fn fs_image(in: Out) -> @location(0) vec4<f32> {
+fn fs_image(in: FullscreenOut) -> @location(0) vec4<f32> {
     return textureSample(image, image_sampler, in.uv);
 }
-";
+"
+);

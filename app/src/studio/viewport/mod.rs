@@ -129,7 +129,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) -> bool {
 impl ViewportResources {
     /// `software`: the adapter is a CPU renderer (lavapipe), where 4x MSAA is the frame's cost.
     pub fn new(device: &wgpu::Device, target_format: wgpu::TextureFormat, software: bool) -> ViewportResources {
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("viewport"), source: wgpu::ShaderSource::Wgsl(include_str!("shaders.wgsl").into()) });
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("viewport"), source: wgpu::ShaderSource::Wgsl(concat!(include_str!("fullscreen.wgsl"), include_str!("shaders.wgsl")).into()) });
         let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("viewport globals"),
             entries: &[wgpu::BindGroupLayoutEntry {
@@ -160,7 +160,7 @@ impl ViewportResources {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("viewport blit"),
                 layout: Some(&blit_pipeline_layout),
-                vertex: wgpu::VertexState { module: &shader, entry_point: Some("vs_blit"), compilation_options: Default::default(), buffers: &[] },
+                vertex: wgpu::VertexState { module: &shader, entry_point: Some("vs_fullscreen"), compilation_options: Default::default(), buffers: &[] },
                 primitive: wgpu::PrimitiveState::default(),
                 depth_stencil: None,
                 multisample: wgpu::MultisampleState::default(),

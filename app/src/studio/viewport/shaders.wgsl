@@ -109,27 +109,14 @@ fn fs_line(in: LineOut) -> @location(0) vec4<f32> {
     return vec4<f32>(to_display(in.color), 1.0);
 }
 
-// Copy of the resolved offscreen image into egui's pass (viewport = the callback's rect).
-struct BlitOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) uv: vec2<f32>,
-};
-
-@vertex
-fn vs_blit(@builtin(vertex_index) vi: u32) -> BlitOut {
-    let x = f32((vi << 1u) & 2u);
-    let y = f32(vi & 2u);
-    var out: BlitOut;
-    out.clip = vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
-    out.uv = vec2<f32>(x, y);
-    return out;
-}
+// Copy of the resolved offscreen image into egui's pass (viewport = the callback's rect),
+// drawn by fullscreen.wgsl's `vs_fullscreen`.
 
 @group(0) @binding(0) var blit_src: texture_2d<f32>;
 @group(0) @binding(1) var blit_sampler: sampler;
 
 @fragment
-fn fs_blit(in: BlitOut) -> @location(0) vec4<f32> {
+fn fs_blit(in: FullscreenOut) -> @location(0) vec4<f32> {
     let dims = vec2<f32>(textureDimensions(blit_src));
     let p = vec2<i32>(clamp(in.uv * dims, vec2<f32>(0.0), dims - vec2<f32>(1.0)));
     return textureLoad(blit_src, p, 0);
@@ -138,6 +125,6 @@ fn fs_blit(in: BlitOut) -> @location(0) vec4<f32> {
 // The scene drawn smaller than the viewport (moving, on a software renderer): stretched
 // bilinearly.
 @fragment
-fn fs_blit_scaled(in: BlitOut) -> @location(0) vec4<f32> {
+fn fs_blit_scaled(in: FullscreenOut) -> @location(0) vec4<f32> {
     return textureSample(blit_src, blit_sampler, in.uv);
 }
