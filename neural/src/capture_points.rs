@@ -9,7 +9,7 @@ use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS};
 use avatar_core::canonical::{default_cache_dir, shell_samples, Canonicalizer, FieldOptions, Normalisation, ShellOptions, SkinningField};
 use avatar_core::capture::{free_space_samples, Capture, CaptureOptions, FreeSpaceOptions};
 use crate::error::{Error, Result};
-use avatar_core::mesh::bvh::Bvh;
+use avatar_core::mesh::signed_distance::SignedDistance;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -126,13 +126,12 @@ impl CapturePoints {
     /// They join each frame's free-space samples (and move with its refined pose).
     fn add_shell_samples(&mut self, options: &ShellOptions) {
         let norm = self.normalisation;
-        let body = self.body.mesh(self.rest.clone());
-        let (bvh, body_normals) = (Bvh::build(&body), body.face_normals());
+        let body = SignedDistance::new(&self.body.mesh(self.rest.clone()));
         let metric: Vec<Vec<Vec3>> = self.frames.iter().map(|f| f.points.iter().map(|p| norm.from_unit(*p)).collect()).collect();
         let Ok(observed) = avatar_core::mesh::point_index::PointIndex::new(&metric.concat()) else { return };
         for (k, (frame, points)) in self.frames.iter_mut().zip(&metric).enumerate() {
             let options = ShellOptions { seed: options.seed ^ k as u64, ..*options };
-            let samples = shell_samples(points, &frame.normals, &bvh, &body_normals, &observed, &options);
+            let samples = shell_samples(points, &frame.normals, &body, &observed, &options);
             frame.free_space.extend(samples.iter().map(|p| norm.to_unit(*p)));
         }
     }
@@ -160,26 +159,17 @@ impl CapturePoints {
     /// elsewhere unknown (0). It removes the spurious surfaces a SIREN grows where no depth
     /// point constrains it, on the sides the camera never saw.
     pub fn sign_prior(&self) -> impl Fn(&[Vec3]) -> Vec<f32> + Sync + '_ {
-        let mesh = self.body.mesh(self.rest.clone());
-        let face_normals = mesh.face_normals();
-        let bvh = Bvh::build(&mesh);
+        let body = SignedDistance::new(&self.body.mesh(self.rest.clone()));
         let norm = self.normalisation;
         // On all cores: a training step asks for thousands of points.
         move |unit: &[Vec3]| {
             use rayon::prelude::*;
             unit.par_iter()
                 .with_min_len(256)
-                .map(|q| {
-                    let p = norm.from_unit(*q);
-                    match bvh.closest_point(p) {
-                        Some(h) if (p - h.point).dot(face_normals[h.face as usize]) >= 0.0 => {
-                            if h.distance > 0.35 { 1.0 } else { 0.0 }
-                        }
-                        Some(h) => {
-                            if h.distance > 0.03 { -1.0 } else { 0.0 }
-                        }
-                        None => 0.0,
-                    }
+                .map(|q| match body.at(norm.from_unit(*q)) {
+                    Some(d) if d > 0.35 => 1.0,
+                    Some(d) if d < -0.03 => -1.0,
+                    _ => 0.0,
                 })
                 .collect()
         }

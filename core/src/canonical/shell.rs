@@ -9,8 +9,8 @@
 //! point, the space is taken as empty. They become outside constraints like the free-space
 //! samples on the camera rays, and the wall behind the cloth stays about `depth.0` thick.
 
-use crate::mesh::bvh::Bvh;
 use crate::mesh::point_index::PointIndex;
+use crate::mesh::signed_distance::SignedDistance;
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -41,18 +41,12 @@ impl Default for ShellOptions {
 }
 
 /// Samples behind a frame's canonical `points` (with outward unit `normals`), checked against
-/// the rest body `body` (closed, outward faces; `body_normals` its face normals) and every
-/// frame's observed canonical points (`observed`). Metres, canonical space. Seeded.
-pub fn shell_samples(points: &[Vec3], normals: &[Vec3], body: &Bvh, body_normals: &[Vec3], observed: &PointIndex, options: &ShellOptions) -> Vec<Vec3> {
+/// the rest body (`body`: its signed distance) and every frame's observed canonical points
+/// (`observed`). Metres, canonical space. Seeded.
+pub fn shell_samples(points: &[Vec3], normals: &[Vec3], body: &SignedDistance, observed: &PointIndex, options: &ShellOptions) -> Vec<Vec3> {
     if points.is_empty() || points.len() != normals.len() || options.per_frame == 0 || !(options.depth.1 > options.depth.0) {
         return Vec::new();
     }
-    let signed_body_distance = |p: Vec3| {
-        body.closest_point(p).map(|h| {
-            let outside = (p - h.point).dot(body_normals[h.face as usize]) >= 0.0;
-            if outside { h.distance } else { -h.distance }
-        })
-    };
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
     // A few candidates per wanted sample: most points are tight clothing or skin.
     let candidates: Vec<(usize, f32)> = (0..options.per_frame * 4).map(|_| (rng.random_range(0..points.len()), rng.random_range(options.depth.0..options.depth.1))).collect();
@@ -61,11 +55,11 @@ pub fn shell_samples(points: &[Vec3], normals: &[Vec3], body: &Bvh, body_normals
         .with_min_len(256)
         .filter_map(|&(i, depth)| {
             let (p, n) = (points[i], normals[i]);
-            if n.length_squared() < 0.5 || signed_body_distance(p)? < options.loose {
+            if n.length_squared() < 0.5 || body.at(p)? < options.loose {
                 return None;
             }
             let q = p - n * depth;
-            let clear_of_body = signed_body_distance(q)? >= options.body_clearance;
+            let clear_of_body = body.at(q)? >= options.body_clearance;
             let clear_of_points = observed.nearest(q).1 >= options.clearance;
             (clear_of_body && clear_of_points).then_some(q)
         })
@@ -95,9 +89,7 @@ mod tests {
 
     #[test]
     fn samples_lie_behind_loose_cloth_and_clear_of_the_body_and_the_cloth() {
-        let body = cube(0.2);
-        let bvh = Bvh::build(&body);
-        let body_normals = body.face_normals();
+        let body = SignedDistance::new(&cube(0.2));
         // A "skirt" sheet 10 cm in front of the +z face (normals +z), and a tight layer on the
         // -z face 1 cm off the body (normals -z).
         let skirt = sheet(0.3, 0.3);
@@ -105,7 +97,7 @@ mod tests {
         let observed: Vec<Vec3> = skirt.iter().chain(&tight).copied().collect();
         let index = PointIndex::new(&observed).unwrap();
         let options = ShellOptions { per_frame: 1000, ..ShellOptions::default() };
-        let samples = shell_samples(&skirt, &vec![Vec3::Z; skirt.len()], &bvh, &body_normals, &index, &options);
+        let samples = shell_samples(&skirt, &vec![Vec3::Z; skirt.len()], &body, &index, &options);
         assert_eq!(samples.len(), 1000);
         for q in &samples {
             // Behind the skirt by the wall's depth, in front of the body.
@@ -114,23 +106,22 @@ mod tests {
             assert!(q.z > 0.2 + options.body_clearance, "{q} touches the body");
         }
         // Tight clothing gets none: its inside is the body.
-        let tight_samples = shell_samples(&tight, &vec![Vec3::NEG_Z; tight.len()], &bvh, &body_normals, &index, &options);
+        let tight_samples = shell_samples(&tight, &vec![Vec3::NEG_Z; tight.len()], &body, &index, &options);
         assert!(tight_samples.is_empty(), "{} samples behind a tight layer", tight_samples.len());
         // Seeded.
-        assert_eq!(samples, shell_samples(&skirt, &vec![Vec3::Z; skirt.len()], &bvh, &body_normals, &index, &options));
+        assert_eq!(samples, shell_samples(&skirt, &vec![Vec3::Z; skirt.len()], &body, &index, &options));
     }
 
     #[test]
     fn no_sample_lands_near_another_observed_layer() {
-        let body = cube(0.2);
-        let bvh = Bvh::build(&body);
+        let body = SignedDistance::new(&cube(0.2));
         // Two layers 3 cm apart in front of the body: behind the outer one lies the inner one.
         let outer = sheet(0.33, 0.3);
         let inner = sheet(0.30, 0.3);
         let observed: Vec<Vec3> = outer.iter().chain(&inner).copied().collect();
         let index = PointIndex::new(&observed).unwrap();
         let options = ShellOptions::default();
-        let samples = shell_samples(&outer, &vec![Vec3::Z; outer.len()], &bvh, &body.face_normals(), &index, &options);
+        let samples = shell_samples(&outer, &vec![Vec3::Z; outer.len()], &body, &index, &options);
         for q in &samples {
             assert!(index.nearest(*q).1 >= options.clearance - 1e-5, "{q} is on an observed layer");
         }

@@ -5,6 +5,7 @@ pub mod extract;
 pub mod io;
 mod marching_cubes;
 pub mod point_index;
+pub mod signed_distance;
 pub mod smooth;
 pub mod topology;
 

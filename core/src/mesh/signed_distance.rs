@@ -1,0 +1,43 @@
+//! Signed distance to a closed mesh with outward faces: the distance to the nearest surface
+//! point, negative where that point's face looks away (inside). Exact for the distance; the
+//! sign is the nearest face's, which is right away from sharp folds (the body's SDF for the
+//! sign prior and the shells behind loose clothing).
+
+use super::bvh::Bvh;
+use super::TriMesh;
+use glam::Vec3;
+
+pub struct SignedDistance {
+    bvh: Bvh,
+    face_normals: Vec<Vec3>,
+}
+
+impl SignedDistance {
+    pub fn new(mesh: &TriMesh) -> SignedDistance {
+        SignedDistance { bvh: Bvh::build(mesh), face_normals: mesh.face_normals() }
+    }
+
+    /// Metres, positive outside (on the surface counts as outside); `None` for an empty mesh.
+    pub fn at(&self, p: Vec3) -> Option<f32> {
+        let h = self.bvh.closest_point(p)?;
+        let outside = (p - h.point).dot(self.face_normals[h.face as usize]) >= 0.0;
+        Some(if outside { h.distance } else { -h.distance })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_box_is_negative_inside_and_positive_outside() {
+        let c = |x: f32, y: f32, z: f32| Vec3::new(x, y, z) * 0.5;
+        let positions = vec![c(-1., -1., -1.), c(1., -1., -1.), c(1., 1., -1.), c(-1., 1., -1.), c(-1., -1., 1.), c(1., -1., 1.), c(1., 1., 1.), c(-1., 1., 1.)];
+        let faces = vec![[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4], [3, 7, 6], [3, 6, 2], [0, 4, 7], [0, 7, 3], [1, 2, 6], [1, 6, 5]];
+        let sd = SignedDistance::new(&TriMesh::new(positions, faces));
+        assert!((sd.at(Vec3::ZERO).unwrap() + 0.5).abs() < 1e-6);
+        assert!((sd.at(Vec3::new(0.0, 0.0, 0.8)).unwrap() - 0.3).abs() < 1e-6);
+        assert!((sd.at(Vec3::new(0.1, 0.4, 0.0)).unwrap() + 0.1).abs() < 1e-6);
+        assert!(SignedDistance::new(&TriMesh::new(Vec::new(), Vec::new())).at(Vec3::ZERO).is_none());
+    }
+}
