@@ -5,7 +5,7 @@
 use avatar_core::capture::Capture;
 use avatar_core::mesh::io::read_obj;
 use avatar_core::synth::contact_sheet::write_view_sheet;
-use avatar_core::synth::{canonical_surface, ClothedTemplate, Outfit, PoseFeatures};
+use avatar_core::synth::{ClothedTemplate, Outfit};
 use glam::Vec3;
 
 fn main() -> avatar_core::error::Result<()> {
@@ -18,9 +18,7 @@ fn main() -> avatar_core::error::Result<()> {
         Ok("sheet") => avatar_core::body::BodyParams { betas: betas.clone(), ..avatar_core::eval::dataset::sheet_pose()? },
         _ => avatar_core::body::BodyParams { betas: betas.clone(), ..Default::default() },
     };
-    let bones = capture.body.pose(&pose).bones;
-    let canonical = canonical_surface(&template, &PoseFeatures::of(&bones), subject);
-    let truth = avatar_core::mesh::TriMesh::new(avatar_core::synth::pose_surface(&template, &canonical, &bones), template.faces.clone());
+    let truth = avatar_core::eval::runner::ground_truth_mesh(&capture.body, &template, &pose, subject);
     let truth_bvh = avatar_core::mesh::bvh::Bvh::build(&truth);
     let mut meshes = vec![truth];
     for p in &args[5..] {
