@@ -21,6 +21,9 @@ pub struct FramePoints {
     /// Free-space evidence (normalised canonical space): points on the camera rays in front
     /// of the measured depth, which must be outside the avatar.
     pub free_space: Vec<Vec3>,
+    /// Outside constraints a little behind loose clothing (normalised canonical space,
+    /// [`shell_samples_of`]); redrawn when pose refinement moves the points.
+    pub shells: Vec<Vec3>,
 }
 
 pub struct CapturePoints {
@@ -38,6 +41,27 @@ pub struct CapturePoints {
     /// Points dropped by the 2 cm filter or with no converged root.
     pub dropped: usize,
     pub warnings: Vec<String>,
+}
+
+impl FramePoints {
+    /// Every outside constraint of the frame: free space, then the shells.
+    pub fn outside(&self) -> Vec<Vec3> {
+        [self.free_space.as_slice(), &self.shells].concat()
+    }
+}
+
+/// Every frame's shell samples (metres, canonical space): behind its canonical `points`
+/// (metres) with their `normals`, clear of the rest body `rest_body` and of all frames' points.
+/// Seeded per frame.
+pub fn shell_samples_of(rest_body: &avatar_core::mesh::TriMesh, points: &[Vec<Vec3>], normals: &[&[Vec3]], options: &ShellOptions) -> Vec<Vec<Vec3>> {
+    let body = SignedDistance::new(rest_body);
+    let Ok(observed) = avatar_core::mesh::point_index::PointIndex::new(&points.concat()) else { return vec![Vec::new(); points.len()] };
+    points
+        .iter()
+        .zip(normals)
+        .enumerate()
+        .map(|(k, (p, n))| shell_samples(p, n, &body, &observed, &ShellOptions { seed: options.seed ^ k as u64, ..*options }))
+        .collect()
 }
 
 /// Frames with fewer canonical points are skipped (with a warning).
@@ -83,7 +107,7 @@ impl CapturePoints {
             used.push(f.index);
             let free = free_space_samples(&f.points, f.camera_center(), &FreeSpaceOptions { seed: FreeSpaceOptions::default().seed ^ f.index as u64, ..FreeSpaceOptions::default() });
             let free_space = canon.free_space(f, &free).iter().map(|p| norm.to_unit(*p)).collect();
-            out.push(FramePoints { params: f.params.clone(), points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals, free_space });
+            out.push(FramePoints { params: f.params.clone(), points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals, free_space, shells: Vec::new() });
         }
         // Fewer usable frames than asked (and than the capture has) is an error naming them.
         avatar_core::capture::plausibility::require_usable_frames(&capture, frames.max(1), &used, &skipped)?;
@@ -123,16 +147,13 @@ impl CapturePoints {
 
     /// Outside constraints a little behind loose clothing (`canonical::shell`): without them
     /// a skirt is fitted as a solid bell whose inner wall lies centimetres inside the cloth.
-    /// They join each frame's free-space samples (and move with its refined pose).
     fn add_shell_samples(&mut self, options: &ShellOptions) {
         let norm = self.normalisation;
-        let body = SignedDistance::new(&self.body.mesh(self.rest.clone()));
         let metric: Vec<Vec<Vec3>> = self.frames.iter().map(|f| f.points.iter().map(|p| norm.from_unit(*p)).collect()).collect();
-        let Ok(observed) = avatar_core::mesh::point_index::PointIndex::new(&metric.concat()) else { return };
-        for (k, (frame, points)) in self.frames.iter_mut().zip(&metric).enumerate() {
-            let options = ShellOptions { seed: options.seed ^ k as u64, ..*options };
-            let samples = shell_samples(points, &frame.normals, &body, &observed, &options);
-            frame.free_space.extend(samples.iter().map(|p| norm.to_unit(*p)));
+        let normals: Vec<&[Vec3]> = self.frames.iter().map(|f| f.normals.as_slice()).collect();
+        let shells = shell_samples_of(&self.body.mesh(self.rest.clone()), &metric, &normals, options);
+        for (frame, samples) in self.frames.iter_mut().zip(shells) {
+            frame.shells = samples.iter().map(|p| norm.to_unit(*p)).collect();
         }
     }
 
@@ -146,7 +167,7 @@ impl CapturePoints {
         let joints = self.rest_joints();
         self.frames
             .iter()
-            .map(|f| PoseSample { pose_input: encoding.input(&f.params, &joints, &self.normalisation), points: f.points.clone(), normals: f.normals.clone(), free_space: f.free_space.clone() })
+            .map(|f| PoseSample { pose_input: encoding.input(&f.params, &joints, &self.normalisation), points: f.points.clone(), normals: f.normals.clone(), free_space: f.outside() })
             .collect()
     }
 

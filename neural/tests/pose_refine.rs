@@ -6,7 +6,9 @@ use avatar_core::body::{open_body_lowpoly, pose_error, BodyModel, BodyParams};
 use avatar_core::canonical::{canonicalize_points, forward_point, FieldOptions, Normalisation, RootOptions, SkinningField};
 use avatar_core::eval::conditions::FitError;
 use avatar_core::mesh::bvh::Bvh;
-use avatar_neural::capture_points::{CapturePoints, FramePoints};
+use avatar_core::canonical::ShellOptions;
+use avatar_neural::capture_points::{shell_samples_of, CapturePoints, FramePoints};
+use avatar_neural::encoder::PoseEncoding;
 use avatar_neural::body_sdf::BodySdf;
 use avatar_neural::pose_refine::{PoseRefineOptions, PoseRefiner};
 use avatar_neural::pose_trace::pose_errors;
@@ -50,7 +52,7 @@ fn capture_with_error(body: BodyModel, frames: usize, error: FitError) -> (Captu
         error.apply(&mut given, &mut rng);
         let g = body.pose(&given);
         let c = canonicalize_points(&field, &g.bones, &g.vertices, &body.weights, &posed, &posed_n, &RootOptions::default(), None);
-        out.push(FramePoints { params: given, points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals, free_space: Vec::new() });
+        out.push(FramePoints { params: given, points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals, free_space: Vec::new(), shells: Vec::new() });
         truth.push(t);
     }
     let capture = CapturePoints { body, body_file: None, betas: Vec::new(), rest, field, field_cells: 48, normalisation: norm, frames: out, dropped: 0, warnings: Vec::new() };
@@ -152,6 +154,35 @@ fn prealignment_leaves_exact_fittings_where_they_are() {
     // Without the test the rounds here move the poses by 0.01 degrees / 0.01 cm; with it the
     // first round is undone.
     assert!(after.posed_joints_cm < 1e-3 && after.joint_deg < 1e-3, "exact fittings moved: {after}");
+}
+
+#[test]
+fn shells_redrawn_after_prealignment_drop_those_the_pose_errors_made() {
+    // A naked body: no point is loose clothing, so every shell sample stands behind a point
+    // that a fitting error put off the body, and carves into the body.
+    let (mut capture, _) = capture(open_body_lowpoly(), 4);
+    let options = ShellOptions { per_frame: 500, ..ShellOptions::default() };
+    let norm = capture.normalisation;
+    let points: Vec<Vec<Vec3>> = capture.frames.iter().map(|f| f.points.iter().map(|p| norm.from_unit(*p)).collect()).collect();
+    let normals: Vec<&[Vec3]> = capture.frames.iter().map(|f| f.normals.as_slice()).collect();
+    let shells = shell_samples_of(&capture.body.mesh(capture.rest.clone()), &points, &normals, &options);
+    for (frame, s) in capture.frames.iter_mut().zip(shells) {
+        frame.shells = s.iter().map(|p| norm.to_unit(*p)).collect();
+    }
+    let before: usize = capture.frames.iter().map(|f| f.shells.len()).sum();
+    let body = BodySdf::new(&capture);
+    let mut refiner = PoseRefiner::new(&capture, PoseRefineOptions::default());
+    refiner.prealign(&|_, p: &[Vec3]| body.beyond_clothing(p, 0.03));
+    let mut samples = capture.pose_samples(PoseEncoding::Hierarchical);
+    refiner.update_samples(&mut samples, PoseEncoding::Hierarchical);
+    // Before the redraw the refiner carries the given fittings' shells along.
+    assert_eq!(samples.iter().map(|s| s.free_space.len()).sum::<usize>(), before);
+    refiner.redraw_shells(&options);
+    refiner.update_samples(&mut samples, PoseEncoding::Hierarchical);
+    let after: usize = samples.iter().map(|s| s.free_space.len()).sum();
+    eprintln!("shell samples behind a naked body: {before} from the given fittings, {after} after pre-alignment");
+    assert!(before >= 200, "the 5 degree / 2 cm errors put points off the body: {before} shell samples");
+    assert!(after * 4 <= before, "{before} -> {after}");
 }
 
 #[test]

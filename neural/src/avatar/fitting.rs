@@ -11,6 +11,7 @@ use crate::avatar::meta_avatar::{Init, MetaAvatar, SCRATCH_ENCODER_RATE};
 use crate::avatar::static_avatar::StaticAvatar;
 use crate::avatar::{AnyAvatar, PartialFit};
 use crate::capture_points::CapturePoints;
+use avatar_core::canonical::ShellOptions;
 use crate::fit::{fit_sdf_resuming, FitOptions, Progress, SdfOptimiser, SignPrior};
 use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
 use crate::pose_refine::{refine_round, PoseRefiner};
@@ -175,6 +176,7 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
         let share = r.near_share(&sdf);
         if share >= PREALIGN_MIN_NEAR {
             r.prealign(&sdf);
+            r.redraw_shells(&ShellOptions::default());
             r.update_samples(&mut samples, encoding);
         } else {
             r.options = r.options.without_prealignment();
@@ -208,7 +210,7 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
 pub(crate) fn fit_static(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, chunk: usize, cancel: Option<&AtomicBool>, on_event: &mut dyn FnMut(FitEvent)) -> (StaticAvatar, FitReport) {
     let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
     let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
-    let outside: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.free_space.iter().copied()).collect();
+    let outside: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.outside()).collect();
     let device = crate::compute::training_device();
     let mut model = Some(init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device));
     let mut optimiser = SdfOptimiser::default();
