@@ -38,7 +38,7 @@ fn preset(name: &str) -> anyhow::Result<Preset> {
             outfits: ALL,
             rows: &["meta", "static"],
             steps: 256,
-            resolution: 128,
+            resolution: avatar_neural::avatar::header::OUTPUT_RESOLUTION,
             stride: 5,
             chamfer_samples: 10_000,
             iou_resolution: 128,

@@ -20,7 +20,7 @@ pub struct Args {
     #[arg(long, default_value = "obj")]
     format: String,
     /// Marching-cubes resolution of the canonical mesh (16 to 512).
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = avatar_neural::avatar::header::OUTPUT_RESOLUTION)]
     resolution: usize,
     /// Only the first N frames.
     #[arg(long)]

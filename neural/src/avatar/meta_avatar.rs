@@ -124,7 +124,7 @@ impl MetaAvatar {
             body: section,
             refined_poses,
         };
-        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: 128 }
+        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: super::header::OUTPUT_RESOLUTION }
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
@@ -158,7 +158,7 @@ impl MetaAvatar {
         let model = load_flat(blank, &weights).map_err(|e| e.in_file(path))?;
         let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let rest_joints = body.regress_joints(&body.shaped_vertices(&header.betas));
-        Ok(MetaAvatar { header, model, body, field, rest_joints, device, resolution: 128 })
+        Ok(MetaAvatar { header, model, body, field, rest_joints, device, resolution: super::header::OUTPUT_RESOLUTION })
     }
 
     /// The SIREN layers of a pose, as burn tensors (the hypernetwork's prediction).

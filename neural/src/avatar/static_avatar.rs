@@ -75,7 +75,7 @@ impl StaticAvatar {
         };
         let model = model.valid().to_device(&crate::cpu_device());
         let sdf = MetricSdf::of(&model, header.normalisation);
-        StaticAvatar { header, model, sdf, body, field: capture.field.clone(), resolution: 128 }
+        StaticAvatar { header, model, sdf, body, field: capture.field.clone(), resolution: super::header::OUTPUT_RESOLUTION }
     }
 
     /// The skinning field of the avatar's body shape.
@@ -110,7 +110,7 @@ impl StaticAvatar {
         let model = load_flat(header.siren.init(0, &device), &weights).map_err(|e| e.in_file(path))?;
         let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let sdf = MetricSdf::of(&model, header.normalisation);
-        Ok(StaticAvatar { header, model, sdf, body, field, resolution: 128 })
+        Ok(StaticAvatar { header, model, sdf, body, field, resolution: super::header::OUTPUT_RESOLUTION })
     }
 }
 
