@@ -23,9 +23,9 @@ pub struct PoseSurface {
 }
 
 impl PoseSurface {
-    pub fn project(source: &dyn AvatarSource, params: &BodyParams, reference: &[Vec3], steps: usize) -> Result<PoseSurface> {
-        let points = source.project(params, reference, steps)?;
-        let weights = source.skinning_weights(&points);
+    pub fn project(source: &dyn AvatarSource, params: &BodyParams, reference: &TriMesh, steps: usize) -> Result<PoseSurface> {
+        let points = source.project(params, &reference.positions, steps)?;
+        let weights = source.mesh_skinning_weights(&TriMesh::new(points.clone(), reference.faces.clone()));
         Ok(PoseSurface { points, weights })
     }
 
@@ -44,6 +44,12 @@ pub trait AvatarSource: Sync {
     fn sdf(&self, params: &BodyParams, points: &[Vec3]) -> Result<Vec<f32>>;
     /// Skinning weights at canonical points.
     fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights>;
+    /// Skinning weights of a canonical mesh's vertices: by default each vertex's own; an
+    /// avatar may use the mesh (the neural avatars inpaint loose clothing's weights along it,
+    /// `canonical::garment_skinning`).
+    fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
+        self.skinning_weights(&mesh.positions)
+    }
 
     /// Project canonical points onto the zero level set at a pose: Newton steps along the SDF
     /// gradient (central differences here; an avatar with analytic gradients overrides it).

@@ -7,7 +7,7 @@ use crate::hyper_fit::HyperFitOptions;
 use crate::avatar::{fit_avatar, AnyAvatar, AvatarFit, FitKind, Init, MetaAvatar, StaticAvatar};
 use crate::model_file::MetaModel;
 use avatar_core::body::BodyParams;
-use avatar_core::canonical::forward_skin_mesh;
+use avatar_core::canonical::forward_skin_with_weights;
 use avatar_core::error::{Error, Result};
 use avatar_core::eval::{FitData, Predictor};
 use avatar_core::avatar::AvatarSource;
@@ -23,8 +23,9 @@ pub enum RowKind {
 
 enum Fitted {
     Hyper(MetaAvatar),
-    /// The static avatar with its (pose-independent) canonical mesh extracted once.
-    Static(StaticAvatar, TriMesh),
+    /// The static avatar with its (pose-independent) canonical mesh extracted once, and that
+    /// mesh's skinning weights.
+    Static(StaticAvatar, TriMesh, Vec<avatar_core::body::Weights>),
 }
 
 pub struct NeuralRow {
@@ -66,7 +67,8 @@ impl Predictor for NeuralRow {
             AnyAvatar::Static(mut avatar) => {
                 avatar.resolution = self.resolution;
                 let canonical = avatar.canonical_mesh(&BodyParams::default())?;
-                Fitted::Static(avatar, canonical)
+                let weights = avatar.mesh_skinning_weights(&canonical);
+                Fitted::Static(avatar, canonical, weights)
             }
         });
         if let Some(Fitted::Hyper(a)) = &mut self.fitted {
@@ -78,11 +80,11 @@ impl Predictor for NeuralRow {
     fn predict(&self, params: &BodyParams) -> Result<TriMesh> {
         match &self.fitted {
             Some(Fitted::Hyper(a)) => Ok(a.posed_mesh(params)?),
-            Some(Fitted::Static(a, canonical)) => {
+            Some(Fitted::Static(a, canonical, weights)) => {
                 let mut p = params.clone();
                 p.betas = a.betas().to_vec();
                 let bones = a.body().pose(&p).bones;
-                Ok(forward_skin_mesh(a.field(), &bones, canonical))
+                Ok(forward_skin_with_weights(&bones, canonical, weights))
             }
             None => Err(Error::invalid("predict called before fit")),
         }

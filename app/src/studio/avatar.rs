@@ -97,7 +97,7 @@ pub struct CanonicalMesh {
 pub fn canonical_of(avatar: &dyn StudioAvatar, body_betas: &[f32]) -> Result<CanonicalMesh> {
     let params = avatar_core::body::BodyParams { betas: body_betas.to_vec(), ..Default::default() };
     let mesh = avatar.source().canonical_mesh(&params)?;
-    let weights = avatar.source().skinning_weights(&mesh.positions);
+    let weights = avatar.source().mesh_skinning_weights(&mesh);
     Ok(CanonicalMesh { mesh, weights })
 }
 

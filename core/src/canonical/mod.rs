@@ -8,12 +8,14 @@ pub mod field;
 pub mod normalise;
 pub mod report;
 pub mod root_finding;
+pub mod garment_skinning;
 pub mod shell;
 
 pub use cache::{cached_field, default_cache_dir};
 pub use canonicalize::{canonicalize_points, choose_by_agreement, forward_skin_mesh, CanonicalFrame, REPROJECTION_THRESHOLD};
 pub use field::{FieldOptions, SkinningField, FIELD_CELLS};
 pub use normalise::Normalisation;
+pub use garment_skinning::{forward_skin_with_weights, garment_weights, GarmentSkinner, GarmentSkinning};
 pub use shell::{shell_samples, ShellOptions};
 pub use root_finding::{find_roots, forward_point, start_bones, Root, RootOptions};
 

@@ -34,13 +34,14 @@ pub fn taubin(mesh: &mut TriMesh, iterations: usize) {
     }
 }
 
-/// The edge neighbours of every vertex (compressed rows, each neighbour once).
-struct Neighbours {
-    offsets: Vec<usize>,
-    indices: Vec<u32>,
+/// The edge neighbours of every vertex (compressed rows, each neighbour once): vertex v's are
+/// `indices[offsets[v]..offsets[v + 1]]`.
+pub struct Neighbours {
+    pub offsets: Vec<usize>,
+    pub indices: Vec<u32>,
 }
 
-fn vertex_neighbours(mesh: &TriMesh) -> Neighbours {
+pub fn vertex_neighbours(mesh: &TriMesh) -> Neighbours {
     let mut edges: Vec<(u32, u32)> = Vec::with_capacity(mesh.faces.len() * 6);
     for &[a, b, c] in &mesh.faces {
         for (u, v) in [(a, b), (b, c), (c, a)] {

@@ -14,7 +14,7 @@ use crate::flat_params::{flatten, load_flat};
 use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
-use avatar_core::canonical::{forward_skin_mesh, Normalisation, SkinningField};
+use avatar_core::canonical::{GarmentSkinner, Normalisation, SkinningField};
 use crate::error::{Error, Result};
 use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::extract;
@@ -96,6 +96,8 @@ pub struct MetaAvatar {
     pub model: HyperNet,
     body: BodyModel,
     field: SkinningField,
+    /// Posing: the field, inpainted along loose clothing.
+    skinner: GarmentSkinner,
     rest_joints: [Vec3; NUM_JOINTS],
     device: Device,
     /// Marching-cubes resolution of the canonical mesh (cells along the longest side).
@@ -124,7 +126,7 @@ impl MetaAvatar {
             body: section,
             refined_poses,
         };
-        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: super::header::OUTPUT_RESOLUTION }
+        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), skinner: GarmentSkinner::new(&body, &capture.betas), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: super::header::OUTPUT_RESOLUTION }
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
@@ -158,7 +160,8 @@ impl MetaAvatar {
         let model = load_flat(blank, &weights).map_err(|e| e.in_file(path))?;
         let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let rest_joints = body.regress_joints(&body.shaped_vertices(&header.betas));
-        Ok(MetaAvatar { header, model, body, field, rest_joints, device, resolution: super::header::OUTPUT_RESOLUTION })
+        let skinner = GarmentSkinner::new(&body, &header.betas);
+        Ok(MetaAvatar { header, model, skinner, body, field, rest_joints, device, resolution: super::header::OUTPUT_RESOLUTION })
     }
 
     /// The SIREN layers of a pose, as burn tensors (the hypernetwork's prediction).
@@ -204,7 +207,7 @@ impl MetaAvatar {
         let mut p = params.clone();
         p.betas = self.header.betas.clone();
         let bones = self.body.pose(&p).bones;
-        Ok(forward_skin_mesh(&self.field, &bones, &canonical))
+        Ok(self.skinner.pose(&self.field, &bones, &canonical))
     }
 
     pub fn num_params(&self) -> usize {
@@ -231,5 +234,8 @@ impl AvatarSource for MetaAvatar {
     }
     fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights> {
         points.iter().map(|&p| self.field.weights_at(p)).collect()
+    }
+    fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
+        self.skinner.weights(&self.field, mesh)
     }
 }

@@ -11,7 +11,7 @@ use crate::flat_params::{flatten, load_flat};
 use crate::siren::{Siren, SirenConfig};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights};
-use avatar_core::canonical::{Normalisation, SkinningField};
+use avatar_core::canonical::{GarmentSkinner, Normalisation, SkinningField};
 use crate::error::Result;
 use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::extract;
@@ -53,6 +53,8 @@ pub struct StaticAvatar {
     sdf: MetricSdf,
     body: BodyModel,
     field: SkinningField,
+    /// Posing: the field, inpainted along loose clothing.
+    skinner: GarmentSkinner,
     /// Marching-cubes resolution of the canonical mesh (cells along the longest side).
     pub resolution: usize,
 }
@@ -75,7 +77,7 @@ impl StaticAvatar {
         };
         let model = model.valid().to_device(&crate::cpu_device());
         let sdf = MetricSdf::of(&model, header.normalisation);
-        StaticAvatar { header, model, sdf, body, field: capture.field.clone(), resolution: super::header::OUTPUT_RESOLUTION }
+        StaticAvatar { header, model, sdf, skinner: GarmentSkinner::new(&body, &capture.betas), body, field: capture.field.clone(), resolution: super::header::OUTPUT_RESOLUTION }
     }
 
     /// The skinning field of the avatar's body shape.
@@ -110,7 +112,8 @@ impl StaticAvatar {
         let model = load_flat(header.siren.init(0, &device), &weights).map_err(|e| e.in_file(path))?;
         let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let sdf = MetricSdf::of(&model, header.normalisation);
-        Ok(StaticAvatar { header, model, sdf, body, field, resolution: super::header::OUTPUT_RESOLUTION })
+        let skinner = GarmentSkinner::new(&body, &header.betas);
+        Ok(StaticAvatar { header, model, sdf, skinner, body, field, resolution: super::header::OUTPUT_RESOLUTION })
     }
 }
 
@@ -131,6 +134,9 @@ impl AvatarSource for StaticAvatar {
     }
     fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights> {
         points.iter().map(|&p| self.field.weights_at(p)).collect()
+    }
+    fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
+        self.skinner.weights(&self.field, mesh)
     }
     /// The surface does not change with the pose: reference vertices already lie on it.
     fn project(&self, _params: &BodyParams, points: &[Vec3], _steps: usize) -> avatar_core::Result<Vec<Vec3>> {
