@@ -14,8 +14,9 @@ use rayon::prelude::*;
 pub const PROJECTION_STEPS: usize = 4;
 
 /// An avatar's canonical surface at a pose on a fixed topology: the vertices of a reference
-/// mesh (extracted once at the rest pose) projected onto the pose's surface, with the skinning
-/// weights at the projected points. The exporter's recipe (its morph targets are these surfaces
+/// mesh (extracted once at the rest pose) projected onto the pose's surface; each keeps its
+/// reference vertex's skinning weights (`AvatarSource::mesh_skinning_weights` of the reference,
+/// computed once: a slider move or an exported frame does not pay for them again). The exporter's recipe (its morph targets are these surfaces
 /// skinned) and the studio poser's for a pose-dependent avatar.
 pub struct PoseSurface {
     pub points: Vec<Vec3>,
@@ -23,10 +24,9 @@ pub struct PoseSurface {
 }
 
 impl PoseSurface {
-    pub fn project(source: &dyn AvatarSource, params: &BodyParams, reference: &TriMesh, steps: usize) -> Result<PoseSurface> {
-        let points = source.project(params, &reference.positions, steps)?;
-        let weights = source.mesh_skinning_weights(&TriMesh::new(points.clone(), reference.faces.clone()));
-        Ok(PoseSurface { points, weights })
+    pub fn project(source: &dyn AvatarSource, params: &BodyParams, reference: &[Vec3], weights: &[Weights], steps: usize) -> Result<PoseSurface> {
+        let points = source.project(params, reference, steps)?;
+        Ok(PoseSurface { points, weights: weights.to_vec() })
     }
 
     /// Linear blend skinning by the pose's bone transforms: the posed points.

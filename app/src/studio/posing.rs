@@ -148,7 +148,7 @@ pub fn pose(req: &PoseRequest) -> crate::error::Result<PosedMesh> {
         Posable::Smooth { mesh, normals } => (mesh, Some(std::borrow::Cow::Borrowed(&normals[..]))),
         Posable::PoseDependent { avatar, reference, rest_normals } => {
             // The exporter's recipe and Newton steps, so the studio shows what the export holds.
-            let surface = PoseSurface::project(avatar.source(), &req.params, &reference.mesh, PROJECTION_STEPS)?;
+            let surface = PoseSurface::project(avatar.source(), &req.params, &reference.mesh.positions, &reference.weights, PROJECTION_STEPS)?;
             let n = match rest_normals {
                 Some(n) => std::borrow::Cow::Borrowed(&n[..]),
                 None => {
