@@ -15,9 +15,10 @@ pub const PROJECTION_STEPS: usize = 4;
 
 /// An avatar's canonical surface at a pose on a fixed topology: the vertices of a reference
 /// mesh (extracted once at the rest pose) projected onto the pose's surface; each keeps its
-/// reference vertex's skinning weights (`AvatarSource::mesh_skinning_weights` of the reference,
-/// computed once: a slider move or an exported frame does not pay for them again). The exporter's recipe (its morph targets are these surfaces
-/// skinned) and the studio poser's for a pose-dependent avatar.
+/// reference vertex's skinning weights (`AvatarSource::mesh_skinning_weights` of the
+/// reference, computed once: a slider move or an exported frame does not pay for them again).
+/// The exporter's recipe (its morph targets are these surfaces skinned) and the studio
+/// poser's for a pose-dependent avatar.
 pub struct PoseSurface {
     pub points: Vec<Vec3>,
     pub weights: Vec<Weights>,
