@@ -86,13 +86,6 @@ fn median(mut v: Vec<f32>) -> Option<f32> {
 
 /// The vertex normals' barycentric blend at `p` (a point of the triangle).
 fn interpolate(p: Vec3, [a, b, c]: [Vec3; 3], [na, nb, nc]: [Vec3; 3]) -> Vec3 {
-    let (v0, v1, v2) = (b - a, c - a, p - a);
-    let (d00, d01, d11, d20, d21) = (v0.dot(v0), v0.dot(v1), v1.dot(v1), v2.dot(v0), v2.dot(v1));
-    let den = d00 * d11 - d01 * d01;
-    if den.abs() < 1e-20 {
-        return (na + nb + nc).normalize_or_zero();
-    }
-    let v = (d11 * d20 - d01 * d21) / den;
-    let w = (d00 * d21 - d01 * d20) / den;
-    (na * (1.0 - v - w) + nb * v + nc * w).normalize_or_zero()
+    let w = avatar_core::mesh::barycentric(p, a, b, c);
+    (na * w.x + nb * w.y + nc * w.z).normalize_or_zero()
 }

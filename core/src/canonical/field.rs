@@ -8,6 +8,7 @@
 
 use crate::body::{BodyModel, Weights, NUM_JOINTS};
 use crate::error::{Error, Result};
+use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -177,14 +178,3 @@ fn node_position(origin: Vec3, cell: f32, dims: [usize; 3], i: usize) -> Vec3 {
     origin + Vec3::new(x as f32, y as f32, z as f32) * cell
 }
 
-pub(crate) fn barycentric(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let (v0, v1, v2) = (b - a, c - a, p - a);
-    let (d00, d01, d11, d20, d21) = (v0.dot(v0), v0.dot(v1), v1.dot(v1), v2.dot(v0), v2.dot(v1));
-    let denom = d00 * d11 - d01 * d01;
-    if denom.abs() < 1e-20 {
-        return Vec3::new(1.0, 0.0, 0.0);
-    }
-    let v = ((d11 * d20 - d01 * d21) / denom).clamp(0.0, 1.0);
-    let w = ((d00 * d21 - d01 * d20) / denom).clamp(0.0, 1.0 - v);
-    Vec3::new(1.0 - v - w, v, w)
-}

@@ -80,6 +80,21 @@ impl TriMesh {
     }
 }
 
+/// Barycentric coordinates of `p` in the triangle (a, b, c), clamped to the triangle (the
+/// closest point of a triangle lies in it; clamping keeps rounding from going outside). A
+/// degenerate triangle gives (1, 0, 0).
+pub fn barycentric(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let (v0, v1, v2) = (b - a, c - a, p - a);
+    let (d00, d01, d11, d20, d21) = (v0.dot(v0), v0.dot(v1), v1.dot(v1), v2.dot(v0), v2.dot(v1));
+    let denom = d00 * d11 - d01 * d01;
+    if denom.abs() < 1e-20 {
+        return Vec3::new(1.0, 0.0, 0.0);
+    }
+    let v = ((d11 * d20 - d01 * d21) / denom).clamp(0.0, 1.0);
+    let w = ((d00 * d21 - d01 * d20) / denom).clamp(0.0, 1.0 - v);
+    Vec3::new(1.0 - v - w, v, w)
+}
+
 /// Axis-aligned bounds of a point set.
 pub fn bounds(points: &[Vec3]) -> Option<(Vec3, Vec3)> {
     let first = *points.first()?;
@@ -112,6 +127,19 @@ pub fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn barycentric_coordinates_rebuild_points_of_the_triangle() {
+        let (a, b, c) = (Vec3::new(0.1, 0.0, 0.3), Vec3::new(1.0, 0.2, 0.0), Vec3::new(0.3, 1.1, 0.5));
+        let p = a * 0.2 + b * 0.5 + c * 0.3;
+        let w = barycentric(p, a, b, c);
+        assert!((w - Vec3::new(0.2, 0.5, 0.3)).length() < 1e-5, "{w}");
+        assert!((barycentric(b, a, b, c) - Vec3::Y).length() < 1e-6);
+        // Outside the triangle: clamped onto it, still summing to one.
+        let w = barycentric(a * 1.5 - b * 0.5, a, b, c);
+        assert!(w.min_element() >= 0.0 && (w.x + w.y + w.z - 1.0).abs() < 1e-6, "{w}");
+        assert_eq!(barycentric(p, a, a, a), Vec3::X);
+    }
 
     pub(crate) fn unit_cube() -> TriMesh {
         let p = (0..8)

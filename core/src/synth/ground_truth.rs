@@ -12,6 +12,7 @@ use crate::body::skeleton::BodyPart;
 use crate::body::{Weights, NUM_JOINTS};
 use crate::error::{Error, Result};
 use crate::io::npz::{write_f32_npz, Npz};
+use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
 use crate::mesh::TriMesh;
 use glam::Vec3;
@@ -149,16 +150,4 @@ impl GroundTruth {
         let c = &self.frames[i].canonical;
         Some(c[f[0]] * bary.x + c[f[1]] * bary.y + c[f[2]] * bary.z)
     }
-}
-
-fn barycentric(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let (v0, v1, v2) = (b - a, c - a, p - a);
-    let (d00, d01, d11, d20, d21) = (v0.dot(v0), v0.dot(v1), v1.dot(v1), v2.dot(v0), v2.dot(v1));
-    let denom = d00 * d11 - d01 * d01;
-    if denom.abs() < 1e-20 {
-        return Vec3::new(1.0, 0.0, 0.0);
-    }
-    let v = (d11 * d20 - d01 * d21) / denom;
-    let w = (d00 * d21 - d01 * d20) / denom;
-    Vec3::new(1.0 - v - w, v, w)
 }
