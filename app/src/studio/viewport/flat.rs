@@ -44,35 +44,13 @@ pub fn install(render_state: &egui_wgpu::RenderState, backdrop: egui::Color32) {
     let constants = [("r", r as f64), ("g", g as f64), ("b", b as f64), ("a", a as f64)];
     let pipeline = |label: &str, layouts: &[Option<&wgpu::BindGroupLayout>], fs: &str, constants: &[(&str, f64)], blend: Option<wgpu::BlendState>| {
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(label), bind_group_layouts: layouts, immediate_size: 0 });
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(label),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState { module: &shader, entry_point: Some("vs_fullscreen"), compilation_options: Default::default(), buffers: &[] },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &shader,
-                entry_point: Some(fs),
-                compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
-                targets: &[Some(wgpu::ColorTargetState { format: render_state.target_format, blend, write_mask: wgpu::ColorWrites::ALL })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+        super::fullscreen_pipeline(device, label, &layout, &shader, fs, constants, render_state.target_format, blend)
     };
     let backdrop = pipeline("flat backdrop", &[], "fs_backdrop", &constants, None);
     // egui's blending (premultiplied alpha).
     let image = pipeline("flat image", &[Some(&image_layout)], "fs_image", &[], Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING));
     // egui's sampler for `TextureOptions::LINEAR`.
-    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-        label: Some("flat image"),
-        mag_filter: wgpu::FilterMode::Linear,
-        min_filter: wgpu::FilterMode::Linear,
-        address_mode_u: wgpu::AddressMode::ClampToEdge,
-        address_mode_v: wgpu::AddressMode::ClampToEdge,
-        ..Default::default()
-    });
+    let sampler = super::linear_clamp_sampler(device, "flat image");
     render_state.renderer.write().callback_resources.insert(Flat { backdrop, image, image_layout, sampler, images: HashMap::new() });
 }
 

@@ -156,33 +156,9 @@ impl ViewportResources {
             layout: &globals_layout,
             entries: &[wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() }],
         });
-        let blit = |entry_point: &str| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("viewport blit"),
-                layout: Some(&blit_pipeline_layout),
-                vertex: wgpu::VertexState { module: &shader, entry_point: Some("vs_fullscreen"), compilation_options: Default::default(), buffers: &[] },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: None,
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some(entry_point),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState { format: target_format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
+        let blit = |fragment: &str| fullscreen_pipeline(device, "viewport blit", &blit_pipeline_layout, &shader, fragment, &[], target_format, None);
         let (blit_pipeline, blit_scaled_pipeline) = (blit("fs_blit"), blit("fs_blit_scaled"));
-        let blit_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("viewport blit"),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            address_mode_u: wgpu::AddressMode::ClampToEdge,
-            address_mode_v: wgpu::AddressMode::ClampToEdge,
-            ..Default::default()
-        });
+        let blit_sampler = linear_clamp_sampler(device, "viewport blit");
         let pipelines = vec![ScenePipelines::new(device, &shader, &scene_layout, MSAA)];
         ViewportResources { shader, scene_layout, pipelines, blit_pipeline, blit_scaled_pipeline, blit_sampler, blit_layout, globals, globals_group, targets: None, uploaded: None, software }
     }
@@ -389,6 +365,41 @@ mod tests {
         assert_eq!(scaled_size([787, 714], 0.5), [394, 357]);
         assert_eq!(scaled_size([1, 3], 0.25), [1, 1]);
     }
+}
+
+/// A pipeline that draws one full-viewport triangle (`fullscreen.wgsl`'s `vs_fullscreen`, which
+/// `shader` must include) with `shader`'s fragment entry point `fragment` into `format`: the
+/// blit's and flat.rs's fills.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn fullscreen_pipeline(device: &wgpu::Device, label: &str, layout: &wgpu::PipelineLayout, shader: &wgpu::ShaderModule, fragment: &str, constants: &[(&str, f64)], format: wgpu::TextureFormat, blend: Option<wgpu::BlendState>) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState { module: shader, entry_point: Some("vs_fullscreen"), compilation_options: Default::default(), buffers: &[] },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: shader,
+            entry_point: Some(fragment),
+            compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
+            targets: &[Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// Bilinear filtering clamped at the edges (egui's `TextureOptions::LINEAR` too).
+pub(super) fn linear_clamp_sampler(device: &wgpu::Device, label: &str) -> wgpu::Sampler {
+    device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some(label),
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        address_mode_u: wgpu::AddressMode::ClampToEdge,
+        address_mode_v: wgpu::AddressMode::ClampToEdge,
+        ..Default::default()
+    })
 }
 
 /// A filterable 2D texture at `binding` and its sampler at `binding + 1`, both for the fragment

@@ -86,14 +86,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
         cache: None,
     });
     // egui's sampler for the font atlas (`TextureOptions::LINEAR`).
-    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-        label: Some("ui meshes"),
-        mag_filter: wgpu::FilterMode::Linear,
-        min_filter: wgpu::FilterMode::Linear,
-        address_mode_u: wgpu::AddressMode::ClampToEdge,
-        address_mode_v: wgpu::AddressMode::ClampToEdge,
-        ..Default::default()
-    });
+    let sampler = super::linear_clamp_sampler(device, "ui meshes");
     let screen = device.create_buffer(&wgpu::BufferDescriptor { label: Some("ui meshes screen"), size: 16, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
     let resources = UiMeshes { pipeline, layout, sampler, screen, font: None, last_fill: 0.0, last_ppp: 0.0, buffers: None, uploaded: 0 };
     render_state.renderer.write().callback_resources.insert(resources);
