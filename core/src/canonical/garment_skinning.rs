@@ -178,6 +178,12 @@ impl GarmentSkinner {
         garment_weights(field, &self.body, mesh, &self.options)
     }
 
+    /// The mesh without the inner walls of its loose cloth (`canonical::sheets`): how every
+    /// avatar's canonical surface comes out (posing, export, the evaluation, the studio).
+    pub fn open_sheets(&self, mesh: TriMesh) -> TriMesh {
+        super::open_inner_walls(mesh, &self.body, &super::SheetOptions::default())
+    }
+
     /// The canonical mesh posed by the bones.
     pub fn pose(&self, field: &SkinningField, bones: &Bones, mesh: &TriMesh) -> TriMesh {
         forward_skin_with_weights(bones, mesh, &self.weights(field, mesh))

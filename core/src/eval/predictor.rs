@@ -3,7 +3,7 @@
 //! implements this in the neural crate; the reference rows live here.
 
 use crate::body::{BodyModel, BodyParams};
-use crate::canonical::{FieldOptions, SkinningField};
+use crate::canonical::FieldOptions;
 use crate::error::Result;
 use crate::mesh::TriMesh;
 use crate::synth::{canonical_surface, pose_surface, ClothedTemplate, Outfit, PoseFeatures};
@@ -68,8 +68,9 @@ pub struct StaticOutfit {
     /// Pose with the body's diffused skinning field built with these options instead of the
     /// generator's garment weights: what an avatar's skinning costs with the shape exact.
     field_options: Option<FieldOptions>,
-    /// The template, its canonical surface at the zero pose and the field, if any.
-    fitted: Option<(ClothedTemplate, TriMesh, Option<SkinningField>)>,
+    /// The template, its canonical surface at the zero pose and, with the body's field, the
+    /// surface's weights (the field's, inpainted along loose cloth as avatars' are).
+    fitted: Option<(ClothedTemplate, TriMesh, Option<Vec<crate::body::Weights>>)>,
 }
 
 impl StaticOutfit {
@@ -77,8 +78,9 @@ impl StaticOutfit {
         StaticOutfit { body, field_options: None, fitted: None }
     }
 
-    /// The same outfit posed with the body's skinning field (`canonical::SkinningField`, the
-    /// one every avatar is posed with) instead of the garment's own weights.
+    /// The same outfit posed as every avatar is (the body's skinning field,
+    /// `canonical::SkinningField`, inpainted along loose cloth by `GarmentSkinner`) instead of
+    /// with the garment's own weights.
     pub fn with_body_field(body: BodyModel, options: FieldOptions) -> Self {
         StaticOutfit { body, field_options: Some(options), fitted: None }
     }
@@ -99,18 +101,21 @@ impl Predictor for StaticOutfit {
         let zero = BodyParams { betas: data.betas.to_vec(), ..BodyParams::default() };
         // No joint is bent at the zero pose, so the folds' per-subject phase does not matter.
         let canonical = TriMesh::new(canonical_surface(&template, &PoseFeatures::of(&data.body.pose(&zero).bones), 0), template.faces.clone());
-        let field = match &self.field_options {
-            Some(o) => Some(crate::canonical::Canonicalizer::new(data.body, data.betas, o, crate::canonical::default_cache_dir().as_deref())?.field),
+        let weights = match &self.field_options {
+            Some(o) => {
+                let field = crate::canonical::Canonicalizer::new(data.body, data.betas, o, crate::canonical::default_cache_dir().as_deref())?.field;
+                Some(crate::canonical::GarmentSkinner::new(data.body, data.betas).weights(&field, &canonical))
+            }
             None => None,
         };
-        self.fitted = Some((template, canonical, field));
+        self.fitted = Some((template, canonical, weights));
         Ok(())
     }
     fn predict(&self, params: &BodyParams) -> Result<TriMesh> {
-        let (t, canonical, field) = self.fitted.as_ref().ok_or_else(|| crate::error::Error::invalid("predict called before fit"))?;
+        let (t, canonical, weights) = self.fitted.as_ref().ok_or_else(|| crate::error::Error::invalid("predict called before fit"))?;
         let bones = self.body.pose(params).bones;
-        Ok(match field {
-            Some(field) => crate::canonical::forward_skin_mesh(field, &bones, canonical),
+        Ok(match weights {
+            Some(weights) => crate::canonical::forward_skin_with_weights(&bones, canonical, weights),
             None => TriMesh::new(pose_surface(t, &canonical.positions, &bones), canonical.faces.clone()),
         })
     }

@@ -250,12 +250,18 @@ fn box_distance_squared(q: Vec3, node: &Node) -> f32 {
 
 /// Slab test: does the ray meet the box for some t in [t_min, t_max]?
 fn ray_box(origin: Vec3, inv: Vec3, node: &Node, t_min: f32, t_max: f32) -> bool {
-    let t0 = (node.min - origin) * inv;
-    let t1 = (node.max - origin) * inv;
-    // 0 * inf = NaN when the origin lies on a slab plane of an axis-parallel ray; min/max
-    // with NaN return the other operand, which keeps such rays (conservative).
-    let near = t0.min(t1).max_element().max(t_min);
-    let far = t0.max(t1).min_element().min(t_max);
+    let (mut near, mut far) = (t_min, t_max);
+    for a in 0..3 {
+        let (t0, t1) = ((node.min[a] - origin[a]) * inv[a], (node.max[a] - origin[a]) * inv[a]);
+        if t0.is_nan() || t1.is_nan() {
+            // 0 * inf: a ray parallel to this slab with its origin on one of the slab's planes
+            // (marching-cubes vertices lie on grid planes, and so do their boxes' faces). It
+            // stays on the plane: inside the slab for every t.
+            continue;
+        }
+        near = near.max(t0.min(t1));
+        far = far.min(t0.max(t1));
+    }
     near <= far
 }
 
@@ -459,5 +465,18 @@ mod tests {
         let up = ray_triangle(Vec3::new(0.2, 0.2, -1.0), Vec3::Z, a, b, c).unwrap();
         assert!(!up.3);
         assert!(ray_triangle(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z, a, b, c).is_none());
+    }
+
+    #[test]
+    fn a_ray_along_a_box_face_plane_still_finds_the_triangles_beyond() {
+        // Upright triangles at x = 1..40 whose boxes all start at y = 0, and a ray along +x
+        // from a point on that plane (y = 0 exactly, so 0 * inf meets the slab test).
+        let tris: Vec<[Vec3; 3]> = (1..40).map(|i| { let x = i as f32; [Vec3::new(x, 0.0, -1.0), Vec3::new(x, 0.0, 1.0), Vec3::new(x, 1.0, 0.0)] }).collect();
+        let bvh = Bvh::from_triangles(tris);
+        let hit = bvh.ray_cast(Vec3::new(0.0, 0.0, 0.5), Vec3::X, 0.0, 100.0).expect("the first triangle lies 1 m ahead");
+        assert!((hit.t - 1.0).abs() < 1e-6, "hit at {}", hit.t);
+        assert_eq!(bvh.ray_hits(Vec3::new(0.0, 0.0, 0.5), Vec3::X, 0.0, 100.0).len(), 39);
+        // Beside the slab (y < 0) the same ray misses every box.
+        assert!(bvh.ray_cast(Vec3::new(0.0, -0.01, 0.5), Vec3::X, 0.0, 100.0).is_none());
     }
 }

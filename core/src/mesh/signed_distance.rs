@@ -19,9 +19,14 @@ impl SignedDistance {
 
     /// Metres, positive outside (on the surface counts as outside); `None` for an empty mesh.
     pub fn at(&self, p: Vec3) -> Option<f32> {
+        self.with_closest(p).map(|(d, _)| d)
+    }
+
+    /// The signed distance and the nearest surface point.
+    pub fn with_closest(&self, p: Vec3) -> Option<(f32, Vec3)> {
         let h = self.bvh.closest_point(p)?;
         let outside = (p - h.point).dot(self.face_normals[h.face as usize]) >= 0.0;
-        Some(if outside { h.distance } else { -h.distance })
+        Some((if outside { h.distance } else { -h.distance }, h.point))
     }
 }
 

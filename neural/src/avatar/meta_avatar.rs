@@ -198,7 +198,7 @@ impl MetaAvatar {
     /// The clothed surface at a pose in canonical space (metres).
     pub fn canonical_mesh_at(&self, params: &BodyParams, resolution: usize) -> Result<TriMesh> {
         let sdf = self.sdf_at(params);
-        Ok(extract(|p: &[Vec3]| sdf.sdf(p), &super::header::extract_options(&self.header.normalisation, resolution))?.mesh)
+        Ok(self.skinner.open_sheets(extract(|p: &[Vec3]| sdf.sdf(p), &super::header::extract_options(&self.header.normalisation, resolution))?.mesh))
     }
 
     /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh).

@@ -127,7 +127,7 @@ impl AvatarSource for StaticAvatar {
     /// Pose-independent: the same canonical surface for every pose (coarse-to-fine marching
     /// cubes over the normalised cube, largest component).
     fn canonical_mesh(&self, _params: &BodyParams) -> avatar_core::Result<TriMesh> {
-        Ok(extract(|p: &[Vec3]| self.sdf_metres(p), &super::header::extract_options(&self.header.normalisation, self.resolution))?.mesh)
+        Ok(self.skinner.open_sheets(extract(|p: &[Vec3]| self.sdf_metres(p), &super::header::extract_options(&self.header.normalisation, self.resolution))?.mesh))
     }
     fn sdf(&self, _params: &BodyParams, points: &[Vec3]) -> avatar_core::Result<Vec<f32>> {
         Ok(self.sdf_metres(points))
