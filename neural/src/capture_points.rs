@@ -12,6 +12,7 @@ use crate::error::{Error, Result};
 use avatar_core::mesh::signed_distance::SignedDistance;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// One frame's canonical points (normalised space) with normals, and its body pose.
 pub struct FramePoints {
@@ -34,6 +35,9 @@ pub struct CapturePoints {
     pub betas: Vec<f32>,
     /// The shaped body in the rest pose (canonical space, metres).
     pub rest: Vec<Vec3>,
+    /// Its signed distance, built once: the sign prior, the shell samples and the avatars'
+    /// garment skinning share it.
+    pub rest_sdf: Arc<SignedDistance>,
     pub field: SkinningField,
     pub field_cells: usize,
     pub normalisation: Normalisation,
@@ -51,16 +55,16 @@ impl FramePoints {
 }
 
 /// Every frame's shell samples (metres, canonical space): behind its canonical `points`
-/// (metres) with their `normals`, clear of the rest body `rest_body` and of all frames' points.
+/// (metres) with their `normals`, clear of the rest body (`body`: its signed distance) and of
+/// all frames' points.
 /// Seeded per frame.
-pub fn shell_samples_of(rest_body: &avatar_core::mesh::TriMesh, points: &[Vec<Vec3>], normals: &[&[Vec3]], options: &ShellOptions) -> Vec<Vec<Vec3>> {
-    let body = SignedDistance::new(rest_body);
+pub fn shell_samples_of(body: &SignedDistance, points: &[Vec<Vec3>], normals: &[&[Vec3]], options: &ShellOptions) -> Vec<Vec<Vec3>> {
     let Ok(observed) = avatar_core::mesh::point_index::PointIndex::new(&points.concat()) else { return vec![Vec::new(); points.len()] };
     points
         .iter()
         .zip(normals)
         .enumerate()
-        .map(|(k, (p, n))| shell_samples(p, n, &body, &observed, &ShellOptions { seed: options.seed ^ k as u64, ..*options }))
+        .map(|(k, (p, n))| shell_samples(p, n, body, &observed, &ShellOptions { seed: options.seed ^ k as u64, ..*options }))
         .collect()
 }
 
@@ -119,6 +123,7 @@ impl CapturePoints {
             body: capture.body.as_ref().clone(),
             body_file: capture.body_file.clone(),
             betas,
+            rest_sdf: Arc::new(SignedDistance::new(&capture.body.mesh(canon.rest.clone()))),
             rest: canon.rest.clone(),
             field: canon.field,
             field_cells: field_options.cells_along_height,
@@ -151,7 +156,7 @@ impl CapturePoints {
         let norm = self.normalisation;
         let metric: Vec<Vec<Vec3>> = self.frames.iter().map(|f| f.points.iter().map(|p| norm.from_unit(*p)).collect()).collect();
         let normals: Vec<&[Vec3]> = self.frames.iter().map(|f| f.normals.as_slice()).collect();
-        let shells = shell_samples_of(&self.body.mesh(self.rest.clone()), &metric, &normals, options);
+        let shells = shell_samples_of(&self.rest_sdf, &metric, &normals, options);
         for (frame, samples) in self.frames.iter_mut().zip(shells) {
             frame.shells = samples.iter().map(|p| norm.to_unit(*p)).collect();
         }
@@ -180,7 +185,7 @@ impl CapturePoints {
     /// elsewhere unknown (0). It removes the spurious surfaces a SIREN grows where no depth
     /// point constrains it, on the sides the camera never saw.
     pub fn sign_prior(&self) -> impl Fn(&[Vec3]) -> Vec<f32> + Sync + '_ {
-        let body = SignedDistance::new(&self.body.mesh(self.rest.clone()));
+        let body = self.rest_sdf.clone();
         let norm = self.normalisation;
         // On all cores: a training step asks for thousands of points.
         move |unit: &[Vec3]| {

@@ -55,7 +55,8 @@ fn capture_with_error(body: BodyModel, frames: usize, error: FitError) -> (Captu
         out.push(FramePoints { params: given, points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals, free_space: Vec::new(), shells: Vec::new() });
         truth.push(t);
     }
-    let capture = CapturePoints { body, body_file: None, betas: Vec::new(), rest, field, field_cells: 48, normalisation: norm, frames: out, dropped: 0, warnings: Vec::new() };
+    let rest_sdf = std::sync::Arc::new(avatar_core::mesh::signed_distance::SignedDistance::new(&body.mesh(rest.clone())));
+    let capture = CapturePoints { body, body_file: None, betas: Vec::new(), rest, rest_sdf, field, field_cells: 48, normalisation: norm, frames: out, dropped: 0, warnings: Vec::new() };
     (capture, truth)
 }
 
@@ -165,7 +166,7 @@ fn shells_redrawn_after_prealignment_drop_those_the_pose_errors_made() {
     let norm = capture.normalisation;
     let points: Vec<Vec<Vec3>> = capture.frames.iter().map(|f| f.points.iter().map(|p| norm.from_unit(*p)).collect()).collect();
     let normals: Vec<&[Vec3]> = capture.frames.iter().map(|f| f.normals.as_slice()).collect();
-    let shells = shell_samples_of(&capture.body.mesh(capture.rest.clone()), &points, &normals, &options);
+    let shells = shell_samples_of(&capture.rest_sdf, &points, &normals, &options);
     for (frame, s) in capture.frames.iter_mut().zip(shells) {
         frame.shells = s.iter().map(|p| norm.to_unit(*p)).collect();
     }

@@ -14,6 +14,7 @@ use crate::mesh::signed_distance::SignedDistance;
 use crate::mesh::smooth::vertex_neighbours;
 use crate::mesh::TriMesh;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GarmentSkinning {
@@ -163,14 +164,19 @@ fn conjugate_gradients(apply: &(dyn Fn(&[Weights]) -> Vec<Weights> + Sync), rhs:
 
 /// An avatar's skinning of its meshes: the diffused field, inpainted along loose clothing.
 pub struct GarmentSkinner {
-    body: SignedDistance,
+    body: Arc<SignedDistance>,
     pub options: GarmentSkinning,
 }
 
 impl GarmentSkinner {
     /// For the body `body` shaped by `betas` (its rest surface tells loose from tight).
     pub fn new(body: &BodyModel, betas: &[f32]) -> GarmentSkinner {
-        GarmentSkinner { body: SignedDistance::new(&body.mesh(body.shaped_vertices(betas))), options: GarmentSkinning::default() }
+        Self::with_body(Arc::new(SignedDistance::new(&body.mesh(body.shaped_vertices(betas)))))
+    }
+
+    /// For a rest body whose signed distance is already built (a capture's).
+    pub fn with_body(body: Arc<SignedDistance>) -> GarmentSkinner {
+        GarmentSkinner { body, options: GarmentSkinning::default() }
     }
 
     /// The weights of a canonical mesh's vertices.

@@ -126,7 +126,7 @@ impl MetaAvatar {
             body: section,
             refined_poses,
         };
-        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), skinner: GarmentSkinner::new(&body, &capture.betas), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: super::header::OUTPUT_RESOLUTION }
+        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), skinner: GarmentSkinner::with_body(capture.rest_sdf.clone()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: super::header::OUTPUT_RESOLUTION }
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {

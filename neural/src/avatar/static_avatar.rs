@@ -77,7 +77,7 @@ impl StaticAvatar {
         };
         let model = model.valid().to_device(&crate::cpu_device());
         let sdf = MetricSdf::of(&model, header.normalisation);
-        StaticAvatar { header, model, sdf, skinner: GarmentSkinner::new(&body, &capture.betas), body, field: capture.field.clone(), resolution: super::header::OUTPUT_RESOLUTION }
+        StaticAvatar { header, model, sdf, skinner: GarmentSkinner::with_body(capture.rest_sdf.clone()), body, field: capture.field.clone(), resolution: super::header::OUTPUT_RESOLUTION }
     }
 
     /// The skinning field of the avatar's body shape.

@@ -279,7 +279,7 @@ impl<'a> PoseRefiner<'a> {
         let points: Vec<Vec<Vec3>> = self.frames.iter().map(|f| f.canonical.clone()).collect();
         let normals: Vec<Vec<Vec3>> = (0..self.frames.len()).map(|k| self.canonical_normals(k)).collect();
         let normals: Vec<&[Vec3]> = normals.iter().map(Vec::as_slice).collect();
-        let shells = shell_samples_of(&self.capture.body.mesh(self.capture.rest.clone()), &points, &normals, options);
+        let shells = shell_samples_of(&self.capture.rest_sdf, &points, &normals, options);
         let field = &self.capture.field;
         for (frame, samples) in self.frames.iter_mut().zip(shells) {
             let bones = frame.correction.bones(&self.rest_joints, &frame.given);
