@@ -64,12 +64,7 @@ impl Default for HyperFitOptions {
             // 8 frames a moving encoder re-maps the held-out poses and loses accuracy there
             // (8-frame NC 0.878 at 1e-4, 0.881 frozen).
             lr_encoder: 0.0,
-            // The SDF's base weights at 5e-5 (1e-4 before session 6): closer to the meta-learned
-            // prior, smoother under the depth noise. Quick preset, Chamfer-L2 / NC at 1e-4 ->
-            // 5e-5: dress 0.992 / 0.692 -> 0.955 / 0.716, long sleeves 0.171 / 0.872 -> 0.162 /
-            // 0.875, t-shirt 0.176 / 0.877 -> 0.160 / 0.879, blazer 0.504 / 0.793 -> 0.526 /
-            // 0.800; at 2.5e-5 the blazer grows a blob (0.710 cm). docs/evaluation.md, session 6.
-            lr_sdf: 5e-5,
+            lr_sdf: 1e-4,
             // Every frame in every step (the reference's minibatch of 12 holds all 8 frames):
             // the shared weights see all poses at once; 8 x 500 points as 4 x 1000 before.
             poses_per_step: 8,
