@@ -65,8 +65,9 @@ impl Predictor for NakedBody {
 /// pose-dependent clothing is worth on the table's frames.
 pub struct StaticOutfit {
     body: BodyModel,
-    /// Pose with the body's diffused skinning field built with these options instead of the
-    /// generator's garment weights: what an avatar's skinning costs with the shape exact.
+    /// Pose with the body's diffused skinning field built with these options (inpainted along
+    /// loose cloth, as the avatars pose) instead of the generator's garment weights: what an
+    /// avatar's skinning costs with the shape exact.
     field_options: Option<FieldOptions>,
     /// The template, its canonical surface at the zero pose and, with the body's field, the
     /// surface's weights (the field's, inpainted along loose cloth as avatars' are).
