@@ -187,7 +187,8 @@ impl GarmentSkinner {
     /// The mesh without the inner walls of its loose cloth (`canonical::sheets`): how every
     /// avatar's canonical surface comes out (posing, export, the evaluation, the studio).
     pub fn open_sheets(&self, mesh: TriMesh) -> TriMesh {
-        super::open_inner_walls(mesh, &self.body, &super::SheetOptions::default())
+        let mesh = super::open_inner_walls(mesh, &self.body, &super::SheetOptions::default());
+        super::smooth_body_offsets(mesh, &self.body, &super::OffsetSmoothing::default())
     }
 
     /// The canonical mesh posed by the bones.

@@ -10,11 +10,22 @@ use glam::Vec3;
 pub struct SignedDistance {
     bvh: Bvh,
     face_normals: Vec<Vec3>,
+    /// The mesh's faces, and its area-weighted unit vertex normals: the smooth surface that
+    /// [`SignedDistance::smooth_offset`] measures from.
+    faces: Vec<[u32; 3]>,
+    positions: Vec<Vec3>,
+    vertex_normals: Vec<Vec3>,
 }
 
 impl SignedDistance {
     pub fn new(mesh: &TriMesh) -> SignedDistance {
-        SignedDistance { bvh: Bvh::build(mesh), face_normals: mesh.face_normals() }
+        SignedDistance {
+            bvh: Bvh::build(mesh),
+            face_normals: mesh.face_normals(),
+            faces: mesh.faces.clone(),
+            positions: mesh.positions.clone(),
+            vertex_normals: mesh.vertex_normals(),
+        }
     }
 
     /// Metres, positive outside (on the surface counts as outside); `None` for an empty mesh.
@@ -27,6 +38,28 @@ impl SignedDistance {
         let h = self.bvh.closest_point(p)?;
         let outside = (p - h.point).dot(self.face_normals[h.face as usize]) >= 0.0;
         Some((if outside { h.distance } else { -h.distance }, h.point))
+    }
+
+    /// The offset of `p` from the mesh's *smooth* surface along that surface's normal, and the
+    /// normal: the nearest face's point moved halfway onto its corners' tangent planes
+    /// (Phong tessellation) and the corners' normals blended there. A flat face lies inside a curved
+    /// limb by up to a millimetre between its corners; measured from the faces themselves an
+    /// offset would carry the body's facets.
+    pub fn smooth_offset(&self, p: Vec3) -> Option<(f32, Vec3)> {
+        let h = self.bvh.closest_point(p)?;
+        let [a, b, c] = self.faces[h.face as usize].map(|i| i as usize);
+        let w = super::barycentric(h.point, self.positions[a], self.positions[b], self.positions[c]);
+        let mut normal = Vec3::ZERO;
+        let mut smooth_point = Vec3::ZERO;
+        for (k, v) in [a, b, c].into_iter().enumerate() {
+            let n = self.vertex_normals[v];
+            normal += w[k] * n;
+            // Half of Phong's projection: on a circle that is exact to the fourth order in the
+            // angle between the corners' normals (the whole projection overshoots by the sag).
+            smooth_point += w[k] * (h.point - 0.5 * (h.point - self.positions[v]).dot(n) * n);
+        }
+        let normal = normal.try_normalize().unwrap_or(self.face_normals[h.face as usize]);
+        Some(((p - smooth_point).dot(normal), normal))
     }
 }
 
