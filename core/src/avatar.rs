@@ -3,6 +3,7 @@
 //! neural avatars (crate avatar-neural) and the synthetic subjects of `export::source`
 //! implement it; the exporter and the studio's poser only ever talk to this trait.
 
+use crate::canonical::SurfaceSmoother;
 use crate::body::{blend_transform, BodyModel, BodyParams, Weights, NUM_JOINTS};
 use crate::error::Result;
 use crate::mesh::TriMesh;
@@ -25,8 +26,12 @@ pub struct PoseSurface {
 }
 
 impl PoseSurface {
-    pub fn project(source: &dyn AvatarSource, params: &BodyParams, reference: &[Vec3], weights: &[Weights], steps: usize) -> Result<PoseSurface> {
-        let points = source.project(params, reference, steps)?;
+    /// `smoother`: the avatar's `surface_smoother` for this reference, if it has one.
+    pub fn project(source: &dyn AvatarSource, params: &BodyParams, reference: &[Vec3], weights: &[Weights], smoother: Option<&SurfaceSmoother>, steps: usize) -> Result<PoseSurface> {
+        let mut points = source.project(params, reference, steps)?;
+        if let Some(smoother) = smoother {
+            smoother.smooth(&mut points);
+        }
         Ok(PoseSurface { points, weights: weights.to_vec() })
     }
 
@@ -50,6 +55,12 @@ pub trait AvatarSource: Sync {
     /// `canonical::garment_skinning`).
     fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
         self.skinning_weights(&mesh.positions)
+    }
+    /// The smoothing an avatar gives its canonical surfaces (`canonical::offset_smoothing`),
+    /// measured once for a reference mesh whose projections onto each pose's surface
+    /// ([`PoseSurface::project`]) should come out as `canonical_mesh` does; `None`: none.
+    fn surface_smoother(&self, _reference: &TriMesh) -> Option<SurfaceSmoother> {
+        None
     }
 
     /// Project canonical points onto the zero level set at a pose: Newton steps along the SDF

@@ -91,6 +91,9 @@ pub fn studio_avatar(avatar: AnyAvatar, resolution: usize) -> Arc<dyn StudioAvat
 pub struct CanonicalMesh {
     pub mesh: TriMesh,
     pub weights: Vec<Weights>,
+    /// The avatar's smoothing of its surfaces, measured for this mesh: applied to the mesh's
+    /// projections onto each pose's surface (`AvatarSource::surface_smoother`).
+    pub smoother: Option<Arc<avatar_core::canonical::SurfaceSmoother>>,
 }
 
 /// The canonical mesh of an avatar (at the rest pose) with its skinning weights.
@@ -98,11 +101,12 @@ pub fn canonical_of(avatar: &dyn StudioAvatar, body_betas: &[f32]) -> Result<Can
     let params = avatar_core::body::BodyParams { betas: body_betas.to_vec(), ..Default::default() };
     let mesh = avatar.source().canonical_mesh(&params)?;
     let weights = avatar.source().mesh_skinning_weights(&mesh);
-    Ok(CanonicalMesh { mesh, weights })
+    let smoother = avatar.source().surface_smoother(&mesh).map(Arc::new);
+    Ok(CanonicalMesh { mesh, weights, smoother })
 }
 
 /// The body model's own skinning of its rest mesh (the placeholder before an avatar exists).
 pub fn body_canonical(body: &BodyModel, betas: &[f32]) -> CanonicalMesh {
     let rest = body.pose(&avatar_core::body::BodyParams { betas: betas.to_vec(), ..Default::default() }).rest_vertices;
-    CanonicalMesh { mesh: body.mesh(rest), weights: body.weights.clone() }
+    CanonicalMesh { mesh: body.mesh(rest), weights: body.weights.clone(), smoother: None }
 }

@@ -99,7 +99,7 @@ pub fn run_fit(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, after_chunk: &d
             avatar.set_resolution(cfg.preview_resolution.clamp(8, 256));
             if let Ok(mesh) = avatar.source().canonical_mesh(&rest) {
                 let weights = avatar.source().mesh_skinning_weights(&mesh);
-                send(JobEvent::Preview { step: done, mesh: Arc::new(CanonicalMesh { mesh, weights }) });
+                send(JobEvent::Preview { step: done, mesh: Arc::new(CanonicalMesh { mesh, weights, smoother: None }) });
             }
             after_chunk();
         }

@@ -213,7 +213,11 @@ impl StudioApp {
             // The SDF's gradient at the rest pose, once, turned by the skinning at each pose (exact
             // for a pose-independent surface; the slider's quick normals for the meta avatar).
             let rest = avatar_core::body::BodyParams { betas, ..Default::default() };
-            let normals = Some(Arc::new(sdf_normals(avatar.source(), &rest, &mesh.mesh.positions, &mesh.mesh.vertex_normals())?));
+            let normals = match &mesh.smoother {
+                // A smoothed surface keeps its own normals (the SDF's gradient has the noise).
+                Some(_) => Some(Arc::new(mesh.mesh.vertex_normals())),
+                None => Some(Arc::new(sdf_normals(avatar.source(), &rest, &mesh.mesh.positions, &mesh.mesh.vertex_normals())?)),
+            };
             Ok(AvatarReady { avatar, path, mesh: Arc::new(mesh), normals })
         });
         self.tasks.avatar = Some(task);

@@ -148,15 +148,18 @@ pub fn pose(req: &PoseRequest) -> crate::error::Result<PosedMesh> {
         Posable::Smooth { mesh, normals } => (mesh, Some(std::borrow::Cow::Borrowed(&normals[..]))),
         Posable::PoseDependent { avatar, reference, rest_normals } => {
             // The exporter's recipe and Newton steps, so the studio shows what the export holds.
-            let surface = PoseSurface::project(avatar.source(), &req.params, &reference.mesh.positions, &reference.weights, PROJECTION_STEPS)?;
+            let surface = PoseSurface::project(avatar.source(), &req.params, &reference.mesh.positions, &reference.weights, reference.smoother.as_deref(), PROJECTION_STEPS)?;
             let n = match rest_normals {
+                // A smoothed surface's own normals: the SDF's gradient would show the noise the
+                // smoothing took off.
+                _ if reference.smoother.is_some() => std::borrow::Cow::Owned(avatar_core::mesh::vertex_normals(&surface.points, &reference.mesh.faces)),
                 Some(n) => std::borrow::Cow::Borrowed(&n[..]),
                 None => {
                     let fallback = avatar_core::mesh::vertex_normals(&surface.points, &reference.mesh.faces);
                     std::borrow::Cow::Owned(sdf_normals(avatar.source(), &req.params, &surface.points, &fallback)?)
                 }
             };
-            owned = CanonicalMesh { mesh: avatar_core::mesh::TriMesh::new(surface.points, reference.mesh.faces.clone()), weights: surface.weights };
+            owned = CanonicalMesh { mesh: avatar_core::mesh::TriMesh::new(surface.points, reference.mesh.faces.clone()), weights: surface.weights, smoother: None };
             (&owned, Some(n))
         }
     };

@@ -184,11 +184,25 @@ impl GarmentSkinner {
         garment_weights(field, &self.body, mesh, &self.options)
     }
 
-    /// The mesh without the inner walls of its loose cloth (`canonical::sheets`): how every
-    /// avatar's canonical surface comes out (posing, export, the evaluation, the studio).
-    pub fn open_sheets(&self, mesh: TriMesh) -> TriMesh {
-        let mesh = super::open_inner_walls(mesh, &self.body, &super::SheetOptions::default());
-        super::smooth_body_offsets(mesh, &self.body, &super::OffsetSmoothing::default())
+    /// How every avatar's extracted canonical surface comes out (posing, export, the
+    /// evaluation, the studio): without the inner walls of its loose cloth (`canonical::sheets`),
+    /// its offset from the body smoothed where it lies close to it
+    /// (`canonical::offset_smoothing`).
+    pub fn finish_surface(&self, mesh: TriMesh) -> TriMesh {
+        let mut mesh = super::open_inner_walls(mesh, &self.body, &super::SheetOptions::default());
+        self.smooth_surface(&mut mesh);
+        mesh
+    }
+
+    /// The depth noise smoothed off a canonical surface near the body, topology unchanged.
+    pub fn smooth_surface(&self, mesh: &mut TriMesh) {
+        super::smooth_body_offsets(mesh, &self.body, &super::OffsetSmoothing::default());
+    }
+
+    /// The same smoothing measured once for a reference mesh, to apply to its projections onto
+    /// each pose's surface (`AvatarSource::surface_smoother`).
+    pub fn surface_smoother(&self, reference: &TriMesh) -> super::SurfaceSmoother {
+        super::SurfaceSmoother::new(&self.body, reference, super::OffsetSmoothing::default())
     }
 
     /// The canonical mesh posed by the bones.

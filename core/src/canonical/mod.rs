@@ -18,7 +18,7 @@ pub use canonicalize::{canonicalize_points, choose_by_agreement, forward_skin_me
 pub use field::{FieldOptions, SkinningField, FIELD_CELLS};
 pub use normalise::Normalisation;
 pub use garment_skinning::{forward_skin_with_weights, garment_weights, GarmentSkinner, GarmentSkinning};
-pub use offset_smoothing::{smooth_body_offsets, OffsetSmoothing};
+pub use offset_smoothing::{smooth_body_offsets, OffsetSmoothing, SurfaceSmoother};
 pub use sheets::{open_inner_walls, SheetOptions};
 pub use shell::{shell_samples, ShellOptions};
 pub use root_finding::{find_roots, forward_point, start_bones, Root, RootOptions};

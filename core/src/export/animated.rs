@@ -96,10 +96,11 @@ pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &Export
         return Err(Error::invalid("the avatar's canonical mesh is empty"));
     }
     let full_weights = source.mesh_skinning_weights(&rest);
+    let smoother = source.surface_smoother(&rest);
     let (joints, weights): (Vec<[u8; 4]>, Vec<[f32; 4]>) = full_weights.iter().map(top4).unzip();
     let params: Vec<BodyParams> = clip.frames.iter().map(|p| BodyParams { betas: betas.clone(), ..p.clone() }).collect();
     // Each frame: the reference vertices projected onto that pose's surface, skinned.
-    let surfaces: Vec<PoseSurface> = params.par_iter().map(|p| PoseSurface::project(source, p, &rest.positions, &full_weights, options.newton_steps)).collect::<Result<_>>()?;
+    let surfaces: Vec<PoseSurface> = params.par_iter().map(|p| PoseSurface::project(source, p, &rest.positions, &full_weights, smoother.as_ref(), options.newton_steps)).collect::<Result<_>>()?;
     let posed: Vec<Vec<Vec3>> = params.par_iter().zip(&surfaces).map(|(p, s)| s.skin(&body.pose(p).bones.transforms)).collect();
     // The deltas are taken in bind space *with the exported 4-weight skinning*: un-skin the
     // studio's posed mesh with the file's weights. The morph targets then also absorb the

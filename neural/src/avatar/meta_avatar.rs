@@ -198,7 +198,7 @@ impl MetaAvatar {
     /// The clothed surface at a pose in canonical space (metres).
     pub fn canonical_mesh_at(&self, params: &BodyParams, resolution: usize) -> Result<TriMesh> {
         let sdf = self.sdf_at(params);
-        Ok(self.skinner.open_sheets(extract(|p: &[Vec3]| sdf.sdf(p), &super::header::extract_options(&self.header.normalisation, resolution))?.mesh))
+        Ok(self.skinner.finish_surface(extract(|p: &[Vec3]| sdf.sdf(p), &super::header::extract_options(&self.header.normalisation, resolution))?.mesh))
     }
 
     /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh).
@@ -237,5 +237,8 @@ impl AvatarSource for MetaAvatar {
     }
     fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
         self.skinner.weights(&self.field, mesh)
+    }
+    fn surface_smoother(&self, reference: &TriMesh) -> Option<avatar_core::canonical::SurfaceSmoother> {
+        Some(self.skinner.surface_smoother(reference))
     }
 }

@@ -127,7 +127,7 @@ impl AvatarSource for StaticAvatar {
     /// Pose-independent: the same canonical surface for every pose (coarse-to-fine marching
     /// cubes over the normalised cube, largest component).
     fn canonical_mesh(&self, _params: &BodyParams) -> avatar_core::Result<TriMesh> {
-        Ok(self.skinner.open_sheets(extract(|p: &[Vec3]| self.sdf_metres(p), &super::header::extract_options(&self.header.normalisation, self.resolution))?.mesh))
+        Ok(self.skinner.finish_surface(extract(|p: &[Vec3]| self.sdf_metres(p), &super::header::extract_options(&self.header.normalisation, self.resolution))?.mesh))
     }
     fn sdf(&self, _params: &BodyParams, points: &[Vec3]) -> avatar_core::Result<Vec<f32>> {
         Ok(self.sdf_metres(points))
@@ -137,6 +137,9 @@ impl AvatarSource for StaticAvatar {
     }
     fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
         self.skinner.weights(&self.field, mesh)
+    }
+    fn surface_smoother(&self, reference: &TriMesh) -> Option<avatar_core::canonical::SurfaceSmoother> {
+        Some(self.skinner.surface_smoother(reference))
     }
     /// The surface does not change with the pose: reference vertices already lie on it.
     fn project(&self, _params: &BodyParams, points: &[Vec3], _steps: usize) -> avatar_core::Result<Vec<Vec3>> {
