@@ -138,10 +138,9 @@ impl AvatarSource for StaticAvatar {
     fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
         self.skinner.weights(&self.field, mesh)
     }
-    fn surface_smoother(&self, reference: &TriMesh) -> Option<avatar_core::canonical::SurfaceSmoother> {
-        Some(self.skinner.surface_smoother(reference))
-    }
-    /// The surface does not change with the pose: reference vertices already lie on it.
+    /// The surface does not change with the pose: reference vertices already lie on it. (So no
+    /// `surface_smoother` either: the reference is `canonical_mesh`, already smoothed, and
+    /// smoothing its unmoved vertices at every pose would smooth them twice.)
     fn project(&self, _params: &BodyParams, points: &[Vec3], _steps: usize) -> avatar_core::Result<Vec<Vec3>> {
         Ok(points.to_vec())
     }
