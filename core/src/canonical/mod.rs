@@ -2,6 +2,7 @@
 //! finding with the 2 cm filter, forward skinning of canonical meshes, and the [-1, 1]^3
 //! normalisation. See docs/canonicalization.md.
 
+pub mod body_wrap;
 pub mod cache;
 pub mod canonicalize;
 pub mod field;
@@ -13,6 +14,7 @@ pub mod offset_smoothing;
 pub mod sheets;
 pub mod shell;
 
+pub use body_wrap::{BodyWrap, SurfaceChoice, WrapOptions, Wrapped};
 pub use cache::{cached_field, default_cache_dir};
 pub use canonicalize::{canonicalize_points, choose_by_agreement, forward_skin_mesh, CanonicalFrame, REPROJECTION_THRESHOLD};
 pub use field::{FieldOptions, SkinningField, FIELD_CELLS};

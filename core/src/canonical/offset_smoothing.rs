@@ -53,18 +53,38 @@ pub struct SurfaceSmoother {
     anchors: Vec<Option<(Vec3, Vec3)>>,
     neighbours: Neighbours,
     options: OffsetSmoothing,
+    /// Vertices held where the reference has them (`pin`).
+    pinned: Vec<(usize, Vec3)>,
 }
 
 impl SurfaceSmoother {
     pub fn new(body: &SignedDistance, mesh: &TriMesh, options: OffsetSmoothing) -> SurfaceSmoother {
         let anchors = mesh.positions.par_iter().map(|&x| body.smooth_offset(x).map(|(d, n)| (x - d * n, n))).collect();
-        SurfaceSmoother { anchors, neighbours: vertex_neighbours(mesh), options }
+        SurfaceSmoother { anchors, neighbours: vertex_neighbours(mesh), options, pinned: Vec::new() }
+    }
+
+    /// Hold the reference's vertices for which `pin` is true where the reference has them,
+    /// whatever a pose's projection did to them: a wrapped body's vertices that its surface
+    /// swallowed (`body_wrap`) would otherwise be pushed onto the blob around them.
+    pub fn pin(mut self, reference: &TriMesh, pin: &[bool]) -> SurfaceSmoother {
+        self.pinned = reference.positions.iter().zip(pin).enumerate().filter(|(_, (_, p))| **p).map(|(v, (x, _))| (v, *x)).collect();
+        self
     }
 
     /// Smooth `positions` (the mesh's vertices, here or moved a little) in place.
     pub fn smooth(&self, positions: &mut [Vec3]) {
+        if positions.len() != self.anchors.len() {
+            return;
+        }
+        self.smooth_offsets(positions);
+        for &(v, x) in &self.pinned {
+            positions[v] = x;
+        }
+    }
+
+    fn smooth_offsets(&self, positions: &mut [Vec3]) {
         let (a, b) = self.options.tight;
-        if self.options.sweeps == 0 || positions.len() != self.anchors.len() {
+        if self.options.sweeps == 0 {
             return;
         }
         let offsets: Vec<Option<f32>> = positions.par_iter().zip(&self.anchors).map(|(&x, anchor)| anchor.map(|(p, n)| (x - p).dot(n))).collect();
@@ -203,5 +223,23 @@ mod tests {
         let before = other.positions.clone();
         smoother.smooth(&mut other.positions);
         assert_eq!(other.positions, before);
+    }
+
+    #[test]
+    fn pinned_vertices_stay_where_the_reference_has_them() {
+        let body = SignedDistance::new(&mesh_sphere(0.1, 48, 96));
+        let reference = mesh_sphere(0.105, 32, 64);
+        let pin: Vec<bool> = reference.positions.iter().map(|p| p.y > 0.09).collect();
+        let smoother = SurfaceSmoother::new(&body, &reference, OffsetSmoothing::default()).pin(&reference, &pin);
+        // A pose's projection pushed every vertex 1 cm out.
+        let mut pose: Vec<Vec3> = reference.positions.iter().map(|p| *p + p.normalize() * 0.01).collect();
+        smoother.smooth(&mut pose);
+        for ((p, r), &pinned) in pose.iter().zip(&reference.positions).zip(&pin) {
+            if pinned {
+                assert_eq!(p, r);
+            } else {
+                assert!((p.length() - 0.115).abs() < 1e-3, "{} m", p.length());
+            }
+        }
     }
 }

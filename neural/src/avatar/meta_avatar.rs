@@ -14,7 +14,7 @@ use crate::flat_params::{flatten, load_flat};
 use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
-use avatar_core::canonical::{GarmentSkinner, Normalisation, SkinningField};
+use avatar_core::canonical::{BodyWrap, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice};
 use crate::error::{Error, Result};
 use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::extract;
@@ -24,6 +24,7 @@ use burn::tensor::{Device, Tensor};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+use std::sync::{Arc, OnceLock};
 
 pub const META_AVATAR_KIND: &str = "meta-hyper";
 
@@ -102,6 +103,11 @@ pub struct MetaAvatar {
     device: Device,
     /// Marching-cubes resolution of the canonical mesh (cells along the longest side).
     pub resolution: usize,
+    /// Which mesh stands for the surface (`canonical::body_wrap`): `Auto` decides once, at the
+    /// rest pose.
+    pub surface: SurfaceChoice,
+    wrap: Arc<BodyWrap>,
+    decided: OnceLock<SurfaceChoice>,
 }
 
 impl MetaAvatar {
@@ -126,7 +132,8 @@ impl MetaAvatar {
             body: section,
             refined_poses,
         };
-        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), skinner: GarmentSkinner::with_body(capture.rest_sdf.clone()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: super::header::OUTPUT_RESOLUTION }
+        let wrap = Arc::new(BodyWrap::new(&body, &capture.betas));
+        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), skinner: GarmentSkinner::with_body(capture.rest_sdf.clone()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: super::header::OUTPUT_RESOLUTION, surface: SurfaceChoice::default(), wrap, decided: OnceLock::new() }
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
@@ -161,7 +168,8 @@ impl MetaAvatar {
         let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let rest_joints = body.regress_joints(&body.shaped_vertices(&header.betas));
         let skinner = GarmentSkinner::new(&body, &header.betas);
-        Ok(MetaAvatar { header, model, skinner, body, field, rest_joints, device, resolution: super::header::OUTPUT_RESOLUTION })
+        let wrap = Arc::new(BodyWrap::new(&body, &header.betas));
+        Ok(MetaAvatar { header, model, skinner, body, field, rest_joints, device, resolution: super::header::OUTPUT_RESOLUTION, surface: SurfaceChoice::default(), wrap, decided: OnceLock::new() })
     }
 
     /// The SIREN layers of a pose, as burn tensors (the hypernetwork's prediction).
@@ -195,10 +203,50 @@ impl MetaAvatar {
         }
     }
 
-    /// The clothed surface at a pose in canonical space (metres).
+    /// The clothed surface at a pose in canonical space (metres): the body's mesh wrapped onto
+    /// the pose's surface, with the extracted mesh's loose pieces where the clothing has some,
+    /// or the extracted mesh (`surface_kind`).
     pub fn canonical_mesh_at(&self, params: &BodyParams, resolution: usize) -> Result<TriMesh> {
         let sdf = self.sdf_at(params);
+        match self.surface_kind() {
+            SurfaceChoice::WrappedBody => Ok(self.wrapped_surface(&sdf, self.wrap.options.outside)),
+            SurfaceChoice::WrappedWithLoose => {
+                let extracted = self.extracted_surface(&sdf, resolution)?;
+                Ok(self.wrap.with_loose_pieces(&self.wrapped_surface(&sdf, self.wrap.options.tight_outside), &extracted))
+            }
+            _ => self.extracted_surface(&sdf, resolution),
+        }
+    }
+
+    fn extracted_surface(&self, sdf: &MetricSdf, resolution: usize) -> Result<TriMesh> {
         Ok(self.skinner.finish_surface(extract(|p: &[Vec3]| sdf.sdf(p), &super::header::extract_options(&self.header.normalisation, resolution))?.mesh))
+    }
+
+    fn wrapped_surface(&self, sdf: &MetricSdf, outside: f32) -> TriMesh {
+        let mut mesh = self.wrap.wrap_within(|p| sdf.sdf(p), outside).mesh;
+        self.skinner.smooth_surface(&mut mesh);
+        mesh
+    }
+
+    /// Which mesh stands for the surface: `surface`, or under `Auto` the wrapped body alone
+    /// where it covers the rest pose's extracted surface (tight clothing), else the wrapped body
+    /// with the loose pieces. Decided once per avatar, so every pose and every exported frame
+    /// is made the same way.
+    pub fn surface_kind(&self) -> SurfaceChoice {
+        if self.surface != SurfaceChoice::Auto {
+            return self.surface;
+        }
+        // Decided under the lock: poses meshed in parallel wait for one decision. An error here
+        // leaves the extracted mesh, whose own extraction then reports it.
+        *self.decided.get_or_init(|| self.rest_surface_kind().unwrap_or(SurfaceChoice::Extracted))
+    }
+
+    fn rest_surface_kind(&self) -> Result<SurfaceChoice> {
+        let sdf = self.sdf_at(&BodyParams { betas: self.header.betas.clone(), ..BodyParams::default() });
+        let extracted = self.extracted_surface(&sdf, self.resolution)?;
+        let share = self.wrap.uncovered_share(&self.wrapped_surface(&sdf, self.wrap.options.outside), &extracted);
+        let kind = if share <= self.wrap.options.max_uncovered { SurfaceChoice::WrappedBody } else { SurfaceChoice::WrappedWithLoose };
+        Ok(kind)
     }
 
     /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh).
@@ -238,7 +286,21 @@ impl AvatarSource for MetaAvatar {
     fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
         self.skinner.weights(&self.field, mesh)
     }
+    /// A wrapped body's reference (the rest pose's, as the studio and the exporter take it)
+    /// keeps the body vertices its surface swallowed where they are at every pose.
     fn surface_smoother(&self, reference: &TriMesh) -> Option<avatar_core::canonical::SurfaceSmoother> {
-        Some(self.skinner.surface_smoother(reference))
+        let smoother = self.skinner.surface_smoother(reference);
+        let outside = match self.surface_kind() {
+            SurfaceChoice::WrappedBody => self.wrap.options.outside,
+            SurfaceChoice::WrappedWithLoose => self.wrap.options.tight_outside,
+            _ => return Some(smoother),
+        };
+        if reference.positions.len() < self.wrap.vertex_count() {
+            return Some(smoother);
+        }
+        let sdf = self.sdf_at(&BodyParams { betas: self.header.betas.clone(), ..BodyParams::default() });
+        let mut swallowed: Vec<bool> = self.wrap.wrap_within(|p| sdf.sdf(p), outside).found.iter().map(|f| !f).collect();
+        swallowed.resize(reference.positions.len(), false);
+        Some(smoother.pin(reference, &swallowed))
     }
 }

@@ -1,0 +1,332 @@
+//! A clothed surface on the body's own mesh: each vertex of the rest body moved along its
+//! normal onto the avatar's surface (an SDF's zero level), where clothing lies close enough
+//! for that to reach it (shirts, sleeves, trousers: the cloth is the body plus an offset).
+//!
+//! Why not the marching-cubes mesh: its vertex normals carry the grid (irregular triangles; on
+//! a 5 cm limb at 1 cm cells an exact sphere's area-weighted vertex normals are 0.02 off even
+//! with every vertex on the sphere), its vertices sit where the grid puts them, and it cannot
+//! resolve hands, a face or the gap between the arm and the torso at the depth's resolution.
+//! The body's mesh keeps all of that, its topology is the one the body's skinning and any
+//! artist's tools were made for, and the depth only has to give the offset, which varies
+//! slowly. Where the surface cannot be reached along the normal within the band (a hand
+//! swallowed by a blob of the SDF, the web of an armpit), the vertex stays on the body.
+//!
+//! Loose clothing (a skirt, a blazer's tails) is not an offset of the body: the extracted mesh
+//! is then farther from the wrapped body than `WrapOptions::far` over more than `max_uncovered`
+//! of its area, and the avatar keeps the extracted mesh ([`BodyWrap::covers`]).
+
+use crate::body::BodyModel;
+use crate::mesh::bvh::Bvh;
+use crate::mesh::TriMesh;
+use glam::Vec3;
+use rayon::prelude::*;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WrapOptions {
+    /// How far (metres) inside the body and outside it the surface is looked for along each
+    /// vertex normal, and the step of that search.
+    pub inside: f32,
+    pub outside: f32,
+    pub step: f32,
+    /// An extracted surface is covered by the wrapped body when no more than `max_uncovered` of
+    /// its area lies farther than `far` (metres) from it.
+    pub far: f32,
+    pub max_uncovered: f32,
+    /// Beside loose pieces the body is wrapped only this far out (metres): a thigh under a
+    /// skirt must not be pulled onto the skirt.
+    pub tight_outside: f32,
+    /// A loose piece's border vertices this close (metres) to the wrapped body are put on it,
+    /// so a skirt meets the hips without a gap.
+    pub seam: f32,
+    /// Loose pieces with less area than this (square metres) are dropped: specks of the
+    /// extracted mesh, not clothing.
+    pub min_piece_area: f32,
+}
+
+impl Default for WrapOptions {
+    fn default() -> Self {
+        // The band reaches a loose polo (up to about 4 cm off the body); a step of 2 mm keeps
+        // the search at 41 SDF values a vertex, the surface between two of them found by
+        // linear interpolation (the SDF is close to linear over 2 mm).
+        WrapOptions { inside: 0.02, outside: 0.06, step: 0.002, far: 0.015, max_uncovered: 0.03, tight_outside: 0.035, seam: 0.03, min_piece_area: 4e-4 }
+    }
+}
+
+/// Which mesh stands for an avatar's surface.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SurfaceChoice {
+    /// The wrapped body where it covers the extracted surface (tight clothing), else the
+    /// extracted mesh.
+    #[default]
+    Auto,
+    /// Marching cubes of the SDF.
+    Extracted,
+    /// The body's mesh wrapped onto the surface.
+    WrappedBody,
+    /// The body's mesh wrapped onto the surface where the clothing is tight and left on the
+    /// body elsewhere (the legs under a skirt), with the extracted mesh's loose pieces (the
+    /// skirt, a blazer's tails) beside it ([`BodyWrap::with_loose_pieces`]).
+    WrappedWithLoose,
+}
+
+/// The rest body of one subject, ready to wrap surfaces.
+pub struct BodyWrap {
+    rest: TriMesh,
+    normals: Vec<Vec3>,
+    pub options: WrapOptions,
+}
+
+/// A wrapped surface: the body's mesh with each vertex on the surface, or left on the body
+/// (`found` false) where the surface was not reached within the band.
+pub struct Wrapped {
+    pub mesh: TriMesh,
+    pub found: Vec<bool>,
+}
+
+impl BodyWrap {
+    pub fn new(body: &BodyModel, betas: &[f32]) -> BodyWrap {
+        Self::of_mesh(body.mesh(body.shaped_vertices(betas)))
+    }
+
+    /// Any closed mesh with outward faces as the body (tests use spheres).
+    pub fn of_mesh(rest: TriMesh) -> BodyWrap {
+        let normals = rest.vertex_normals();
+        BodyWrap { rest, normals, options: WrapOptions::default() }
+    }
+
+    pub fn vertex_count(&self) -> usize {
+        self.rest.positions.len()
+    }
+
+    /// Each body vertex moved along its normal to the surface `sdf` (metres, negative inside)
+    /// crosses outward nearest to the body; `sdf` is called once, on every probe together.
+    pub fn wrap(&self, sdf: impl Fn(&[Vec3]) -> Vec<f32>) -> Wrapped {
+        self.wrap_within(sdf, self.options.outside)
+    }
+
+    /// [`BodyWrap::wrap`] looking no farther than `outside` (metres) out.
+    pub fn wrap_within(&self, sdf: impl Fn(&[Vec3]) -> Vec<f32>, outside: f32) -> Wrapped {
+        let o = &self.options;
+        let count = ((o.inside + outside) / o.step).round() as usize + 1;
+        let steps: Vec<f32> = (0..count).map(|i| -o.inside + o.step * i as f32).collect();
+        let probes: Vec<Vec3> = self.rest.positions.iter().zip(&self.normals).flat_map(|(&x, &n)| steps.iter().map(move |&t| x + t * n)).collect();
+        let values = sdf(&probes);
+        let offsets: Vec<Option<f32>> = values.par_chunks(count).map(|f| outward_crossing_nearest_zero(&steps, f)).collect();
+        let positions = self.rest.positions.iter().zip(&self.normals).zip(&offsets).map(|((&x, &n), t)| x + t.unwrap_or(0.0) * n).collect();
+        Wrapped { mesh: TriMesh::new(positions, self.rest.faces.clone()), found: offsets.iter().map(Option::is_some).collect() }
+    }
+
+    /// The share of `extracted`'s area farther than `options.far` from `wrapped`.
+    pub fn uncovered_share(&self, wrapped: &TriMesh, extracted: &TriMesh) -> f32 {
+        let bvh = Bvh::build(wrapped);
+        let far = self.options.far;
+        let (total, uncovered) = extracted
+            .faces
+            .par_iter()
+            .map(|f| {
+                let [a, b, c] = f.map(|i| extracted.positions[i as usize]);
+                let area = 0.5 * (b - a).cross(c - a).length() as f64;
+                let centre = (a + b + c) / 3.0;
+                let out = bvh.closest_point_within(centre, far).is_none();
+                (area, if out { area } else { 0.0 })
+            })
+            .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
+        if total > 0.0 {
+            (uncovered / total) as f32
+        } else {
+            0.0
+        }
+    }
+
+    /// Whether the wrapped body stands for `extracted` (tight clothing only).
+    pub fn covers(&self, wrapped: &TriMesh, extracted: &TriMesh) -> bool {
+        self.uncovered_share(wrapped, extracted) <= self.options.max_uncovered
+    }
+}
+
+impl BodyWrap {
+    /// `wrapped` (wrapped within `options.tight_outside`) with the pieces of `extracted`
+    /// farther than `options.far` from it: the wrapped body's vertices first, in the body's
+    /// order, then the pieces'. Each piece's border vertices within `options.seam` of the
+    /// wrapped body are put on it; pieces under `options.min_piece_area` are dropped.
+    pub fn with_loose_pieces(&self, wrapped: &TriMesh, extracted: &TriMesh) -> TriMesh {
+        let o = &self.options;
+        let bvh = Bvh::build(wrapped);
+        let loose: Vec<bool> = extracted
+            .faces
+            .par_iter()
+            .map(|f| {
+                let centre = f.iter().map(|&i| extracted.positions[i as usize]).sum::<Vec3>() / 3.0;
+                bvh.closest_point_within(centre, o.far).is_none()
+            })
+            .collect();
+        let faces: Vec<[u32; 3]> = extracted.faces.iter().zip(&loose).filter(|(_, l)| **l).map(|(f, _)| *f).collect();
+        let faces = drop_small_pieces(&extracted.positions, faces, o.min_piece_area);
+        // Compact the pieces' vertices after the wrapped body's.
+        let base = wrapped.positions.len() as u32;
+        let mut index = vec![u32::MAX; extracted.positions.len()];
+        let mut positions = wrapped.positions.clone();
+        let mut all_faces = wrapped.faces.clone();
+        for f in &faces {
+            all_faces.push(f.map(|v| {
+                if index[v as usize] == u32::MAX {
+                    index[v as usize] = positions.len() as u32;
+                    positions.push(extracted.positions[v as usize]);
+                }
+                index[v as usize]
+            }));
+        }
+        // Border edges (one face) of the pieces: their vertices go onto the body nearby.
+        let mut edge_faces: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
+        for f in &all_faces[wrapped.faces.len()..] {
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                *edge_faces.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        let mut border: Vec<u32> = edge_faces.iter().filter(|(_, n)| **n == 1).flat_map(|(e, _)| [e.0, e.1]).collect();
+        border.sort_unstable();
+        border.dedup();
+        for v in border {
+            debug_assert!(v >= base);
+            if let Some(hit) = bvh.closest_point_within(positions[v as usize], o.seam) {
+                positions[v as usize] = hit.point;
+            }
+        }
+        TriMesh::new(positions, all_faces)
+    }
+}
+
+/// `faces` without their connected pieces (by shared vertices) of less area than `min_area`.
+fn drop_small_pieces(positions: &[Vec3], faces: Vec<[u32; 3]>, min_area: f32) -> Vec<[u32; 3]> {
+    let mut parent: Vec<u32> = (0..positions.len() as u32).collect();
+    fn root(parent: &mut [u32], mut v: u32) -> u32 {
+        while parent[v as usize] != v {
+            parent[v as usize] = parent[parent[v as usize] as usize];
+            v = parent[v as usize];
+        }
+        v
+    }
+    for f in &faces {
+        let r0 = root(&mut parent, f[0]);
+        for &v in &f[1..] {
+            let r = root(&mut parent, v);
+            parent[r as usize] = r0;
+        }
+    }
+    let area = |f: &[u32; 3]| {
+        let [a, b, c] = f.map(|i| positions[i as usize]);
+        0.5 * (b - a).cross(c - a).length()
+    };
+    let mut piece_area: std::collections::HashMap<u32, f32> = std::collections::HashMap::new();
+    let roots: Vec<u32> = faces.iter().map(|f| root(&mut parent, f[0])).collect();
+    for (f, r) in faces.iter().zip(&roots) {
+        *piece_area.entry(*r).or_default() += area(f);
+    }
+    faces.into_iter().zip(roots).filter(|(_, r)| piece_area[r] >= min_area).map(|(f, _)| f).collect()
+}
+
+/// Where the SDF sampled at `steps` along a ray goes from inside to outside, the crossing
+/// nearest to the ray's origin (t = 0); linear between samples.
+fn outward_crossing_nearest_zero(steps: &[f32], f: &[f32]) -> Option<f32> {
+    let mut best: Option<f32> = None;
+    for i in 0..steps.len() - 1 {
+        let (a, b) = (f[i], f[i + 1]);
+        if a <= 0.0 && b > 0.0 && a.is_finite() {
+            let t = steps[i] + (steps[i + 1] - steps[i]) * a / (a - b);
+            if best.is_none_or(|s: f32| t.abs() < s.abs()) {
+                best = Some(t);
+            }
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::extract::{extract, ExtractOptions};
+    use crate::synth::raster::tests::sphere;
+
+    fn body() -> BodyWrap {
+        let (p, f) = sphere(Vec3::ZERO, 0.1, 48, 96);
+        BodyWrap::of_mesh(TriMesh::new(p, f))
+    }
+
+    #[test]
+    fn cloth_a_centimetre_out_is_reached_along_every_normal() {
+        let wrap = body();
+        // Cloth 1 cm out on one side, 3 cm on the other.
+        let cloth = |p: Vec3| 0.11 + 0.01 * (p.x / p.length().max(1e-6)).max(0.0) * 2.0;
+        let w = wrap.wrap(|ps| ps.iter().map(|&p| p.length() - cloth(p)).collect());
+        assert!(w.found.iter().all(|&f| f));
+        for p in &w.mesh.positions {
+            assert!((p.length() - cloth(*p)).abs() < 3e-4, "{p} at {} m, cloth at {}", p.length(), cloth(*p));
+        }
+    }
+
+    #[test]
+    fn a_surface_out_of_reach_leaves_the_body_where_it_is() {
+        let wrap = body();
+        // A blob 8 cm out (beyond the 6 cm band) over the +y cap, cloth 5 mm out elsewhere.
+        let w = wrap.wrap(|ps| ps.iter().map(|&p| p.length() - if p.y > 0.08 { 0.18 } else { 0.105 }).collect());
+        for ((p, &found), rest) in w.mesh.positions.iter().zip(&w.found).zip(&wrap.rest.positions) {
+            if rest.y > 0.085 {
+                assert!(!found);
+                assert_eq!(p, rest);
+            } else if rest.y < 0.07 {
+                assert!(found);
+                assert!((p.length() - 0.105).abs() < 3e-4);
+            }
+        }
+    }
+
+    #[test]
+    fn tight_cloth_is_covered_and_a_skirt_is_not() {
+        let wrap = body();
+        let opts = ExtractOptions::new(Vec3::splat(-0.25), Vec3::splat(0.25), 64);
+        let tight = |p: &Vec3| p.length() - 0.108;
+        let w = wrap.wrap(|ps| ps.iter().map(tight).collect());
+        let extracted = extract(|ps: &[Vec3]| ps.iter().map(tight).collect(), &opts).unwrap().mesh;
+        assert!(wrap.uncovered_share(&w.mesh, &extracted) < 0.005);
+        assert!(wrap.covers(&w.mesh, &extracted));
+        // A "skirt": a flat disc 12 cm wide around the equator, 4 mm thick (a sheet far from
+        // the body over most of its area), unioned with the tight cloth.
+        let skirt = |p: &Vec3| tight(p).min((p.y.abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - 0.22));
+        let w = wrap.wrap(|ps| ps.iter().map(skirt).collect());
+        let extracted = extract(|ps: &[Vec3]| ps.iter().map(skirt).collect(), &opts).unwrap().mesh;
+        let share = wrap.uncovered_share(&w.mesh, &extracted);
+        assert!(share > 0.2, "the skirt's share beyond 1.5 cm: {share}");
+        assert!(!wrap.covers(&w.mesh, &extracted));
+    }
+
+    #[test]
+    fn a_skirt_comes_beside_the_body_and_meets_it() {
+        let wrap = body();
+        let opts = ExtractOptions::new(Vec3::splat(-0.25), Vec3::splat(0.25), 64);
+        // Tight cloth 8 mm out, and a brim (a flat ring 4 mm thick out to 22 cm) round the
+        // equator: the brim is the loose piece.
+        let tight = |p: &Vec3| p.length() - 0.108;
+        let brim = |p: &Vec3| (p.y.abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - 0.22);
+        let sdf = |p: &Vec3| tight(p).min(brim(p));
+        let w = wrap.wrap_within(|ps| ps.iter().map(sdf).collect(), wrap.options.tight_outside);
+        let extracted = extract(|ps: &[Vec3]| ps.iter().map(sdf).collect(), &opts).unwrap().mesh;
+        let merged = wrap.with_loose_pieces(&w.mesh, &extracted);
+        let n = wrap.vertex_count();
+        // The body's vertices first, on the tight cloth (or on the body where the brim's root
+        // swallowed them).
+        assert_eq!(&merged.positions[..n], &w.mesh.positions[..]);
+        let pieces = &merged.positions[n..];
+        assert!(!pieces.is_empty());
+        // Every piece vertex is on the brim, and the brim reaches out to its rim.
+        assert!(pieces.iter().all(|p| brim(p).abs() < 0.004 || tight(p).abs() < 0.004), "a piece vertex off the brim");
+        let reach = pieces.iter().map(|p| Vec3::new(p.x, 0.0, p.z).length()).fold(0f32, f32::max);
+        assert!(reach > 0.21, "the brim reaches {reach} m");
+        // Its inner border was put on the wrapped body: no piece vertex hangs in the gap
+        // between 1 mm and 1.2 cm from the tight cloth near the brim's root.
+        let gap = pieces.iter().filter(|p| Vec3::new(p.x, 0.0, p.z).length() < 0.12 && tight(p) > 0.001 && tight(p) < 0.012).count();
+        assert_eq!(gap, 0);
+        // Every face index is valid.
+        assert!(merged.faces.iter().all(|f| f.iter().all(|&v| (v as usize) < merged.positions.len())));
+    }
+}
