@@ -1,7 +1,8 @@
 //! The personal avatar: the hypernetwork fine-tuned on a capture's canonical depth points, from
 //! the meta-learned model (MetaAvatar) or from scratch (the baseline). Novel poses go pose ->
-//! bone encoding -> hypernetwork -> SIREN -> coarse-to-fine marching cubes -> largest component
-//! -> forward skinning.
+//! bone encoding -> hypernetwork -> SIREN -> the body's mesh wrapped onto its surface (with the
+//! loose pieces of the coarse-to-fine marching cubes beside it where the clothing is loose:
+//! `canonical::body_wrap`) -> forward skinning.
 
 use crate::avatar::body::{self as avatar_body, BodySection};
 use crate::avatar::header::{avatar_field, check_avatar_header, check_subject, PartialFit, AVATAR_FORMAT};
