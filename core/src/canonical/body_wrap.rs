@@ -41,6 +41,10 @@ pub struct WrapOptions {
     /// Loose pieces with less area than this (square metres) are dropped: specks of the
     /// extracted mesh, not clothing.
     pub min_piece_area: f32,
+    /// Where the body is thinner than this (metres, along the inward normal: fingers, ears)
+    /// it is not wrapped: the depth and the SDF's grid cannot resolve it, and the body's own
+    /// surface is the better guess than the blob around it.
+    pub thin: f32,
 }
 
 impl Default for WrapOptions {
@@ -48,7 +52,7 @@ impl Default for WrapOptions {
         // The band reaches a loose polo (up to about 4 cm off the body); a step of 2 mm keeps
         // the search at 41 SDF values a vertex, the surface between two of them found by
         // linear interpolation (the SDF is close to linear over 2 mm).
-        WrapOptions { inside: 0.02, outside: 0.06, step: 0.002, far: 0.015, max_uncovered: 0.03, tight_outside: 0.035, seam: 0.03, min_piece_area: 4e-4 }
+        WrapOptions { inside: 0.02, outside: 0.06, step: 0.002, far: 0.015, max_uncovered: 0.03, tight_outside: 0.035, seam: 0.03, min_piece_area: 4e-4, thin: 0.03 }
     }
 }
 
@@ -73,6 +77,9 @@ pub enum SurfaceChoice {
 pub struct BodyWrap {
     rest: TriMesh,
     normals: Vec<Vec3>,
+    /// The body's thickness at each vertex (metres, along the inward normal; infinite where
+    /// the ray leaves no other side within 20 cm).
+    thickness: Vec<f32>,
     pub options: WrapOptions,
 }
 
@@ -91,7 +98,9 @@ impl BodyWrap {
     /// Any closed mesh with outward faces as the body (tests use spheres).
     pub fn of_mesh(rest: TriMesh) -> BodyWrap {
         let normals = rest.vertex_normals();
-        BodyWrap { rest, normals, options: WrapOptions::default() }
+        let bvh = Bvh::build(&rest);
+        let thickness = rest.positions.par_iter().zip(&normals).map(|(&x, &n)| thickness_at(&bvh, x, n)).collect();
+        BodyWrap { rest, normals, thickness, options: WrapOptions::default() }
     }
 
     pub fn vertex_count(&self) -> usize {
@@ -111,7 +120,8 @@ impl BodyWrap {
         let steps: Vec<f32> = (0..count).map(|i| -o.inside + o.step * i as f32).collect();
         let probes: Vec<Vec3> = self.rest.positions.iter().zip(&self.normals).flat_map(|(&x, &n)| steps.iter().map(move |&t| x + t * n)).collect();
         let values = sdf(&probes);
-        let offsets: Vec<Option<f32>> = values.par_chunks(count).map(|f| outward_crossing_nearest_zero(&steps, f)).collect();
+        let offsets: Vec<Option<f32>> =
+            values.par_chunks(count).zip(&self.thickness).map(|(f, &thick)| if thick < o.thin { None } else { outward_crossing_nearest_zero(&steps, f) }).collect();
         let positions = self.rest.positions.iter().zip(&self.normals).zip(&offsets).map(|((&x, &n), t)| x + t.unwrap_or(0.0) * n).collect();
         Wrapped { mesh: TriMesh::new(positions, self.rest.faces.clone()), found: offsets.iter().map(Option::is_some).collect() }
     }
@@ -226,6 +236,17 @@ fn drop_small_pieces(positions: &[Vec3], faces: Vec<[u32; 3]>, min_area: f32) ->
     faces.into_iter().zip(roots).filter(|(_, r)| piece_area[r] >= min_area).map(|(f, _)| f).collect()
 }
 
+/// The body's thickness at `x` along the inward normal: the nearest other side of three rays a
+/// few degrees apart (one ray through a vertex or an edge of the far side can slip between its
+/// triangles).
+fn thickness_at(bvh: &Bvh, x: Vec3, n: Vec3) -> f32 {
+    let (t1, t2) = n.any_orthonormal_pair();
+    [-n, (-n + 0.08 * t1).normalize(), (-n - 0.05 * t1 + 0.07 * t2).normalize()]
+        .iter()
+        .filter_map(|&d| bvh.ray_cast(x - 1e-4 * n, d, 1e-3, 0.2).map(|h| h.t))
+        .fold(f32::INFINITY, f32::min)
+}
+
 /// Where the SDF sampled at `steps` along a ray goes from inside to outside, the crossing
 /// nearest to the ray's origin (t = 0); linear between samples.
 fn outward_crossing_nearest_zero(steps: &[f32], f: &[f32]) -> Option<f32> {
@@ -328,5 +349,24 @@ mod tests {
         assert_eq!(gap, 0);
         // Every face index is valid.
         assert!(merged.faces.iter().all(|f| f.iter().all(|&v| (v as usize) < merged.positions.len())));
+    }
+
+    #[test]
+    fn a_body_too_thin_to_resolve_is_not_wrapped() {
+        // A 10 cm sphere with a finger: a 1 cm thick rod along +x from the sphere to 16 cm.
+        let (p, f) = sphere(Vec3::ZERO, 0.1, 32, 64);
+        let mut body = TriMesh::new(p, f);
+        let (rp, rf) = crate::synth::raster::tests::sphere(Vec3::new(0.14, 0.0, 0.0), 0.005, 8, 16);
+        let base = body.positions.len() as u32;
+        body.positions.extend(rp);
+        body.faces.extend(rf.iter().map(|t| t.map(|v| v + base)));
+        let wrap = BodyWrap::of_mesh(body);
+        // A blob 2 cm round the small sphere (the SDF's guess of a finger), cloth 5 mm out elsewhere.
+        let w = wrap.wrap(|ps| ps.iter().map(|&p| (p.length() - 0.105).min(p.distance(Vec3::new(0.14, 0.0, 0.0)) - 0.02)).collect());
+        for v in base as usize..w.mesh.positions.len() {
+            assert!(!w.found[v], "vertex {v} thickness {} normal {}", wrap.thickness[v], wrap.normals[v]);
+            assert_eq!(w.mesh.positions[v], wrap.rest.positions[v]);
+        }
+        assert!(w.found[..base as usize].iter().filter(|&&f| f).count() > base as usize * 9 / 10);
     }
 }
