@@ -13,10 +13,12 @@
 //!
 //! Loose clothing (a skirt, a blazer's tails) is not an offset of the body: the extracted mesh
 //! is then farther from the wrapped body than `WrapOptions::far` over more than `max_uncovered`
-//! of its area, and the avatar keeps the extracted mesh ([`BodyWrap::covers`]).
+//! of its area ([`BodyWrap::covers`]), and the avatar is the wrapped body with the extracted
+//! mesh's loose pieces beside it ([`BodyWrap::with_loose_pieces`]).
 
 use crate::body::BodyModel;
 use crate::mesh::bvh::Bvh;
+use crate::mesh::topology::{compact, face_components};
 use crate::mesh::TriMesh;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -128,19 +130,13 @@ impl BodyWrap {
 
     /// The share of `extracted`'s area farther than `options.far` from `wrapped`.
     pub fn uncovered_share(&self, wrapped: &TriMesh, extracted: &TriMesh) -> f32 {
-        let bvh = Bvh::build(wrapped);
-        let far = self.options.far;
-        let (total, uncovered) = extracted
-            .faces
-            .par_iter()
-            .map(|f| {
-                let [a, b, c] = f.map(|i| extracted.positions[i as usize]);
-                let area = 0.5 * (b - a).cross(c - a).length() as f64;
-                let centre = (a + b + c) / 3.0;
-                let out = bvh.closest_point_within(centre, far).is_none();
-                (area, if out { area } else { 0.0 })
-            })
-            .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
+        let far = faces_far_from(&Bvh::build(wrapped), extracted, self.options.far);
+        let area = |f: usize| {
+            let [a, b, c] = extracted.triangle(f);
+            0.5 * (b - a).cross(c - a).length() as f64
+        };
+        let total: f64 = (0..extracted.faces.len()).map(area).sum();
+        let uncovered: f64 = (0..extracted.faces.len()).filter(|&f| far[f]).map(area).sum();
         if total > 0.0 {
             (uncovered / total) as f32
         } else {
@@ -152,9 +148,7 @@ impl BodyWrap {
     pub fn covers(&self, wrapped: &TriMesh, extracted: &TriMesh) -> bool {
         self.uncovered_share(wrapped, extracted) <= self.options.max_uncovered
     }
-}
 
-impl BodyWrap {
     /// `wrapped` (wrapped within `options.tight_outside`) with the pieces of `extracted`
     /// farther than `options.far` from it: the wrapped body's vertices first, in the body's
     /// order, then the pieces'. Each piece's border vertices within `options.seam` of the
@@ -162,33 +156,12 @@ impl BodyWrap {
     pub fn with_loose_pieces(&self, wrapped: &TriMesh, extracted: &TriMesh) -> TriMesh {
         let o = &self.options;
         let bvh = Bvh::build(wrapped);
-        let loose: Vec<bool> = extracted
-            .faces
-            .par_iter()
-            .map(|f| {
-                let centre = f.iter().map(|&i| extracted.positions[i as usize]).sum::<Vec3>() / 3.0;
-                bvh.closest_point_within(centre, o.far).is_none()
-            })
-            .collect();
-        let faces: Vec<[u32; 3]> = extracted.faces.iter().zip(&loose).filter(|(_, l)| **l).map(|(f, _)| *f).collect();
-        let faces = drop_small_pieces(&extracted.positions, faces, o.min_piece_area);
-        // Compact the pieces' vertices after the wrapped body's.
-        let base = wrapped.positions.len() as u32;
-        let mut index = vec![u32::MAX; extracted.positions.len()];
-        let mut positions = wrapped.positions.clone();
-        let mut all_faces = wrapped.faces.clone();
-        for f in &faces {
-            all_faces.push(f.map(|v| {
-                if index[v as usize] == u32::MAX {
-                    index[v as usize] = positions.len() as u32;
-                    positions.push(extracted.positions[v as usize]);
-                }
-                index[v as usize]
-            }));
-        }
+        let far = faces_far_from(&bvh, extracted, o.far);
+        let loose: Vec<[u32; 3]> = extracted.faces.iter().zip(&far).filter(|(_, f)| **f).map(|(f, _)| *f).collect();
+        let mut pieces = without_small_pieces(&compact(&extracted.positions, &loose), o.min_piece_area);
         // Border edges (one face) of the pieces: their vertices go onto the body nearby.
         let mut edge_faces: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
-        for f in &all_faces[wrapped.faces.len()..] {
+        for f in &pieces.faces {
             for k in 0..3 {
                 let (a, b) = (f[k], f[(k + 1) % 3]);
                 *edge_faces.entry((a.min(b), a.max(b))).or_default() += 1;
@@ -198,42 +171,39 @@ impl BodyWrap {
         border.sort_unstable();
         border.dedup();
         for v in border {
-            debug_assert!(v >= base);
-            if let Some(hit) = bvh.closest_point_within(positions[v as usize], o.seam) {
-                positions[v as usize] = hit.point;
+            if let Some(hit) = bvh.closest_point_within(pieces.positions[v as usize], o.seam) {
+                pieces.positions[v as usize] = hit.point;
             }
         }
-        TriMesh::new(positions, all_faces)
+        let base = wrapped.positions.len() as u32;
+        let mut merged = wrapped.clone();
+        merged.positions.extend(pieces.positions);
+        merged.faces.extend(pieces.faces.iter().map(|f| f.map(|v| v + base)));
+        merged
     }
 }
 
-/// `faces` without their connected pieces (by shared vertices) of less area than `min_area`.
-fn drop_small_pieces(positions: &[Vec3], faces: Vec<[u32; 3]>, min_area: f32) -> Vec<[u32; 3]> {
-    let mut parent: Vec<u32> = (0..positions.len() as u32).collect();
-    fn root(parent: &mut [u32], mut v: u32) -> u32 {
-        while parent[v as usize] != v {
-            parent[v as usize] = parent[parent[v as usize] as usize];
-            v = parent[v as usize];
-        }
-        v
+/// Which faces of `mesh` have their centre farther than `far` from the surface in `bvh`.
+fn faces_far_from(bvh: &Bvh, mesh: &TriMesh, far: f32) -> Vec<bool> {
+    (0..mesh.faces.len())
+        .into_par_iter()
+        .map(|f| {
+            let [a, b, c] = mesh.triangle(f);
+            bvh.closest_point_within((a + b + c) / 3.0, far).is_none()
+        })
+        .collect()
+}
+
+/// `mesh` without its connected pieces (faces sharing a vertex) of less area than `min_area`.
+fn without_small_pieces(mesh: &TriMesh, min_area: f32) -> TriMesh {
+    let (labels, count) = face_components(mesh);
+    let mut piece_area = vec![0f32; count];
+    for (f, &l) in labels.iter().enumerate() {
+        let [a, b, c] = mesh.triangle(f);
+        piece_area[l as usize] += 0.5 * (b - a).cross(c - a).length();
     }
-    for f in &faces {
-        let r0 = root(&mut parent, f[0]);
-        for &v in &f[1..] {
-            let r = root(&mut parent, v);
-            parent[r as usize] = r0;
-        }
-    }
-    let area = |f: &[u32; 3]| {
-        let [a, b, c] = f.map(|i| positions[i as usize]);
-        0.5 * (b - a).cross(c - a).length()
-    };
-    let mut piece_area: std::collections::HashMap<u32, f32> = std::collections::HashMap::new();
-    let roots: Vec<u32> = faces.iter().map(|f| root(&mut parent, f[0])).collect();
-    for (f, r) in faces.iter().zip(&roots) {
-        *piece_area.entry(*r).or_default() += area(f);
-    }
-    faces.into_iter().zip(roots).filter(|(_, r)| piece_area[r] >= min_area).map(|(f, _)| f).collect()
+    let kept: Vec<[u32; 3]> = mesh.faces.iter().zip(&labels).filter(|(_, l)| piece_area[**l as usize] >= min_area).map(|(f, _)| *f).collect();
+    compact(&mesh.positions, &kept)
 }
 
 /// The body's thickness at `x` along the inward normal: the nearest other side of three rays a

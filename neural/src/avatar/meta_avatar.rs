@@ -243,11 +243,15 @@ impl MetaAvatar {
     }
 
     fn rest_surface_kind(&self) -> Result<SurfaceChoice> {
-        let sdf = self.sdf_at(&BodyParams { betas: self.header.betas.clone(), ..BodyParams::default() });
+        let sdf = self.sdf_at(&self.rest_params());
         let extracted = self.extracted_surface(&sdf, self.resolution)?;
-        let share = self.wrap.uncovered_share(&self.wrapped_surface(&sdf, self.wrap.options.outside), &extracted);
-        let kind = if share <= self.wrap.options.max_uncovered { SurfaceChoice::WrappedBody } else { SurfaceChoice::WrappedWithLoose };
-        Ok(kind)
+        Ok(if self.wrap.covers(&self.wrapped_surface(&sdf, self.wrap.options.outside), &extracted) { SurfaceChoice::WrappedBody } else { SurfaceChoice::WrappedWithLoose })
+    }
+
+    /// The zero pose with the avatar's shape: where the surface kind is decided and where the
+    /// studio and the exporter take their reference mesh.
+    fn rest_params(&self) -> BodyParams {
+        BodyParams { betas: self.header.betas.clone(), ..BodyParams::default() }
     }
 
     /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh).
@@ -299,7 +303,7 @@ impl AvatarSource for MetaAvatar {
         if reference.positions.len() < self.wrap.vertex_count() {
             return Some(smoother);
         }
-        let sdf = self.sdf_at(&BodyParams { betas: self.header.betas.clone(), ..BodyParams::default() });
+        let sdf = self.sdf_at(&self.rest_params());
         let mut swallowed: Vec<bool> = self.wrap.wrap_within(|p| sdf.sdf(p), outside).found.iter().map(|f| !f).collect();
         swallowed.resize(reference.positions.len(), false);
         Some(smoother.pin(reference, &swallowed))
