@@ -16,7 +16,8 @@
 //! of its area ([`BodyWrap::covers`]), and the avatar is the wrapped body with the extracted
 //! mesh's loose pieces beside it ([`BodyWrap::with_loose_pieces`]).
 
-use crate::body::BodyModel;
+use crate::body::{BodyModel, Weights};
+use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
 use crate::mesh::topology::{compact, face_components};
 use crate::mesh::TriMesh;
@@ -183,6 +184,48 @@ impl BodyWrap {
     }
 }
 
+impl BodyWrap {
+    /// Where each vertex of a wrapped surface ([`BodyWrap::wrap`], or
+    /// [`BodyWrap::with_loose_pieces`]: its body faces first) stands, for skinning: the body's
+    /// own weights (`body_weights`, one per body vertex) on the body's vertices, and on a loose
+    /// piece's vertices that were put onto the body (its seam) the body's weights at that point,
+    /// so the seam moves with the body and stays closed at every pose; `others` elsewhere (the
+    /// field's). A mesh that is not a wrapped surface keeps `others`.
+    ///
+    /// Why not the field's weights: they are the body's diffused into a grid and read back by
+    /// trilinear interpolation, smeared over a cell; the body's vertices have exact ones.
+    pub fn own_weights(&self, body_weights: &[Weights], mesh: &TriMesh, mut others: Vec<Weights>) -> Vec<Weights> {
+        let (n, body_faces) = (self.vertex_count(), self.rest.faces.len());
+        let wrapped = body_weights.len() == n && mesh.positions.len() >= n && mesh.faces.len() >= body_faces && mesh.faces[..body_faces] == self.rest.faces[..];
+        if !wrapped || others.len() != mesh.positions.len() {
+            return others;
+        }
+        others[..n].copy_from_slice(body_weights);
+        if mesh.positions.len() > n {
+            let body_part = TriMesh::new(mesh.positions[..n].to_vec(), self.rest.faces.clone());
+            let bvh = Bvh::build(&body_part);
+            let seams: Vec<(usize, Weights)> = (n..mesh.positions.len())
+                .into_par_iter()
+                .filter_map(|v| {
+                    let hit = bvh.closest_point_within(mesh.positions[v], SEAM_TOLERANCE)?;
+                    let [a, b, c] = body_part.triangle(hit.face as usize);
+                    let l = barycentric(hit.point, a, b, c);
+                    let [i, j, k] = self.rest.faces[hit.face as usize].map(|i| i as usize);
+                    Some((v, std::array::from_fn(|q| l.x * body_weights[i][q] + l.y * body_weights[j][q] + l.z * body_weights[k][q])))
+                })
+                .collect();
+            for (v, w) in seams {
+                others[v] = w;
+            }
+        }
+        others
+    }
+}
+
+/// How close (metres) a loose piece's vertex must be to the wrapped body to count as put on it
+/// (the seam vertices are exactly on it, up to rounding).
+const SEAM_TOLERANCE: f32 = 1e-5;
+
 /// Which faces of `mesh` have their centre farther than `far` from the surface in `bvh`.
 fn faces_far_from(bvh: &Bvh, mesh: &TriMesh, far: f32) -> Vec<bool> {
     (0..mesh.faces.len())
@@ -319,6 +362,54 @@ mod tests {
         assert_eq!(gap, 0);
         // Every face index is valid.
         assert!(merged.faces.iter().all(|f| f.iter().all(|&v| (v as usize) < merged.positions.len())));
+    }
+
+    #[test]
+    fn the_body_and_a_pieces_seam_take_the_bodys_own_weights() {
+        let wrap = body();
+        // Body weights that vary over the sphere: joint 0 at the top, joint 1 at the bottom.
+        let body_weights: Vec<Weights> = wrap
+            .rest
+            .positions
+            .iter()
+            .map(|p| {
+                let mut w = [0.0; crate::body::NUM_JOINTS];
+                w[0] = 0.5 + 5.0 * p.y;
+                w[1] = 1.0 - w[0];
+                w
+            })
+            .collect();
+        let opts = ExtractOptions::new(Vec3::splat(-0.25), Vec3::splat(0.25), 64);
+        let tight = |p: &Vec3| p.length() - 0.108;
+        let brim = |p: &Vec3| (p.y.abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - 0.22);
+        let sdf = |p: &Vec3| tight(p).min(brim(p));
+        let w = wrap.wrap_within(|ps| ps.iter().map(sdf).collect(), wrap.options.tight_outside);
+        let extracted = extract(|ps: &[Vec3]| ps.iter().map(sdf).collect(), &opts).unwrap().mesh;
+        let merged = wrap.with_loose_pieces(&w.mesh, &extracted);
+        let n = wrap.vertex_count();
+        // "Field" weights: all on joint 2, so any vertex that took the body's shows it.
+        let mut field = [0.0; crate::body::NUM_JOINTS];
+        field[2] = 1.0;
+        let weights = wrap.own_weights(&body_weights, &merged, vec![field; merged.positions.len()]);
+        assert_eq!(&weights[..n], &body_weights[..]);
+        let bvh = Bvh::build(&TriMesh::new(merged.positions[..n].to_vec(), wrap.rest.faces.clone()));
+        let (mut seam, mut free) = (0, 0);
+        for (p, w) in merged.positions[n..].iter().zip(&weights[n..]) {
+            if bvh.closest_point_within(*p, 1e-6).is_some() {
+                // On the wrapped body (moved out radially), with the body's weights of the
+                // rest point beneath it.
+                seam += 1;
+                let expected = 0.5 + 5.0 * p.y * 0.1 / p.length();
+                assert!(w[2] == 0.0 && (w[0] - expected).abs() < 0.003 && (w[0] + w[1] - 1.0).abs() < 1e-5, "seam vertex {p}: {:?}, expected {expected}", &w[..3]);
+            } else {
+                free += 1;
+                assert_eq!(*w, field);
+            }
+        }
+        assert!(seam > 20 && free > 100, "{seam} seam and {free} free vertices");
+        // A mesh that is not a wrapped body keeps the weights it was given.
+        let others = vec![field; extracted.positions.len()];
+        assert_eq!(wrap.own_weights(&body_weights, &extracted, others.clone()), others);
     }
 
     #[test]

@@ -40,7 +40,17 @@ impl Default for GarmentSkinning {
 /// thousands of sweeps to carry the hips' weights down a skirt: 200 sweeps got the dress's
 /// Chamfer-L2 from 1.507 to 1.286 cm, 800 to 1.098).
 pub fn garment_weights(field: &SkinningField, body: &SignedDistance, mesh: &TriMesh, options: &GarmentSkinning) -> Vec<Weights> {
-    let own: Vec<Weights> = mesh.positions.par_iter().map(|&x| field.weights_at(x)).collect();
+    inpaint_loose_weights(field_weights(field, mesh), body, mesh, options)
+}
+
+/// Each vertex's weights in the diffused field.
+pub fn field_weights(field: &SkinningField, mesh: &TriMesh) -> Vec<Weights> {
+    mesh.positions.par_iter().map(|&x| field.weights_at(x)).collect()
+}
+
+/// `own` (each vertex's weights where it stands) inpainted along the mesh where it is loose
+/// clothing: [`garment_weights`] from any starting weights.
+pub fn inpaint_loose_weights(own: Vec<Weights>, body: &SignedDistance, mesh: &TriMesh, options: &GarmentSkinning) -> Vec<Weights> {
     let (a, b) = options.loose;
     // How loose each vertex is, 0 (the field's weights) to nearly 1 (its neighbours' average;
     // never quite 1, so a loose piece that touches no tight vertex still has one solution).
@@ -182,6 +192,12 @@ impl GarmentSkinner {
     /// The weights of a canonical mesh's vertices.
     pub fn weights(&self, field: &SkinningField, mesh: &TriMesh) -> Vec<Weights> {
         garment_weights(field, &self.body, mesh, &self.options)
+    }
+
+    /// [`GarmentSkinner::weights`] from given weights where each vertex stands (a wrapped
+    /// body's own: `BodyWrap::own_weights`) instead of the field's.
+    pub fn weights_from(&self, own: Vec<Weights>, mesh: &TriMesh) -> Vec<Weights> {
+        inpaint_loose_weights(own, &self.body, mesh, &self.options)
     }
 
     /// How every avatar's extracted canonical surface comes out (posing, export, the

@@ -19,7 +19,7 @@ pub use cache::{cached_field, default_cache_dir};
 pub use canonicalize::{canonicalize_points, choose_by_agreement, forward_skin_mesh, CanonicalFrame, REPROJECTION_THRESHOLD};
 pub use field::{FieldOptions, SkinningField, FIELD_CELLS};
 pub use normalise::Normalisation;
-pub use garment_skinning::{forward_skin_with_weights, garment_weights, GarmentSkinner, GarmentSkinning};
+pub use garment_skinning::{field_weights, forward_skin_with_weights, garment_weights, inpaint_loose_weights, GarmentSkinner, GarmentSkinning};
 pub use offset_smoothing::{smooth_body_offsets, OffsetSmoothing, SurfaceSmoother};
 pub use sheets::{open_inner_walls, SheetOptions};
 pub use shell::{shell_samples, ShellOptions};

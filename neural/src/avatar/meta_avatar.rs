@@ -2,7 +2,8 @@
 //! the meta-learned model (MetaAvatar) or from scratch (the baseline). Novel poses go pose ->
 //! bone encoding -> hypernetwork -> SIREN -> the body's mesh wrapped onto its surface (with the
 //! loose pieces of the coarse-to-fine marching cubes beside it where the clothing is loose:
-//! `canonical::body_wrap`) -> forward skinning.
+//! `canonical::body_wrap`) -> forward skinning (the body's own weights on
+//! the wrapped body).
 
 use crate::avatar::body::{self as avatar_body, BodySection};
 use crate::avatar::header::{avatar_field, check_avatar_header, check_subject, PartialFit, AVATAR_FORMAT};
@@ -15,7 +16,7 @@ use crate::flat_params::{flatten, load_flat};
 use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
-use avatar_core::canonical::{BodyWrap, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice};
+use avatar_core::canonical::{field_weights, forward_skin_with_weights, BodyWrap, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice};
 use crate::error::{Error, Result};
 use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::extract;
@@ -260,7 +261,20 @@ impl MetaAvatar {
         let mut p = params.clone();
         p.betas = self.header.betas.clone();
         let bones = self.body.pose(&p).bones;
-        Ok(self.skinner.pose(&self.field, &bones, &canonical))
+        Ok(forward_skin_with_weights(&bones, &canonical, &self.mesh_weights(&canonical)))
+    }
+
+    /// The skinning weights of a canonical mesh of this avatar: a wrapped body's vertices (and
+    /// the seams of its loose pieces) with the body's own weights, the rest the field's, then
+    /// inpainted along loose clothing (`GarmentSkinner`).
+    fn mesh_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
+        match self.surface_kind() {
+            SurfaceChoice::WrappedBody | SurfaceChoice::WrappedWithLoose => {
+                let own = self.wrap.own_weights(&self.body.weights, mesh, field_weights(&self.field, mesh));
+                self.skinner.weights_from(own, mesh)
+            }
+            _ => self.skinner.weights(&self.field, mesh),
+        }
     }
 
     pub fn num_params(&self) -> usize {
@@ -289,7 +303,7 @@ impl AvatarSource for MetaAvatar {
         points.iter().map(|&p| self.field.weights_at(p)).collect()
     }
     fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
-        self.skinner.weights(&self.field, mesh)
+        self.mesh_weights(mesh)
     }
     /// A wrapped body's reference (the rest pose's, as the studio and the exporter take it)
     /// keeps the body vertices its surface swallowed where they are at every pose.
