@@ -159,7 +159,7 @@ impl BodyWrap {
         let bvh = Bvh::build(wrapped);
         let far = faces_far_from(&bvh, extracted, o.far);
         let loose: Vec<[u32; 3]> = extracted.faces.iter().zip(&far).filter(|(_, f)| **f).map(|(f, _)| *f).collect();
-        let mut pieces = without_small_pieces(&compact(&extracted.positions, &loose), o.min_piece_area);
+        let mut pieces = self.clothing_pieces(&compact(&extracted.positions, &loose), &bvh);
         // Border edges (one face) of the pieces: their vertices go onto the body nearby.
         let mut edge_faces: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
         for f in &pieces.faces {
@@ -185,6 +185,28 @@ impl BodyWrap {
 }
 
 impl BodyWrap {
+    /// The connected pieces (faces sharing a vertex) of `mesh` that can be clothing: not specks
+    /// (less area than `min_piece_area`), and not lying mostly round a part of the body too
+    /// thin to wrap (the SDF's blob round a hand, which the body's own hand stands for, as it
+    /// does in the wrapped body). `wrapped`: the wrapped body's faces (the rest body's).
+    fn clothing_pieces(&self, mesh: &TriMesh, wrapped: &Bvh) -> TriMesh {
+        let (labels, count) = face_components(mesh);
+        let (mut piece_area, mut thin_area) = (vec![0f32; count], vec![0f32; count]);
+        let thin_vertex = |v: u32| self.thickness[v as usize] < self.options.thin;
+        for (f, &l) in labels.iter().enumerate() {
+            let [a, b, c] = mesh.triangle(f);
+            let area = 0.5 * (b - a).cross(c - a).length();
+            piece_area[l as usize] += area;
+            let near_thin = wrapped.closest_point((a + b + c) / 3.0).is_some_and(|hit| self.rest.faces[hit.face as usize].iter().filter(|&&v| thin_vertex(v)).count() >= 2);
+            if near_thin {
+                thin_area[l as usize] += area;
+            }
+        }
+        let clothing = |l: usize| piece_area[l] >= self.options.min_piece_area && thin_area[l] <= 0.5 * piece_area[l];
+        let kept: Vec<[u32; 3]> = mesh.faces.iter().zip(&labels).filter(|(_, l)| clothing(**l as usize)).map(|(f, _)| *f).collect();
+        compact(&mesh.positions, &kept)
+    }
+
     /// Where each vertex of a wrapped surface ([`BodyWrap::wrap`], or
     /// [`BodyWrap::with_loose_pieces`]: its body faces first) stands, for skinning: the body's
     /// own weights (`body_weights`, one per body vertex) on the body's vertices, and on a loose
@@ -237,17 +259,6 @@ fn faces_far_from(bvh: &Bvh, mesh: &TriMesh, far: f32) -> Vec<bool> {
         .collect()
 }
 
-/// `mesh` without its connected pieces (faces sharing a vertex) of less area than `min_area`.
-fn without_small_pieces(mesh: &TriMesh, min_area: f32) -> TriMesh {
-    let (labels, count) = face_components(mesh);
-    let mut piece_area = vec![0f32; count];
-    for (f, &l) in labels.iter().enumerate() {
-        let [a, b, c] = mesh.triangle(f);
-        piece_area[l as usize] += 0.5 * (b - a).cross(c - a).length();
-    }
-    let kept: Vec<[u32; 3]> = mesh.faces.iter().zip(&labels).filter(|(_, l)| piece_area[**l as usize] >= min_area).map(|(f, _)| *f).collect();
-    compact(&mesh.positions, &kept)
-}
 
 /// The body's thickness at `x` along the inward normal: the nearest other side of three rays a
 /// few degrees apart (one ray through a vertex or an edge of the far side can slip between its
@@ -410,6 +421,33 @@ mod tests {
         // A mesh that is not a wrapped body keeps the weights it was given.
         let others = vec![field; extracted.positions.len()];
         assert_eq!(wrap.own_weights(&body_weights, &extracted, others.clone()), others);
+    }
+
+    #[test]
+    fn a_blob_round_a_finger_is_no_loose_piece_but_a_brim_is() {
+        // The 10 cm sphere with a 1 cm finger along +x (`a_body_too_thin_to_resolve_is_not_wrapped`),
+        // cloth 8 mm out, a brim round the equator on the -x side only, and a 2.5 cm blob round
+        // the finger from the cloth to its tip (the SDF's guess of a hand).
+        let (p, f) = sphere(Vec3::ZERO, 0.1, 32, 64);
+        let mut body = TriMesh::new(p, f);
+        let (rp, rf) = crate::synth::raster::tests::sphere(Vec3::new(0.15, 0.0, 0.0), 0.005, 8, 16);
+        let base = body.positions.len() as u32;
+        body.positions.extend(rp);
+        body.faces.extend(rf.iter().map(|t| t.map(|v| v + base)));
+        let wrap = BodyWrap::of_mesh(body);
+        let tight = |p: &Vec3| p.length() - 0.108;
+        let brim = |p: &Vec3| (p.y.abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - 0.22).max(p.x + 0.02);
+        let blob = |p: &Vec3| Vec3::new(p.x.clamp(0.09, 0.15) - p.x, p.y, p.z).length() - 0.025;
+        let sdf = |p: &Vec3| tight(p).min(brim(p)).min(blob(p));
+        let opts = ExtractOptions::new(Vec3::splat(-0.25), Vec3::splat(0.25), 96);
+        let w = wrap.wrap_within(|ps| ps.iter().map(sdf).collect(), wrap.options.tight_outside);
+        let extracted = extract(|ps: &[Vec3]| ps.iter().map(sdf).collect(), &opts).unwrap().mesh;
+        let merged = wrap.with_loose_pieces(&w.mesh, &extracted);
+        let pieces = &merged.positions[wrap.vertex_count()..];
+        assert!(pieces.iter().any(|p| p.x < -0.2), "the brim is kept");
+        assert!(extracted.positions.iter().filter(|p| p.distance(Vec3::new(0.15, 0.0, 0.0)) < 0.03).count() > 50, "the extracted blob");
+        let near_finger = pieces.iter().filter(|p| p.distance(Vec3::new(0.15, 0.0, 0.0)) < 0.03).count();
+        assert_eq!(near_finger, 0, "no piece round the finger");
     }
 
     #[test]
