@@ -14,7 +14,10 @@
 //! Loose clothing (a skirt, a blazer's tails) is not an offset of the body: the extracted mesh
 //! is then farther from the wrapped body than `WrapOptions::far` over more than `max_uncovered`
 //! of its area ([`BodyWrap::covers`]), and the avatar is the wrapped body with the extracted
-//! mesh's loose pieces beside it ([`BodyWrap::with_loose_pieces`]).
+//! mesh's loose pieces beside it ([`BodyWrap::with_loose_pieces`]); a piece lying mostly round
+//! parts of the body too thin to wrap (the SDF's blob round a hand) is not clothing and is left
+//! out. The wrapped body is posed with the body's own skinning weights
+//! ([`BodyWrap::own_weights`]).
 
 use crate::body::{BodyModel, Weights};
 use crate::mesh::barycentric;
