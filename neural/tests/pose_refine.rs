@@ -187,12 +187,16 @@ fn shells_redrawn_after_prealignment_drop_those_the_pose_errors_made() {
 }
 
 #[test]
-fn fits_prealign_then_refine_once_and_not_at_all_when_off() {
+fn fits_prealign_then_refine_twice_and_not_at_all_when_off() {
     let o = PoseRefineOptions::default();
     assert!(o.prealign_rounds > 0);
     let rounds = o.round_steps(256);
     assert_eq!(rounds.first(), Some(&o.first));
     assert!(rounds.iter().all(|&s| s < o.until) && rounds.windows(2).all(|w| w[1] - w[0] == o.every));
+    assert_eq!(rounds, [16, 48]);
+    // Loose clothing (no pre-alignment): session 3's rounds, after step 1 and every 3 steps to 64.
+    let loose = o.without_prealignment().round_steps(256);
+    assert_eq!((loose.first(), loose.last(), loose.len()), (Some(&1), Some(&61), 21));
     // A short fit (the studio's quick fit, a 3-step test fit) is only pre-aligned.
     assert!(o.round_steps(3).is_empty());
     assert!(PoseRefineOptions::off().round_steps(256).is_empty());

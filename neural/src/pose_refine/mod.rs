@@ -75,12 +75,13 @@ impl Default for PoseRefineOptions {
     fn default() -> Self {
         PoseRefineOptions {
             enabled: true,
-            every: 3,
-            // After pre-alignment, one round against the avatar's SDF once it has learned from
-            // the aligned points (step 16). Every 3 steps up to 64 (session 3's schedule) let
-            // the translations drift: tight outfit, 5 deg / 2 cm, Chamfer 0.85 against 0.53 cm
-            // (docs/evaluation.md, session 4).
-            until: 17,
+            // After pre-alignment, a round against the avatar's SDF once it has learned from
+            // the aligned points (step 16) and one more once it is sharper (step 48): tight
+            // outfit, 5 deg / 2 cm, Chamfer 0.261 -> 0.233 cm, exact fittings 0.181 -> 0.184
+            // (docs/evaluation.md, session 9). Every 3 steps up to 64 (session 3's schedule)
+            // let the translations drift: Chamfer 0.85 against 0.53 cm (session 4).
+            every: 32,
+            until: 49,
             iterations: 2,
             // 3,000 (1,000 before session 4): exact fittings move less with more points (tight
             // outfit: Chamfer 0.310 -> 0.287 cm), perturbed ones come closer (0.338 -> 0.329).
@@ -107,7 +108,7 @@ impl PoseRefineOptions {
     /// Session 3's schedule (a round after step 1 and every 3 steps up to 64), for captures
     /// that pre-alignment leaves alone (loose clothing).
     pub fn without_prealignment(&self) -> Self {
-        PoseRefineOptions { first: 1, until: 64, prealign_rounds: 0, ..*self }
+        PoseRefineOptions { first: 1, every: 3, until: 64, prealign_rounds: 0, ..*self }
     }
 
     /// The fitting steps after which a round runs (none when off), for a fit of `steps` steps.
