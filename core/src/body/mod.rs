@@ -19,4 +19,4 @@ pub use model::{BodyModel, PosedBody};
 pub use params::{check_betas, BodyParams, MAX_ABS_BETA};
 pub use pose_jacobian::{pose_error, skinned_point_jacobian, PoseCorrection, POSE_DOF};
 pub use skeleton::{BodyPart, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS};
-pub use skinning::{blend_transform, skin_normal, skin_point, unskin_point, Weights};
+pub use skinning::{blend_transform, interpolate_weights, skin_normal, skin_point, unskin_point, Weights};

@@ -19,7 +19,7 @@
 //! out. The wrapped body is posed with the body's own skinning weights
 //! ([`BodyWrap::own_weights`]).
 
-use crate::body::{BodyModel, Weights};
+use crate::body::{interpolate_weights, BodyModel, Weights};
 use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
 use crate::mesh::topology::{compact, face_components};
@@ -135,10 +135,7 @@ impl BodyWrap {
     /// The share of `extracted`'s area farther than `options.far` from `wrapped`.
     pub fn uncovered_share(&self, wrapped: &TriMesh, extracted: &TriMesh) -> f32 {
         let far = faces_far_from(&Bvh::build(wrapped), extracted, self.options.far);
-        let area = |f: usize| {
-            let [a, b, c] = extracted.triangle(f);
-            0.5 * (b - a).cross(c - a).length() as f64
-        };
+        let area = |f: usize| extracted.triangle_area(f) as f64;
         let total: f64 = (0..extracted.faces.len()).map(area).sum();
         let uncovered: f64 = (0..extracted.faces.len()).filter(|&f| far[f]).map(area).sum();
         if total > 0.0 {
@@ -185,9 +182,7 @@ impl BodyWrap {
         merged.faces.extend(pieces.faces.iter().map(|f| f.map(|v| v + base)));
         merged
     }
-}
 
-impl BodyWrap {
     /// The connected pieces (faces sharing a vertex) of `mesh` that can be clothing: not specks
     /// (less area than `min_piece_area`), and not lying mostly round a part of the body too
     /// thin to wrap (the SDF's blob round a hand, which the body's own hand stands for, as it
@@ -198,7 +193,7 @@ impl BodyWrap {
         let thin_vertex = |v: u32| self.thickness[v as usize] < self.options.thin;
         for (f, &l) in labels.iter().enumerate() {
             let [a, b, c] = mesh.triangle(f);
-            let area = 0.5 * (b - a).cross(c - a).length();
+            let area = mesh.triangle_area(f);
             piece_area[l as usize] += area;
             let near_thin = wrapped.closest_point((a + b + c) / 3.0).is_some_and(|hit| self.rest.faces[hit.face as usize].iter().filter(|&&v| thin_vertex(v)).count() >= 2);
             if near_thin {
@@ -234,9 +229,8 @@ impl BodyWrap {
                 .filter_map(|v| {
                     let hit = bvh.closest_point_within(mesh.positions[v], SEAM_TOLERANCE)?;
                     let [a, b, c] = body_part.triangle(hit.face as usize);
-                    let l = barycentric(hit.point, a, b, c);
-                    let [i, j, k] = self.rest.faces[hit.face as usize].map(|i| i as usize);
-                    Some((v, std::array::from_fn(|q| l.x * body_weights[i][q] + l.y * body_weights[j][q] + l.z * body_weights[k][q])))
+                    let face = self.rest.faces[hit.face as usize].map(|i| i as usize);
+                    Some((v, interpolate_weights(body_weights, face, barycentric(hit.point, a, b, c))))
                 })
                 .collect();
             for (v, w) in seams {
@@ -261,7 +255,6 @@ fn faces_far_from(bvh: &Bvh, mesh: &TriMesh, far: f32) -> Vec<bool> {
         })
         .collect()
 }
-
 
 /// The body's thickness at `x` along the inward normal: the nearest other side of three rays a
 /// few degrees apart (one ray through a vertex or an edge of the far side can slip between its
@@ -295,6 +288,18 @@ mod tests {
     use super::*;
     use crate::mesh::extract::{extract, ExtractOptions};
     use crate::synth::raster::tests::sphere;
+
+    /// A 10 cm sphere with a finger: a 1 cm sphere at `x` on the +x axis, its vertices from the
+    /// returned index on.
+    fn body_with_finger(x: f32) -> (BodyWrap, u32) {
+        let (p, f) = sphere(Vec3::ZERO, 0.1, 32, 64);
+        let mut body = TriMesh::new(p, f);
+        let (rp, rf) = sphere(Vec3::new(x, 0.0, 0.0), 0.005, 8, 16);
+        let base = body.positions.len() as u32;
+        body.positions.extend(rp);
+        body.faces.extend(rf.iter().map(|t| t.map(|v| v + base)));
+        (BodyWrap::of_mesh(body), base)
+    }
 
     fn body() -> BodyWrap {
         let (p, f) = sphere(Vec3::ZERO, 0.1, 48, 96);
@@ -428,16 +433,10 @@ mod tests {
 
     #[test]
     fn a_blob_round_a_finger_is_no_loose_piece_but_a_brim_is() {
-        // The 10 cm sphere with a 1 cm finger along +x (`a_body_too_thin_to_resolve_is_not_wrapped`),
+        // The 10 cm sphere with a 1 cm finger along +x at 15 cm (`body_with_finger`),
         // cloth 8 mm out, a brim round the equator on the -x side only, and a 2.5 cm blob round
         // the finger from the cloth to its tip (the SDF's guess of a hand).
-        let (p, f) = sphere(Vec3::ZERO, 0.1, 32, 64);
-        let mut body = TriMesh::new(p, f);
-        let (rp, rf) = crate::synth::raster::tests::sphere(Vec3::new(0.15, 0.0, 0.0), 0.005, 8, 16);
-        let base = body.positions.len() as u32;
-        body.positions.extend(rp);
-        body.faces.extend(rf.iter().map(|t| t.map(|v| v + base)));
-        let wrap = BodyWrap::of_mesh(body);
+        let (wrap, _) = body_with_finger(0.15);
         let tight = |p: &Vec3| p.length() - 0.108;
         let brim = |p: &Vec3| (p.y.abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - 0.22).max(p.x + 0.02);
         let blob = |p: &Vec3| Vec3::new(p.x.clamp(0.09, 0.15) - p.x, p.y, p.z).length() - 0.025;
@@ -455,14 +454,7 @@ mod tests {
 
     #[test]
     fn a_body_too_thin_to_resolve_is_not_wrapped() {
-        // A 10 cm sphere with a finger: a 1 cm thick rod along +x from the sphere to 16 cm.
-        let (p, f) = sphere(Vec3::ZERO, 0.1, 32, 64);
-        let mut body = TriMesh::new(p, f);
-        let (rp, rf) = crate::synth::raster::tests::sphere(Vec3::new(0.14, 0.0, 0.0), 0.005, 8, 16);
-        let base = body.positions.len() as u32;
-        body.positions.extend(rp);
-        body.faces.extend(rf.iter().map(|t| t.map(|v| v + base)));
-        let wrap = BodyWrap::of_mesh(body);
+        let (wrap, base) = body_with_finger(0.14);
         // A blob 2 cm round the small sphere (the SDF's guess of a finger), cloth 5 mm out elsewhere.
         let w = wrap.wrap(|ps| ps.iter().map(|&p| (p.length() - 0.105).min(p.distance(Vec3::new(0.14, 0.0, 0.0)) - 0.02)).collect());
         for v in base as usize..w.mesh.positions.len() {

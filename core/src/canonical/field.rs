@@ -6,7 +6,7 @@
 //! field is clamped to [0, 1] and renormalised. Stored on a regular grid and queried
 //! trilinearly.
 
-use crate::body::{BodyModel, Weights, NUM_JOINTS};
+use crate::body::{interpolate_weights, BodyModel, Weights, NUM_JOINTS};
 use crate::error::{Error, Result};
 use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
@@ -86,9 +86,7 @@ impl SkinningField {
             *d = hit.distance;
             let f = mesh.faces[hit.face as usize].map(|k| k as usize);
             let b = barycentric(hit.point, rest[f[0]], rest[f[1]], rest[f[2]]);
-            for j in 0..NUM_JOINTS {
-                w[j] = b.x * body.weights[f[0]][j] + b.y * body.weights[f[1]][j] + b.z * body.weights[f[2]][j];
-            }
+            w.copy_from_slice(&interpolate_weights(&body.weights, f, b));
         });
         // 2. Diffuse away from the surface (6-neighbour Jacobi), near-surface nodes fixed.
         let fixed: Vec<bool> = dist.iter().map(|&d| d <= options.fixed_band * cell).collect();

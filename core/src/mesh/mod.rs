@@ -71,12 +71,13 @@ impl TriMesh {
     }
 
     pub fn surface_area(&self) -> f32 {
-        (0..self.faces.len())
-            .map(|f| {
-                let [a, b, c] = self.triangle(f);
-                0.5 * (b - a).cross(c - a).length()
-            })
-            .sum()
+        (0..self.faces.len()).map(|f| self.triangle_area(f)).sum()
+    }
+
+    /// The area of face `f`.
+    pub fn triangle_area(&self, f: usize) -> f32 {
+        let [a, b, c] = self.triangle(f);
+        0.5 * (b - a).cross(c - a).length()
     }
 }
 
