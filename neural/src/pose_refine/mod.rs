@@ -65,6 +65,10 @@ pub struct PoseRefineOptions {
     /// The first fitting step after which a round against the avatar's SDF runs.
     #[serde(default = "first_round")]
     pub first: usize,
+    /// Where the body does not explain the points (a dress), pre-align the upper body alone
+    /// (`PoseRefiner::prealign_upper_body`). Older option files: off.
+    #[serde(default)]
+    pub prealign_upper_body: bool,
 }
 
 fn first_round() -> usize {
@@ -96,6 +100,7 @@ impl Default for PoseRefineOptions {
             prealign_iterations: 5,
             prealign_cutoff: 0.03,
             first: 16,
+            prealign_upper_body: true,
         }
     }
 }
@@ -109,6 +114,12 @@ impl PoseRefineOptions {
     /// that pre-alignment leaves alone (loose clothing).
     pub fn without_prealignment(&self) -> Self {
         PoseRefineOptions { first: 1, every: 3, until: 64, prealign_rounds: 0, ..*self }
+    }
+
+    /// The first round against the avatar's SDF alone (loose clothing that pre-alignment
+    /// still took: a blazer's tails).
+    pub fn single_round(&self) -> Self {
+        PoseRefineOptions { until: self.first + 1, ..*self }
     }
 
     /// The fitting steps after which a round runs (none when off), for a fit of `steps` steps.
@@ -157,6 +168,8 @@ pub struct PoseRefiner<'a> {
     /// The true fittings when known (`pose_trace`): each round then prints its errors.
     pub truth: Option<Vec<BodyParams>>,
     rounds_done: usize,
+    /// Pre-alignment takes the upper body's points only (`prealign_upper_body`).
+    upper_body_only: bool,
 }
 
 impl<'a> PoseRefiner<'a> {
@@ -186,7 +199,7 @@ impl<'a> PoseRefiner<'a> {
             .collect();
         let given: Vec<BodyParams> = capture.frames.iter().map(|f| f.params.clone()).collect();
         let truth = crate::pose_trace::truth_from_env(&given);
-        let refiner = PoseRefiner { capture, rest_joints, frames, options, truth, rounds_done: 0 };
+        let refiner = PoseRefiner { capture, rest_joints, frames, options, truth, rounds_done: 0, upper_body_only: false };
         if let Some(e) = refiner.errors() {
             eprintln!("pose trace: given fittings: {e}\n  per joint: {}", e.per_joint());
         }
@@ -304,7 +317,11 @@ impl<'a> PoseRefiner<'a> {
         let frame = &self.frames[k];
         let mut idx = self.subset(k);
         if body_only {
-            idx.retain(|&i| !on_extremity(&field.weights_at(frame.canonical[i])));
+            let upper = self.upper_body_only;
+            idx.retain(|&i| {
+                let w = field.weights_at(frame.canonical[i]);
+                !on_extremity(&w) && !(upper && prealign::on_lower_body(&w))
+            });
         }
         // The skinning weights of the round's points, held fixed.
         let weights: Vec<_> = idx.iter().map(|&i| field.weights_at(frame.canonical[i])).collect();

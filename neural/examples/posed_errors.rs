@@ -1,0 +1,145 @@
+//! A fitted avatar against the generator's truth at the poses of library clips: the
+//! evaluation's metrics per clip (Chamfer-L2, NC, spurious and missing shares), at training
+//! clips and held-out ones, so a change to how an avatar is posed (its skinning, its loose
+//! pieces) is measured on one fitted avatar in seconds instead of a refit.
+//!   cargo run -p avatar-neural --example posed_errors -- AVATAR CAPTURE SUBJECT OUTFIT [EVERY] [CLIP,...]
+//! CAPTURE gives the body and the subject's shape (the capture the avatar was fitted from).
+use avatar_core::capture::Capture;
+use avatar_core::eval::metrics::{evaluate_frame, MetricOptions, Regions};
+use avatar_core::eval::runner::{ground_truth_mesh, query};
+use avatar_core::motion::library_clip;
+use avatar_core::mesh::bvh::Bvh;
+use avatar_core::mesh::TriMesh;
+use avatar_core::synth::contact_sheet::write_view_sheet;
+use avatar_core::synth::{ClothedTemplate, Outfit};
+use glam::Vec3;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 5 {
+        return Err("usage: posed_errors AVATAR CAPTURE SUBJECT OUTFIT [EVERY] [CLIP,...]".into());
+    }
+    let avatar = avatar_neural::MetaAvatar::load(&args[1])?;
+    let capture = Capture::open(&args[2])?;
+    let subject: u64 = args[3].parse()?;
+    let every: usize = args.get(5).map(|s| s.parse()).transpose()?.unwrap_or(10);
+    let clips: Vec<String> = match args.get(6) {
+        Some(list) => list.split(',').map(str::to_string).collect(),
+        None => ["kick", "lunge", "twist", "walk", "march", "squat"].map(String::from).to_vec(),
+    };
+    let betas = capture.frames[0].params.betas.clone();
+    let template = ClothedTemplate::build(&capture.body, &betas, Outfit::from_name(&args[4])?);
+    let regions = Regions::of_template(&template)?;
+    let options = MetricOptions { iou_resolution: 32, ..MetricOptions::default() };
+    if std::env::var("WEIGHTS").is_ok() {
+        use avatar_core::avatar::AvatarSource;
+        let rest = query(&Default::default(), &betas);
+        let mesh = avatar.canonical_mesh(&rest)?;
+        let weights = avatar.mesh_skinning_weights(&mesh);
+        let body = avatar_core::mesh::signed_distance::SignedDistance::new(&capture.body.mesh(capture.body.shaped_vertices(&betas)));
+        let crotch = capture.body.pose(&rest).bones.rest_joints[1].y;
+        for (lo, hi) in [(0.0, 0.1), (0.1, 0.2), (0.2, 0.3), (0.3, 0.6)] {
+            let picked: Vec<usize> = (0..mesh.positions.len()).filter(|&v| {
+                let p = mesh.positions[v];
+                let below = crotch - p.y;
+                below >= lo && below < hi && body.at(p).is_some_and(|d| d > 0.05)
+            }).collect();
+            let mean = |j: usize| picked.iter().map(|&v| weights[v][j]).sum::<f32>() / picked.len().max(1) as f32;
+            println!("{lo:.1}-{hi:.1} m below the hips, {} loose vertices: pelvis {:.2} hips {:.2} {:.2} knees {:.2} {:.2} spine {:.2}", picked.len(), mean(0), mean(1), mean(2), mean(4), mean(5), mean(3));
+        }
+    }
+    if std::env::var("OFFSETS").is_ok() {
+        use avatar_core::avatar::AvatarSource;
+        let mesh = avatar.canonical_mesh(&query(&Default::default(), &betas))?;
+        let body = avatar_core::mesh::signed_distance::SignedDistance::new(&capture.body.mesh(capture.body.shaped_vertices(&betas)));
+        let parts: [(&str, &[usize]); 5] = [("torso", &[0, 3, 6, 9, 13, 14]), ("upper arm", &[16, 17]), ("forearm", &[18, 19]), ("thigh", &[1, 2]), ("shin", &[4, 5])];
+        for (label, joints) in parts {
+            let mut d: Vec<f32> = (0..template.body_vertices.min(mesh.positions.len()))
+                .filter(|&v| joints.contains(&(template.vertex_joint[v] as usize)))
+                .filter_map(|v| body.smooth_offset(mesh.positions[v]).map(|o| o.0 * 1000.0))
+                .collect();
+            d.sort_by(f32::total_cmp);
+            let q = |f: f32| d[((d.len() - 1) as f32 * f) as usize];
+            println!("{label}: offsets (mm) p5 {:.1} p25 {:.1} median {:.1} p75 {:.1} p95 {:.1}", q(0.05), q(0.25), q(0.5), q(0.75), q(0.95));
+        }
+    }
+    let mut all = Vec::new();
+    // SHEET=OUT.png: the frame with the most spurious surface, truth beside the avatar and its
+    // faces farther than 2 cm from the truth (front, side, back, below).
+    let mut worst: Option<(f32, Vec<avatar_core::mesh::TriMesh>, String)> = None;
+    for name in &clips {
+        let clip = library_clip(name)?;
+        let mut rows = Vec::new();
+        for (i, frame) in clip.frames.iter().enumerate().step_by(every.max(1)) {
+            let pose = query(frame, &betas);
+            let truth = ground_truth_mesh(&capture.body, &template, &pose, subject);
+            let predicted = avatar.posed_mesh(&pose)?;
+            if std::env::var("REGIONS").is_ok() {
+                use avatar_core::eval::metrics::{vertex_scores, Prepared};
+                let gt = Prepared::new(&truth, "truth")?;
+                let naked = capture.body.mesh(capture.body.pose(&pose).vertices);
+                let scores: Vec<Vec<f32>> = [&predicted, &naked]
+                    .iter()
+                    .map(|m| Prepared::new(m, "mesh").map(|p| vertex_scores(&truth.positions, &gt.normals, &p).normal_error))
+                    .collect::<Result<_, _>>()?;
+                let parts: [(&str, &[usize]); 6] = [("torso", &[0, 3, 6, 9, 13, 14]), ("upper arm", &[16, 17]), ("forearm", &[18, 19]), ("thigh", &[1, 2]), ("shin", &[4, 5]), ("scored", &avatar_core::body::skeleton::CLOTHED_JOINTS)];
+                let line: Vec<String> = parts
+                    .iter()
+                    .map(|(label, joints)| {
+                        let picked: Vec<usize> = (0..truth.positions.len()).filter(|&v| joints.contains(&(template.vertex_joint[v] as usize))).collect();
+                        let nc = |e: &[f32]| 1.0 - picked.iter().map(|&v| e[v]).sum::<f32>() / picked.len().max(1) as f32;
+                        format!("{label} {:.3}/{:.3}", nc(&scores[0]), nc(&scores[1]))
+                    })
+                    .collect();
+                println!("{name} {i}: NC avatar/naked: {}", line.join(", "));
+            }
+            let metrics = evaluate_frame(&predicted, &truth, &regions, &options, i as u64)?;
+            if worst.as_ref().is_none_or(|w| metrics.surface.spurious > w.0) {
+                let far = far_faces(&predicted, &truth);
+                worst = Some((metrics.surface.spurious, vec![truth, predicted, far], format!("{name} frame {i}")));
+            }
+            rows.push(metrics);
+        }
+        let mean = |f: &dyn Fn(&avatar_core::eval::metrics::FrameMetrics) -> f32| rows.iter().map(f).sum::<f32>() / rows.len() as f32;
+        println!(
+            "{name:>14}: {} frames, Chamfer-L2 {:.3} cm, NC {:.3}, spurious {:.1} %, missing {:.1} %",
+            rows.len(),
+            mean(&|m| m.chamfer_cm),
+            mean(&|m| m.nc),
+            100.0 * mean(&|m| m.surface.spurious),
+            100.0 * mean(&|m| m.surface.missing)
+        );
+        all.extend(rows);
+    }
+    let n = all.len() as f32;
+    println!(
+        "{:>14}: {} frames, Chamfer-L2 {:.3} cm, NC {:.3}, spurious {:.1} %, missing {:.1} %",
+        "all",
+        all.len(),
+        all.iter().map(|m| m.chamfer_cm).sum::<f32>() / n,
+        all.iter().map(|m| m.nc).sum::<f32>() / n,
+        100.0 * all.iter().map(|m| m.surface.spurious).sum::<f32>() / n,
+        100.0 * all.iter().map(|m| m.surface.missing).sum::<f32>() / n
+    );
+    if let (Ok(out), Some((spurious, meshes, which))) = (std::env::var("SHEET"), worst) {
+        let views = [Vec3::Z, Vec3::X, Vec3::NEG_Z, Vec3::new(0.0, -1.0, 0.35)];
+        write_view_sheet(out.as_ref(), &meshes, &views)?;
+        println!("{out}: {which}, spurious {:.1} %", spurious * 100.0);
+    }
+    Ok(())
+}
+
+/// The faces of `mesh` whose centre lies farther than 2 cm from `truth`.
+fn far_faces(mesh: &TriMesh, truth: &TriMesh) -> TriMesh {
+    let bvh = Bvh::build(truth);
+    let faces = mesh
+        .faces
+        .iter()
+        .copied()
+        .filter(|f| {
+            let centre = f.iter().map(|&i| mesh.positions[i as usize]).sum::<Vec3>() / 3.0;
+            bvh.closest_point(centre).is_some_and(|h| h.distance > 0.02)
+        })
+        .collect();
+    TriMesh::new(mesh.positions.clone(), faces)
+}
