@@ -14,6 +14,9 @@ use avatar_core::synth::contact_sheet::write_view_sheet;
 use avatar_core::synth::{ClothedTemplate, Outfit};
 use glam::Vec3;
 
+/// Body parts by the ground truth's dominant joint (`JOINT_NAMES`), for `REGIONS` and `OFFSETS`.
+const PARTS: [(&str, &[usize]); 5] = [("torso", &[0, 3, 6, 9, 13, 14]), ("upper arm", &[16, 17]), ("forearm", &[18, 19]), ("thigh", &[1, 2]), ("shin", &[4, 5])];
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     if args.len() < 5 {
@@ -52,8 +55,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         use avatar_core::avatar::AvatarSource;
         let mesh = avatar.canonical_mesh(&query(&Default::default(), &betas))?;
         let body = avatar_core::mesh::signed_distance::SignedDistance::new(&capture.body.mesh(capture.body.shaped_vertices(&betas)));
-        let parts: [(&str, &[usize]); 5] = [("torso", &[0, 3, 6, 9, 13, 14]), ("upper arm", &[16, 17]), ("forearm", &[18, 19]), ("thigh", &[1, 2]), ("shin", &[4, 5])];
-        for (label, joints) in parts {
+        for (label, joints) in PARTS {
             let mut d: Vec<f32> = (0..template.body_vertices.min(mesh.positions.len()))
                 .filter(|&v| joints.contains(&(template.vertex_joint[v] as usize)))
                 .filter_map(|v| body.smooth_offset(mesh.positions[v]).map(|o| o.0 * 1000.0))
@@ -82,9 +84,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .iter()
                     .map(|m| Prepared::new(m, "mesh").map(|p| vertex_scores(&truth.positions, &gt.normals, &p).normal_error))
                     .collect::<Result<_, _>>()?;
-                let parts: [(&str, &[usize]); 6] = [("torso", &[0, 3, 6, 9, 13, 14]), ("upper arm", &[16, 17]), ("forearm", &[18, 19]), ("thigh", &[1, 2]), ("shin", &[4, 5]), ("scored", &avatar_core::body::skeleton::CLOTHED_JOINTS)];
-                let line: Vec<String> = parts
+                let scored: (&str, &[usize]) = ("scored", &avatar_core::body::skeleton::CLOTHED_JOINTS);
+                let line: Vec<String> = PARTS
                     .iter()
+                    .chain([&scored])
                     .map(|(label, joints)| {
                         let picked: Vec<usize> = (0..truth.positions.len()).filter(|&v| joints.contains(&(template.vertex_joint[v] as usize))).collect();
                         let nc = |e: &[f32]| 1.0 - picked.iter().map(|&v| e[v]).sum::<f32>() / picked.len().max(1) as f32;

@@ -184,25 +184,21 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
             r.prealign(&sdf);
             if share < SECOND_ROUND_MIN_NEAR {
                 r.options = r.options.single_round();
-                rounds = r.options.round_steps(options.steps);
             }
-            "on"
+            Some("on")
         } else {
             // Elsewhere session 3's rounds against the avatar's SDF, after the upper body alone.
-            let upper = r.options.prealign_upper_body;
-            if upper {
-                r.prealign_upper_body(&sdf);
-            }
+            let upper = r.options.prealign_upper_body.then(|| r.prealign_upper_body(&sdf)).map(|_| "upper body only");
             r.options = r.options.without_prealignment();
-            rounds = r.options.round_steps(options.steps);
-            if upper { "upper body only" } else { "off" }
+            upper
         };
-        if aligned != "off" {
+        rounds = r.options.round_steps(options.steps);
+        if aligned.is_some() {
             r.redraw_shells(&ShellOptions::default());
             r.update_samples(&mut samples, encoding);
         }
         if r.truth.is_some() {
-            eprintln!("pose trace: {:.0} % of the points near the body: pre-alignment {aligned}", share * 100.0);
+            eprintln!("pose trace: {:.0} % of the points near the body: pre-alignment {}", share * 100.0, aligned.unwrap_or("off"));
         }
     }
     let done = in_chunks(options.steps, chunk, &rounds, cancel, &capture.sign_prior(), on_event, &mut |c| match c {

@@ -168,8 +168,27 @@ pub struct PoseRefiner<'a> {
     /// The true fittings when known (`pose_trace`): each round then prints its errors.
     pub truth: Option<Vec<BodyParams>>,
     rounds_done: usize,
-    /// Pre-alignment takes the upper body's points only (`prealign_upper_body`).
-    upper_body_only: bool,
+}
+
+/// Which of a frame's points a Gauss-Newton round takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum RoundPoints {
+    /// Every point (the rounds against the avatar's SDF).
+    All,
+    /// The extremities left out (pre-alignment against the naked body).
+    Body,
+    /// The pelvis and the legs left out too (pre-alignment under a skirt).
+    UpperBody,
+}
+
+impl RoundPoints {
+    fn takes(self, w: &avatar_core::body::Weights) -> bool {
+        match self {
+            RoundPoints::All => true,
+            RoundPoints::Body => !on_extremity(w),
+            RoundPoints::UpperBody => !on_extremity(w) && !prealign::on_lower_body(w),
+        }
+    }
 }
 
 impl<'a> PoseRefiner<'a> {
@@ -199,7 +218,7 @@ impl<'a> PoseRefiner<'a> {
             .collect();
         let given: Vec<BodyParams> = capture.frames.iter().map(|f| f.params.clone()).collect();
         let truth = crate::pose_trace::truth_from_env(&given);
-        let refiner = PoseRefiner { capture, rest_joints, frames, options, truth, rounds_done: 0, upper_body_only: false };
+        let refiner = PoseRefiner { capture, rest_joints, frames, options, truth, rounds_done: 0 };
         if let Some(e) = refiner.errors() {
             eprintln!("pose trace: given fittings: {e}\n  per joint: {}", e.per_joint());
         }
@@ -226,7 +245,7 @@ impl<'a> PoseRefiner<'a> {
         let n = self.frames.len().max(1) as f32;
         let (iterations, cutoff) = (self.options.iterations, 10.0 * self.options.huber);
         for k in 0..self.frames.len() {
-            let r = self.refine_frame(k, sdf, iterations, (-cutoff, cutoff), false);
+            let r = self.refine_frame(k, sdf, iterations, (-cutoff, cutoff), RoundPoints::All);
             report.residual_before += r.residual_before / n;
             report.residual_after += r.residual_after / n;
         }
@@ -312,16 +331,12 @@ impl<'a> PoseRefiner<'a> {
 
     /// `iterations` Gauss-Newton steps of frame `k`; residuals outside `keep` (metres, below
     /// and above) are left out.
-    fn refine_frame(&mut self, k: usize, sdf: FrameSdf, iterations: usize, keep: (f32, f32), body_only: bool) -> RoundReport {
+    fn refine_frame(&mut self, k: usize, sdf: FrameSdf, iterations: usize, keep: (f32, f32), points: RoundPoints) -> RoundReport {
         let field = &self.capture.field;
         let frame = &self.frames[k];
         let mut idx = self.subset(k);
-        if body_only {
-            let upper = self.upper_body_only;
-            idx.retain(|&i| {
-                let w = field.weights_at(frame.canonical[i]);
-                !on_extremity(&w) && !(upper && prealign::on_lower_body(&w))
-            });
+        if points != RoundPoints::All {
+            idx.retain(|&i| points.takes(&field.weights_at(frame.canonical[i])));
         }
         // The skinning weights of the round's points, held fixed.
         let weights: Vec<_> = idx.iter().map(|&i| field.weights_at(frame.canonical[i])).collect();

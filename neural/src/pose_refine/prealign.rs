@@ -2,7 +2,7 @@
 //! (the shaped body, `crate::body_sdf::BodySdf`), before the avatar's SDF has learned anything
 //! from the misaligned points (docs/neural.md, "Pose refinement").
 
-use super::{FrameSdf, PoseRefiner, RoundReport};
+use super::{FrameSdf, PoseRefiner, RoundPoints, RoundReport};
 use avatar_core::body::{blend_transform, PoseCorrection};
 use glam::Vec3;
 
@@ -15,10 +15,7 @@ impl PoseRefiner<'_> {
     /// 0.758, Chamfer-L2 0.851 -> 0.849 cm; exact fittings 0.693 -> 0.688 (docs/evaluation.md,
     /// session 10).
     pub fn prealign_upper_body(&mut self, sdf: FrameSdf) -> RoundReport {
-        self.upper_body_only = true;
-        let report = self.prealign(sdf);
-        self.upper_body_only = false;
-        report
+        self.prealign_points(sdf, RoundPoints::UpperBody)
     }
 
     /// The share of the frames' points (extremities left out) within `prealign_cutoff` of
@@ -32,7 +29,7 @@ impl PoseRefiner<'_> {
             let xc: Vec<Vec3> = self
                 .subset(k)
                 .into_iter()
-                .filter(|&i| !on_extremity(&field.weights_at(frame.canonical[i])))
+                .filter(|&i| RoundPoints::Body.takes(&field.weights_at(frame.canonical[i])))
                 .map(|i| blend_transform(&bones.transforms, &field.weights_at(frame.canonical[i])).inverse().transform_point3(frame.posed[i]))
                 .collect();
             let (f, _) = sdf(k, &xc);
@@ -50,6 +47,10 @@ impl PoseRefiner<'_> {
     /// observable, so no zero-mean constraint here but along the body's axis; the later rounds
     /// keep their mean correction relative to this one.
     pub fn prealign(&mut self, sdf: FrameSdf) -> RoundReport {
+        self.prealign_points(sdf, RoundPoints::Body)
+    }
+
+    fn prealign_points(&mut self, sdf: FrameSdf, points: RoundPoints) -> RoundReport {
         let o = self.options;
         let mut report: Option<RoundReport> = None;
         let n = self.frames.len().max(1) as f32;
@@ -59,7 +60,7 @@ impl PoseRefiner<'_> {
             let start: Vec<PoseCorrection> = self.frames.iter().map(|f| f.correction).collect();
             let mut r = RoundReport { residual_before: 0.0, residual_after: 0.0 };
             for k in 0..self.frames.len() {
-                let f = self.refine_frame(k, sdf, o.prealign_iterations, (-o.prealign_cutoff, o.prealign_cutoff), true);
+                let f = self.refine_frame(k, sdf, o.prealign_iterations, (-o.prealign_cutoff, o.prealign_cutoff), points);
                 r.residual_before += f.residual_before / n;
                 r.residual_after += f.residual_after / n;
             }
