@@ -146,7 +146,12 @@ fn a_bad_capture_shows_an_error_naming_the_file() {
     let shown = err.replace(&dir.path().display().to_string(), "/captures/broken");
     h.state_mut().error = Some(shown);
     h.state_mut().status = None;
-    h.step();
+    // A few frames for the new text's layout (CI once caught a frame without the box).
+    for _ in 0..5 {
+        h.step();
+    }
+    assert!(h.state().error.is_some() && !h.state().busy(), "the error stays shown and nothing runs");
+    assert!(h.query_by_label_contains("/captures/broken/capture.json").is_some(), "the error's text is on screen before the snapshot");
     snap(&mut h, "error_bad_capture", &tolerant(200));
 }
 
