@@ -136,6 +136,16 @@ pub struct MetaProgress<'a> {
     pub seconds: f64,
 }
 
+/// Whether a checkpoint written with `saved` may go on under `asked`: other iteration counts
+/// (to extend or shorten a run), nothing else. The inner fit's pose-refinement options are not
+/// compared: `fit_hyper` never refines poses (meta-training data has exact ones), and those
+/// options gain fields as fine-tuning evolves.
+fn resumes(saved: &MetaOptions, asked: &MetaOptions) -> bool {
+    let mut same = MetaOptions { sdf_iterations: asked.sdf_iterations, hyper_iterations: asked.hyper_iterations, ..saved.clone() };
+    same.hyper_inner.refine_poses = asked.hyper_inner.refine_poses.clone();
+    same == *asked
+}
+
 fn iteration_rng(seed: u64, stage: u64, iteration: usize) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ (stage << 40) ^ iteration as u64)
 }
@@ -154,9 +164,7 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
     let mut resume: Option<(Checkpoint, Vec<f32>)> = None;
     if ckpt_path.exists() {
         let (ck, w): (Checkpoint, Vec<f32>) = weights_file::read_expecting(&ckpt_path, Checkpoint::expected_weights)?;
-        // A run may be resumed with other iteration counts (to extend or shorten it), nothing else.
-        let same = MetaOptions { sdf_iterations: options.sdf_iterations, hyper_iterations: options.hyper_iterations, ..ck.options.clone() };
-        if same != *options {
+        if !resumes(&ck.options, options) {
             return Err(Error::file(&ckpt_path, "a checkpoint of a run with other options is in the output folder: use another --out or the same options"));
         }
         resume = Some((ck, w));
@@ -285,3 +293,23 @@ pub fn start_from_static(out: &Path, options: &MetaOptions, model: &MetaModel, m
 }
 
 pub use crate::model_file::{trainable_hyper, trainable_siren};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_resumes_with_other_iteration_counts_or_pose_refinement_but_nothing_else() {
+        let saved = MetaOptions::default();
+        let longer = MetaOptions { sdf_iterations: saved.sdf_iterations * 2, hyper_iterations: 7, ..saved.clone() };
+        assert!(resumes(&saved, &longer));
+        let mut refined = saved.clone();
+        refined.hyper_inner.refine_poses.prealign_upper_body = !saved.hyper_inner.refine_poses.prealign_upper_body;
+        assert!(resumes(&saved, &refined), "fit_hyper never refines poses");
+        assert!(!resumes(&saved, &MetaOptions { seed: 1, ..saved.clone() }));
+        assert!(!resumes(&saved, &MetaOptions { sdf_outer_lr: saved.sdf_outer_lr * 10.0, ..saved.clone() }));
+        let mut inner = saved.clone();
+        inner.hyper_inner.lr_heads *= 2.0;
+        assert!(!resumes(&saved, &inner), "the inner fit's rates are part of the run");
+    }
+}
