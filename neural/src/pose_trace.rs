@@ -114,3 +114,13 @@ pub fn truth_from_env(given: &[BodyParams]) -> Option<Vec<BodyParams>> {
     let exact: Vec<BodyParams> = manifest.frames.iter().filter_map(|r| r.params().ok()).collect();
     Some(match_truth(given, &exact))
 }
+
+/// `AVATAR_POSE_SNAP`: joints (comma-separated indices, `t` for the translation) whose refined
+/// values a fit sets to the truth of `AVATAR_POSE_TRUTH` after every refinement round, to
+/// measure what their residual error costs (docs/evaluation.md). `None` when unset.
+pub fn snap_from_env() -> Option<(Vec<usize>, bool)> {
+    let v = std::env::var("AVATAR_POSE_SNAP").ok()?;
+    let items: Vec<&str> = v.split(',').map(str::trim).filter(|s| !s.is_empty()).collect();
+    let joints = items.iter().filter_map(|s| s.parse().ok()).collect();
+    Some((joints, items.contains(&"t")))
+}

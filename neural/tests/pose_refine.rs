@@ -263,3 +263,23 @@ fn pose_errors_split_shared_twist_and_swing() {
     // The swing moves the ankle.
     assert!(e.posed_joints_cm > 0.0);
 }
+
+#[test]
+fn the_snap_diagnostic_sets_the_named_joints_and_the_translation_to_the_truth() {
+    let (capture, truth) = capture(open_body_lowpoly(), 3);
+    let mut refiner = PoseRefiner::new(&capture, PoseRefineOptions::default());
+    let given: Vec<BodyParams> = capture.frames.iter().map(|f| f.params.clone()).collect();
+    // Without a known truth nothing moves.
+    refiner.snap_to_truth(&[1, 2], true);
+    let moved = |r: &BodyParams, g: &BodyParams| r.pose.iter().zip(&g.pose).map(|(a, b)| (*a - *b).length()).fold((r.trans - g.trans).length(), f32::max);
+    assert!(refiner.refined().iter().zip(&given).all(|(r, g)| moved(r, g) < 1e-6));
+    refiner.truth = Some(truth.clone());
+    refiner.snap_to_truth(&[1, 16], true);
+    for ((r, t), g) in refiner.refined().iter().zip(&truth).zip(&given) {
+        for j in [1, 16] {
+            assert!((r.pose[j] - t.pose[j]).length() < 1e-5, "joint {j}: {} against {}", r.pose[j], t.pose[j]);
+        }
+        assert!((r.trans - t.trans).length() < 1e-5);
+        assert!((r.pose[2] - g.pose[2]).length() < 1e-6, "a joint not named keeps its fitting");
+    }
+}

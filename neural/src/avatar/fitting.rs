@@ -201,6 +201,12 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
             eprintln!("pose trace: {:.0} % of the points near the body: pre-alignment {}", share * 100.0, aligned.unwrap_or("off"));
         }
     }
+    let snap = crate::pose_trace::snap_from_env();
+    if let (Some(r), Some((joints, translation))) = (refiner.as_mut(), snap.as_ref()) {
+        r.snap_to_truth(joints, *translation);
+        r.redraw_shells(&ShellOptions::default());
+        r.update_samples(&mut samples, encoding);
+    }
     let done = in_chunks(options.steps, chunk, &rounds, cancel, &capture.sign_prior(), on_event, &mut |c| match c {
         Chunk::Run { steps, done, prior, progress } => {
             let chunk_options = HyperFitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
@@ -210,6 +216,10 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
         Chunk::Break => {
             if let (Some(r), Some(m)) = (refiner.as_mut(), model.as_ref()) {
                 refine_round(r, m, &mut samples, encoding);
+                if let Some((joints, translation)) = snap.as_ref() {
+                    r.snap_to_truth(joints, *translation);
+                    r.update_samples(&mut samples, encoding);
+                }
             }
             None
         }

@@ -96,8 +96,13 @@ impl Default for PoseRefineOptions {
             max_step_rad: 3f32.to_radians(),
             max_step_m: 0.01,
             zero_mean: true,
-            prealign_rounds: 4,
-            prealign_iterations: 5,
+            // 8 rounds of 8 steps (4 of 5 before session 11): the frames' shared translation
+            // across the body converges slowly against a body whose clothing offset each frame
+            // takes from the side its camera sees (tight outfit, 5 deg / 2 cm: translation 0.28
+            // -> 0.22 cm, Chamfer 0.233 -> 0.215 cm; exact fittings stop after round 2 as
+            // before; docs/evaluation.md, session 11).
+            prealign_rounds: 8,
+            prealign_iterations: 8,
             prealign_cutoff: 0.03,
             first: 16,
             prealign_upper_body: true,
@@ -233,6 +238,25 @@ impl<'a> PoseRefiner<'a> {
     /// The refined fittings' errors against the truth, when it is known.
     pub fn errors(&self) -> Option<crate::pose_trace::PoseErrors> {
         self.truth.as_ref().map(|t| crate::pose_trace::pose_errors(&self.refined(), t, &self.rest_joints))
+    }
+
+    /// Diagnostic (`AVATAR_POSE_SNAP`, with `AVATAR_POSE_TRUTH`): set these joints' rotations
+    /// (and the translation when `translation`) to the truth, to measure what their residual
+    /// error costs the avatar. Nothing when the truth is unknown.
+    pub fn snap_to_truth(&mut self, joints: &[usize], translation: bool) {
+        let Some(truth) = self.truth.clone() else { return };
+        for (k, t) in truth.iter().enumerate().take(self.frames.len()) {
+            let f = &mut self.frames[k];
+            for &j in joints.iter().filter(|&&j| j < NUM_JOINTS) {
+                let given = glam::Quat::from_scaled_axis(f.given.pose[j]);
+                f.correction.rotations[j] = (given.inverse() * glam::Quat::from_scaled_axis(t.pose[j])).to_scaled_axis();
+            }
+            if translation {
+                f.correction.translation = t.trans - f.given.trans;
+            }
+            f.anchor = f.correction;
+            self.recanonicalise(k);
+        }
     }
 
     pub fn corrections(&self) -> Vec<PoseCorrection> {
