@@ -201,7 +201,8 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
             eprintln!("pose trace: {:.0} % of the points near the body: pre-alignment {}", share * 100.0, aligned.unwrap_or("off"));
         }
     }
-    let snap = crate::pose_trace::snap_from_env();
+    // The diagnostic needs the truth (`AVATAR_POSE_TRUTH`); without it the fit is left as it is.
+    let snap = crate::pose_trace::snap_from_env().filter(|_| refiner.as_ref().is_some_and(|r| r.truth.is_some()));
     if let (Some(r), Some((joints, translation))) = (refiner.as_mut(), snap.as_ref()) {
         r.snap_to_truth(joints, *translation);
         r.redraw_shells(&ShellOptions::default());

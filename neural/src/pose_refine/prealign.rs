@@ -6,6 +6,12 @@ use super::{FrameSdf, PoseRefiner, RoundPoints, RoundReport};
 use avatar_core::body::{blend_transform, PoseCorrection};
 use glam::Vec3;
 
+/// Rounds, and Gauss-Newton steps a round, of the upper body's pre-alignment: session 10's 4 of
+/// 5. The whole body's longer schedule (`PoseRefineOptions::prealign_rounds`, session 11) moved
+/// the quick dress's poses a little closer (4.45 -> 4.40 deg) and its Chamfer-L2 0.793 -> 0.890
+/// cm at 5 deg / 2 cm.
+const UPPER_BODY_SCHEDULE: (usize, usize) = (4, 5);
+
 impl PoseRefiner<'_> {
     /// [`PoseRefiner::prealign`] on the points of the spine, the arms and the head's joints
     /// alone (the pelvis's and the legs' left out, besides the extremities): a dress's skirt
@@ -15,10 +21,7 @@ impl PoseRefiner<'_> {
     /// 0.758, Chamfer-L2 0.851 -> 0.849 cm; exact fittings 0.693 -> 0.688 (docs/evaluation.md,
     /// session 10).
     pub fn prealign_upper_body(&mut self, sdf: FrameSdf) -> RoundReport {
-        // Session 10's 4 rounds of 5 steps: the whole body's longer schedule (session 11)
-        // moved the quick dress's poses a little closer (4.45 -> 4.40 deg) and its Chamfer-L2
-        // 0.793 -> 0.890 cm at 5 deg / 2 cm.
-        self.prealign_points(sdf, RoundPoints::UpperBody, (4, 5))
+        self.prealign_points(sdf, RoundPoints::UpperBody, UPPER_BODY_SCHEDULE)
     }
 
     /// The share of the frames' points (extremities left out) within `prealign_cutoff` of
@@ -32,8 +35,9 @@ impl PoseRefiner<'_> {
             let xc: Vec<Vec3> = self
                 .subset(k)
                 .into_iter()
-                .filter(|&i| RoundPoints::Body.takes(&field.weights_at(frame.canonical[i])))
-                .map(|i| blend_transform(&bones.transforms, &field.weights_at(frame.canonical[i])).inverse().transform_point3(frame.posed[i]))
+                .map(|i| (i, field.weights_at(frame.canonical[i])))
+                .filter(|(_, w)| RoundPoints::Body.takes(w))
+                .map(|(i, w)| blend_transform(&bones.transforms, &w).inverse().transform_point3(frame.posed[i]))
                 .collect();
             let (f, _) = sdf(k, &xc);
             near += f.iter().filter(|v| v.abs() <= self.options.prealign_cutoff).count();
