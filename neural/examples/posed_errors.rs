@@ -3,6 +3,9 @@
 //! clips and held-out ones, so a change to how an avatar is posed (its skinning, its loose
 //! pieces) is measured on one fitted avatar in seconds instead of a refit.
 //!   cargo run -p avatar-neural --example posed_errors -- AVATAR CAPTURE SUBJECT OUTFIT [EVERY] [CLIP,...]
+//! The clip `capture` is the capture's own frames at their given fittings (the training poses),
+//! `zero` the zero pose. PIECES=1: each frame's connected pieces, their area and the share of
+//! it farther than 2 cm from the truth.
 //! CAPTURE gives the body and the subject's shape (the capture the avatar was fitted from).
 use avatar_core::capture::Capture;
 use avatar_core::eval::metrics::{evaluate_frame, MetricOptions, Regions};
@@ -70,10 +73,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // faces farther than 2 cm from the truth (front, side, back, below).
     let mut worst: Option<(f32, Vec<avatar_core::mesh::TriMesh>, String)> = None;
     for name in &clips {
-        let clip = library_clip(name)?;
+        // "capture": the capture's own frames at their given fittings (the training poses).
+        let poses: Vec<(usize, _)> = if name == "capture" {
+            capture.frames.iter().map(|f| f.params.clone()).enumerate().collect()
+        } else if name == "zero" {
+            vec![(0, avatar_core::body::BodyParams { betas: betas.clone(), ..Default::default() })]
+        } else {
+            library_clip(name)?.frames.iter().enumerate().step_by(every.max(1)).map(|(i, frame)| (i, query(frame, &betas))).collect()
+        };
         let mut rows = Vec::new();
-        for (i, frame) in clip.frames.iter().enumerate().step_by(every.max(1)) {
-            let pose = query(frame, &betas);
+        for (i, pose) in poses {
             let truth = ground_truth_mesh(&capture.body, &template, &pose, subject);
             let predicted = avatar.posed_mesh(&pose)?;
             if std::env::var("REGIONS").is_ok() {
@@ -95,6 +104,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     })
                     .collect();
                 println!("{name} {i}: NC avatar/naked: {}", line.join(", "));
+            }
+            if std::env::var("PIECES").is_ok() {
+                println!("{name} {i}: {}", pieces_report(&predicted, &truth));
             }
             let metrics = evaluate_frame(&predicted, &truth, &regions, &options, i as u64)?;
             if worst.as_ref().is_none_or(|w| metrics.surface.spurious > w.0) {
@@ -130,6 +142,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("{out}: {which}, spurious {:.1} %", spurious * 100.0);
     }
     Ok(())
+}
+
+/// The connected pieces of `mesh`, largest first (at most 8): each one's area, its share of
+/// the mesh's area, and the share of the mesh's area that is in it and farther than 2 cm from
+/// `truth`; then the far share outside the largest piece.
+fn pieces_report(mesh: &TriMesh, truth: &TriMesh) -> String {
+    let (labels, count) = avatar_core::mesh::topology::face_components(mesh);
+    let bvh = Bvh::build(truth);
+    let (mut area, mut far) = (vec![0f32; count], vec![0f32; count]);
+    for (f, &l) in labels.iter().enumerate() {
+        let [a, b, c] = mesh.triangle(f);
+        area[l as usize] += mesh.triangle_area(f);
+        if bvh.closest_point((a + b + c) / 3.0).is_some_and(|h| h.distance > 0.02) {
+            far[l as usize] += mesh.triangle_area(f);
+        }
+    }
+    let total: f32 = area.iter().sum();
+    let mut order: Vec<usize> = (0..count).collect();
+    order.sort_by(|&a, &b| area[b].total_cmp(&area[a]));
+    let pieces: Vec<String> = order.iter().take(8).map(|&c| format!("{:.0} cm2 {:.1} % (far {:.1} %)", area[c] * 1e4, 100.0 * area[c] / total, 100.0 * far[c] / total)).collect();
+    let far_outside: f32 = order.iter().skip(1).map(|&c| far[c]).sum::<f32>() / total;
+    format!("{count} pieces: {}; far outside the largest {:.1} %", pieces.join(", "), 100.0 * far_outside)
 }
 
 /// The faces of `mesh` whose centre lies farther than 2 cm from `truth`.
