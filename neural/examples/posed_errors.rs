@@ -154,7 +154,7 @@ fn pieces_report(mesh: &TriMesh, truth: &TriMesh) -> String {
     for (f, &l) in labels.iter().enumerate() {
         let [a, b, c] = mesh.triangle(f);
         area[l as usize] += mesh.triangle_area(f);
-        if bvh.closest_point((a + b + c) / 3.0).is_some_and(|h| h.distance > 0.02) {
+        if is_far(&bvh, (a + b + c) / 3.0) {
             far[l as usize] += mesh.triangle_area(f);
         }
     }
@@ -175,8 +175,13 @@ fn far_faces(mesh: &TriMesh, truth: &TriMesh) -> TriMesh {
         .copied()
         .filter(|f| {
             let centre = f.iter().map(|&i| mesh.positions[i as usize]).sum::<Vec3>() / 3.0;
-            bvh.closest_point(centre).is_some_and(|h| h.distance > 0.02)
+            is_far(&bvh, centre)
         })
         .collect();
     TriMesh::new(mesh.positions.clone(), faces)
+}
+
+/// Farther than 2 cm from the truth (`bvh`): the evaluation's spurious distance.
+fn is_far(truth: &Bvh, x: Vec3) -> bool {
+    truth.closest_point(x).is_some_and(|h| h.distance > 0.02)
 }

@@ -191,9 +191,9 @@ impl BodyWrap {
     }
 
     /// The connected pieces (faces sharing a vertex) of `mesh` that can be clothing: not
-    /// fragments (less than `min_piece_share` of the body's area), and not lying mostly round a part of the body too
-    /// thin to wrap (the SDF's blob round a hand, which the body's own hand stands for, as it
-    /// does in the wrapped body). `wrapped`: the wrapped body's faces (the rest body's).
+    /// fragments (less than `min_piece_share` of the body's area), and not lying mostly round a
+    /// part of the body too thin to wrap (the SDF's blob round a hand, which the body's own hand
+    /// stands for, as it does in the wrapped body). `wrapped`: the wrapped body's faces (the rest body's).
     fn clothing_pieces(&self, mesh: &TriMesh, wrapped: &Bvh) -> TriMesh {
         let (labels, count) = face_components(mesh);
         let (mut piece_area, mut thin_area) = (vec![0f32; count], vec![0f32; count]);

@@ -51,15 +51,17 @@ pub fn open_inner_walls(mesh: TriMesh, body: &SignedDistance, options: &SheetOpt
         return mesh;
     }
     let normals = mesh.vertex_normals();
-    let candidates: Vec<bool> = mesh
+    // Each vertex of loose cloth (farther than `loose` from the body): the way from the body's
+    // nearest point to it.
+    let away: Vec<Option<Vec3>> = mesh
         .positions
         .par_iter()
-        .zip(&normals)
-        .map(|(&x, &n)| match body.with_closest(x) {
-            Some((d, nearest)) if d > options.loose => n.dot((nearest - x).normalize_or_zero()) > options.facing,
-            _ => false,
+        .map(|&x| match body.with_closest(x) {
+            Some((d, nearest)) if d > options.loose => Some((x - nearest).normalize_or_zero()),
+            _ => None,
         })
         .collect();
+    let candidates: Vec<bool> = away.iter().zip(&normals).map(|(a, n)| a.is_some_and(|a| -n.dot(a) > options.facing)).collect();
     if !candidates.iter().any(|&c| c) {
         return mesh;
     }
@@ -72,7 +74,7 @@ pub fn open_inner_walls(mesh: TriMesh, body: &SignedDistance, options: &SheetOpt
         .zip(&candidates)
         .map(|((&x, &n), &c)| c && bvh.ray_cast(x, -n, 1e-3, options.max_wall).is_some())
         .collect();
-    let rim = slab_rim(&mesh, &inner, body, options);
+    let rim = slab_rim(&mesh, &inner, &away, options);
     let kept: Vec<[u32; 3]> = mesh.faces.iter().zip(&rim).filter(|(f, r)| !**r && !f.iter().all(|&v| inner[v as usize])).map(|(f, _)| *f).collect();
     if kept.len() == mesh.faces.len() {
         return mesh;
@@ -84,37 +86,32 @@ pub fn open_inner_walls(mesh: TriMesh, body: &SignedDistance, options: &SheetOpt
 /// a band as wide as the slab is thick, facing down and not away from the body (real cloth
 /// ends in an edge; the truth has no band there). Faces of loose cloth that face down (normal
 /// more than `rim_down` below the horizontal, as a sine) without facing away from the body
-/// (cosine with the way from the body's nearest point under `rim_away`), connected through
+/// (cosine with `away`, the way from the body's nearest point, under `rim_away`), connected through
 /// such faces to the inner wall that goes: a flared skirt's outer side faces away from the body
 /// and stays, and a solid thing, whose inner wall stays, keeps its underside.
-fn slab_rim(mesh: &TriMesh, inner: &[bool], body: &SignedDistance, options: &SheetOptions) -> Vec<bool> {
-    let away: Vec<Option<Vec3>> = mesh
-        .positions
-        .par_iter()
-        .map(|&x| match body.with_closest(x) {
-            Some((d, nearest)) if d > options.loose => Some((x - nearest).normalize_or_zero()),
-            _ => None,
-        })
-        .collect();
-    let candidate: Vec<bool> = mesh
+fn slab_rim(mesh: &TriMesh, inner: &[bool], away: &[Option<Vec3>], options: &SheetOptions) -> Vec<bool> {
+    let candidates: Vec<usize> = mesh
         .faces
         .par_iter()
         .zip(mesh.face_normals())
-        .map(|(f, n)| {
-            let ways: Option<Vec<Vec3>> = f.iter().map(|&v| away[v as usize]).collect();
-            ways.is_some_and(|w| -n.y > options.rim_down && n.dot((w[0] + w[1] + w[2]).normalize_or_zero()) < options.rim_away)
+        .enumerate()
+        .filter(|(_, (f, n))| match f.map(|v| away[v as usize]) {
+            [Some(a), Some(b), Some(c)] => -n.y > options.rim_down && n.dot((a + b + c).normalize_or_zero()) < options.rim_away,
+            _ => false,
         })
+        .map(|(k, _)| k)
         .collect();
     // Grow from the inner wall's vertices through candidate faces.
     let mut reached: Vec<bool> = inner.to_vec();
     let mut rim = vec![false; mesh.faces.len()];
     loop {
         let mut grew = false;
-        for (k, f) in mesh.faces.iter().enumerate() {
-            if candidate[k] && !rim[k] && f.iter().any(|&v| reached[v as usize]) {
+        for &k in &candidates {
+            let f = mesh.faces[k];
+            if !rim[k] && f.iter().any(|&v| reached[v as usize]) {
                 rim[k] = true;
                 grew = true;
-                for &v in f {
+                for v in f {
                     reached[v as usize] = true;
                 }
             }
