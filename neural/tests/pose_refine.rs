@@ -96,6 +96,22 @@ fn refinement_against_the_true_surface_recovers_perturbed_poses() {
         reports.push(refiner.round(&sdf));
     }
     let (deg1, cm1) = mean_error(&refiner.refined(), &truth);
+    // The points are the rest body's vertices posed: canonicalised anew for the refined poses
+    // they lie on the rest surface again, as for the true poses (each round finds their roots
+    // afresh; iterating from the given fittings' roots left some on the roots those chose).
+    let mut samples = capture.pose_samples(PoseEncoding::Hierarchical);
+    let off_surface = |samples: &[avatar_neural::pose_sample::PoseSample]| {
+        let mut d: Vec<f32> = samples.iter().flat_map(|s| s.points.iter()).map(|&q| bvh.closest_point(capture.normalisation.from_unit(q)).unwrap().distance).collect();
+        d.sort_by(f32::total_cmp);
+        (d[d.len() * 99 / 100], d.len())
+    };
+    let (given_p99, given_points) = off_surface(&samples);
+    refiner.update_samples(&mut samples, PoseEncoding::Hierarchical);
+    let (refined_p99, refined_points) = off_surface(&samples);
+    eprintln!("99th percentile off the rest surface {:.2} -> {:.2} mm; points {given_points} -> {refined_points}", given_p99 * 1e3, refined_p99 * 1e3);
+    assert!(given_p99 > 0.01, "the given fittings put points off the rest surface: {given_p99} m");
+    assert!(refined_p99 < 0.001, "refined: 99 % within {refined_p99} m of the rest surface");
+    assert!(refined_points * 100 >= given_points * 97, "points {given_points} -> {refined_points}");
     eprintln!("joint error {deg0:.2} -> {deg1:.2} deg, translation {cm0:.2} -> {cm1:.2} cm; rounds {reports:?}");
     assert!(deg0 > 3.5 && cm0 > 1.0, "the perturbation has its stated size: {deg0} deg, {cm0} cm");
     assert!(deg1 < 0.35 * deg0, "joint error {deg0:.2} -> {deg1:.2} deg");

@@ -9,9 +9,11 @@
 //!
 //! (`x_d`: the frame's depth point, `w`: its skinning weights held fixed during the round, `f`:
 //! the avatar's SDF for the frame's pose, in metres); the priors pull toward the given fitting.
-//! Then the frame's points are canonicalised again with the corrected pose (fixed-point
-//! iterations of the same inverse with the field's weights at the new point) and its pose
-//! input for the hypernetwork recomputed. The derivative of the skinned point comes from
+//! Then the frame's depth points are canonicalised anew for the corrected pose, as the
+//! capture's were for the given one (root finding, the root nearest the rest body, the 2 cm
+//! filter), and its pose input for the hypernetwork recomputed. Pre-alignment's rounds move the
+//! canonical points by fixed-point iterations of the same inverse instead (cheaper; they start
+//! nearer the truth). The derivative of the skinned point comes from
 //! `avatar_core::body::pose_jacobian`; `dx_c = -A^-1 dy` with `A` the blended linear part.
 
 use crate::capture_points::{shell_samples_of, CapturePoints};
@@ -39,8 +41,11 @@ pub struct PoseRefineOptions {
     pub until: usize,
     /// Gauss-Newton steps a round.
     pub iterations: usize,
-    /// Points of a frame that enter a round (an even subsample).
+    /// Points of a frame that enter a round against the avatar's SDF (an even subsample).
     pub points_per_frame: usize,
+    /// Points of a frame that enter pre-alignment. Older option files: 3,000, as rounds had.
+    #[serde(default = "prealign_points")]
+    pub prealign_points_per_frame: usize,
     /// Weight of the squared rotation correction (m^2 per rad^2, against the mean squared SDF).
     pub rotation_prior: f32,
     /// Weight of the squared translation correction.
@@ -75,6 +80,10 @@ fn first_round() -> usize {
     1
 }
 
+fn prealign_points() -> usize {
+    3000
+}
+
 impl Default for PoseRefineOptions {
     fn default() -> Self {
         PoseRefineOptions {
@@ -89,7 +98,11 @@ impl Default for PoseRefineOptions {
             iterations: 2,
             // 3,000 (1,000 before session 4): exact fittings move less with more points (tight
             // outfit: Chamfer 0.310 -> 0.287 cm), perturbed ones come closer (0.338 -> 0.329).
-            points_per_frame: 3000,
+            // 8,000 in the rounds against the avatar's SDF since session 13, whose points are
+            // canonicalised anew each round: quick dress at 5 deg / 2 cm 0.698 -> 0.678 cm
+            // (docs/evaluation.md, session 13).
+            points_per_frame: 8000,
+            prealign_points_per_frame: 3000,
             rotation_prior: 1e-4,
             translation_prior: 1e-3,
             huber: 0.01,
@@ -277,7 +290,7 @@ impl<'a> PoseRefiner<'a> {
             self.remove_common_correction();
         }
         for k in 0..self.frames.len() {
-            self.recanonicalise(k);
+            self.recanonicalise_fully(k);
         }
         self.rounds_done += 1;
         if let Some(e) = self.errors() {
@@ -347,9 +360,10 @@ impl<'a> PoseRefiner<'a> {
         }
     }
 
-    fn subset(&self, k: usize) -> Vec<usize> {
+    /// An even subsample of `count` of frame `k`'s points.
+    fn subset(&self, k: usize, count: usize) -> Vec<usize> {
         let n = self.frames[k].posed.len();
-        let m = self.options.points_per_frame.clamp(1, n.max(1));
+        let m = count.clamp(1, n.max(1));
         (0..m).map(|i| i * n / m).collect()
     }
 
@@ -358,7 +372,7 @@ impl<'a> PoseRefiner<'a> {
     fn refine_frame(&mut self, k: usize, sdf: FrameSdf, iterations: usize, keep: (f32, f32), points: RoundPoints) -> RoundReport {
         let field = &self.capture.field;
         let frame = &self.frames[k];
-        let mut idx = self.subset(k);
+        let mut idx = self.subset(k, if points == RoundPoints::All { self.options.points_per_frame } else { self.options.prealign_points_per_frame });
         if points != RoundPoints::All {
             idx.retain(|&i| points.takes(&field.weights_at(frame.canonical[i])));
         }
@@ -451,6 +465,42 @@ impl<'a> PoseRefiner<'a> {
             }
         }
         step
+    }
+
+    /// Frame `k`'s depth points canonicalised anew for its corrected pose, as the capture's
+    /// were for the given one: root finding from the posed body's nearest bones, the root
+    /// nearest the rest body, the 2 cm reprojection filter. The fixed-point iterations of
+    /// [`PoseRefiner::recanonicalise`] keep each point on the root it had under the given
+    /// fitting; where that fitting chose another root (a skirt point between the thighs) the
+    /// point stays there.
+    fn recanonicalise_fully(&mut self, k: usize) {
+        use avatar_core::canonical::{canonicalize_points, RootOptions};
+        let capture = self.capture;
+        let frame = &self.frames[k];
+        let params = frame.correction.apply(&frame.given);
+        let posed_body = capture.body.pose(&params);
+        let distance = |r: &avatar_core::canonical::Root| capture.rest_sdf.at(r.canonical).map_or(f32::INFINITY, f32::abs);
+        let chooser = |roots: &[avatar_core::canonical::Root]| (0..roots.len()).min_by(|&a, &b| distance(&roots[a]).total_cmp(&distance(&roots[b]))).unwrap_or(0);
+        let options = RootOptions::default();
+        let c = canonicalize_points(&capture.field, &posed_body.bones, &posed_body.vertices, &capture.body.weights, &frame.posed, &frame.posed_normals, &options, Some(&chooser));
+        let frame = &mut self.frames[k];
+        frame.posed = c.source.iter().map(|&i| frame.posed[i]).collect();
+        frame.posed_normals = c.source.iter().map(|&i| frame.posed_normals[i]).collect();
+        frame.canonical = c.points;
+        // The free-space samples and shells: the fixed-point iterations. Canonicalising them anew
+        // too (those inside the body dropped, the shells drawn again) measured the same (quick
+        // dress at 5 deg / 2 cm: Chamfer-L2 0.698 -> 0.699 cm) at twice the time.
+        let bones = frame.correction.bones(&self.rest_joints, &frame.given);
+        let field = &capture.field;
+        frame.free_canonical.par_iter_mut().zip(&frame.free_posed).for_each(|(x, &y)| {
+            for _ in 0..2 {
+                let a = blend_transform(&bones.transforms, &field.weights_at(*x));
+                let next = a.inverse().transform_point3(y);
+                if next.is_finite() && field.contains(next) {
+                    *x = next;
+                }
+            }
+        });
     }
 
     /// Canonical points of frame `k` again for its corrected pose: the inverse with the

@@ -33,7 +33,7 @@ impl PoseRefiner<'_> {
         for (k, frame) in self.frames.iter().enumerate() {
             let bones = frame.correction.bones(&self.rest_joints, &frame.given);
             let xc: Vec<Vec3> = self
-                .subset(k)
+                .subset(k, self.options.prealign_points_per_frame)
                 .into_iter()
                 .map(|i| (i, field.weights_at(frame.canonical[i])))
                 .filter(|(_, w)| RoundPoints::Body.takes(w))
@@ -110,6 +110,7 @@ impl PoseRefiner<'_> {
         for f in self.frames.iter_mut() {
             f.anchor = f.correction;
         }
+
         report.unwrap_or(RoundReport { residual_before: 0.0, residual_after: 0.0 })
     }
 }
