@@ -363,7 +363,7 @@ impl<'a> PoseRefiner<'a> {
     /// An even subsample of `count` of frame `k`'s points.
     fn subset(&self, k: usize, count: usize) -> Vec<usize> {
         let n = self.frames[k].posed.len();
-        let m = count.clamp(1, n.max(1));
+        let m = count.min(n);
         (0..m).map(|i| i * n / m).collect()
     }
 
@@ -483,6 +483,11 @@ impl<'a> PoseRefiner<'a> {
         let chooser = |roots: &[avatar_core::canonical::Root]| (0..roots.len()).min_by(|&a, &b| distance(&roots[a]).total_cmp(&distance(&roots[b]))).unwrap_or(0);
         let options = RootOptions::default();
         let c = canonicalize_points(&capture.field, &posed_body.bones, &posed_body.vertices, &capture.body.weights, &frame.posed, &frame.posed_normals, &options, Some(&chooser));
+        // A pose that loses most of the frame's points to the 2 cm filter is not trusted with
+        // them: the points move by the fixed-point iterations instead.
+        if c.points.len() * 2 < frame.posed.len() {
+            return self.recanonicalise(k);
+        }
         let frame = &mut self.frames[k];
         frame.posed = c.source.iter().map(|&i| frame.posed[i]).collect();
         frame.posed_normals = c.source.iter().map(|&i| frame.posed_normals[i]).collect();
@@ -491,16 +496,7 @@ impl<'a> PoseRefiner<'a> {
         // too (those inside the body dropped, the shells drawn again) measured the same (quick
         // dress at 5 deg / 2 cm: Chamfer-L2 0.698 -> 0.699 cm) at twice the time.
         let bones = frame.correction.bones(&self.rest_joints, &frame.given);
-        let field = &capture.field;
-        frame.free_canonical.par_iter_mut().zip(&frame.free_posed).for_each(|(x, &y)| {
-            for _ in 0..2 {
-                let a = blend_transform(&bones.transforms, &field.weights_at(*x));
-                let next = a.inverse().transform_point3(y);
-                if next.is_finite() && field.contains(next) {
-                    *x = next;
-                }
-            }
-        });
+        fixed_point_inverse(&capture.field, &bones, &mut frame.free_canonical, &frame.free_posed);
     }
 
     /// Canonical points of frame `k` again for its corrected pose: the inverse with the
@@ -510,16 +506,23 @@ impl<'a> PoseRefiner<'a> {
         let frame = &mut self.frames[k];
         let bones = frame.correction.bones(&self.rest_joints, &frame.given);
         // The free-space samples move with the points they were cast in front of.
-        frame.canonical.par_iter_mut().zip(&frame.posed).chain(frame.free_canonical.par_iter_mut().zip(&frame.free_posed)).for_each(|(x, &y)| {
-            for _ in 0..2 {
-                let a = blend_transform(&bones.transforms, &field.weights_at(*x));
-                let next = a.inverse().transform_point3(y);
-                if next.is_finite() && field.contains(next) {
-                    *x = next;
-                }
-            }
-        });
+        fixed_point_inverse(field, &bones, &mut frame.canonical, &frame.posed);
+        fixed_point_inverse(field, &bones, &mut frame.free_canonical, &frame.free_posed);
     }
+}
+
+/// Two fixed-point iterations of the inverse skinning of each `posed` point, from its current
+/// canonical point in `canonical` (kept where an iterate leaves the field or is not finite).
+fn fixed_point_inverse(field: &avatar_core::canonical::SkinningField, bones: &avatar_core::body::Bones, canonical: &mut [Vec3], posed: &[Vec3]) {
+    canonical.par_iter_mut().zip(posed).for_each(|(x, &y)| {
+        for _ in 0..2 {
+            let a = blend_transform(&bones.transforms, &field.weights_at(*x));
+            let next = a.inverse().transform_point3(y);
+            if next.is_finite() && field.contains(next) {
+                *x = next;
+            }
+        }
+    });
 }
 
 /// Solve the symmetric positive definite system `h x = b` (row-major `n x n`) by Cholesky;
