@@ -40,6 +40,13 @@ pub fn choose_by_agreement(roots: &[Root]) -> usize {
     (0..roots.len()).max_by(|&a, &b| roots[a].agreement.total_cmp(&roots[b].agreement)).unwrap_or(0)
 }
 
+/// The root nearest a surface (`distance` of a canonical point to it): the rest body's, before
+/// an avatar exists (`Canonicalizer`, and pose refinement's rounds).
+pub fn choose_nearest(roots: &[Root], distance: impl Fn(Vec3) -> f32) -> usize {
+    let d: Vec<f32> = roots.iter().map(|r| distance(r.canonical)).collect();
+    (0..roots.len()).min_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap_or(0)
+}
+
 /// Canonicalize posed points (with normals) of one frame. `posed_body` and `body_weights` are
 /// the posed body's vertices and skinning weights (to pick the start bones of each point).
 #[allow(clippy::too_many_arguments)]

@@ -16,7 +16,7 @@ pub mod shell;
 
 pub use body_wrap::{BodyWrap, SurfaceChoice, WrapOptions, Wrapped};
 pub use cache::{cached_field, default_cache_dir};
-pub use canonicalize::{canonicalize_points, choose_by_agreement, forward_skin_mesh, CanonicalFrame, REPROJECTION_THRESHOLD};
+pub use canonicalize::{canonicalize_points, choose_by_agreement, choose_nearest, forward_skin_mesh, CanonicalFrame, REPROJECTION_THRESHOLD};
 pub use field::{FieldOptions, SkinningField, FIELD_CELLS};
 pub use normalise::Normalisation;
 pub use garment_skinning::{field_weights, forward_skin_with_weights, garment_weights, inpaint_loose_weights, GarmentSkinner, GarmentSkinning};
@@ -70,8 +70,7 @@ impl<'a> Canonicalizer<'a> {
     /// squat or a bend presses the thigh to the belly, the other roots lie tens of
     /// centimetres off the body, and a fit grows sheets through them.
     fn nearest_to_body(&self, roots: &[Root]) -> usize {
-        let distance = |r: &Root| self.rest_surface.closest_point(r.canonical).map_or(f32::INFINITY, |h| h.distance);
-        (0..roots.len()).min_by(|&a, &b| distance(&roots[a]).total_cmp(&distance(&roots[b]))).unwrap_or(0)
+        choose_nearest(roots, |x| self.rest_surface.closest_point(x).map_or(f32::INFINITY, |h| h.distance))
     }
 
     /// Canonical positions of free-space samples of one frame (posed, world space): the

@@ -474,13 +474,12 @@ impl<'a> PoseRefiner<'a> {
     /// fitting; where that fitting chose another root (a skirt point between the thighs) the
     /// point stays there.
     fn recanonicalise_fully(&mut self, k: usize) {
-        use avatar_core::canonical::{canonicalize_points, RootOptions};
+        use avatar_core::canonical::{canonicalize_points, choose_nearest, Root, RootOptions};
         let capture = self.capture;
         let frame = &self.frames[k];
         let params = frame.correction.apply(&frame.given);
         let posed_body = capture.body.pose(&params);
-        let distance = |r: &avatar_core::canonical::Root| capture.rest_sdf.at(r.canonical).map_or(f32::INFINITY, f32::abs);
-        let chooser = |roots: &[avatar_core::canonical::Root]| (0..roots.len()).min_by(|&a, &b| distance(&roots[a]).total_cmp(&distance(&roots[b]))).unwrap_or(0);
+        let chooser = |roots: &[Root]| choose_nearest(roots, |x| capture.rest_sdf.at(x).map_or(f32::INFINITY, f32::abs));
         let options = RootOptions::default();
         let c = canonicalize_points(&capture.field, &posed_body.bones, &posed_body.vertices, &capture.body.weights, &frame.posed, &frame.posed_normals, &options, Some(&chooser));
         // A pose that loses most of the frame's points to the 2 cm filter is not trusted with

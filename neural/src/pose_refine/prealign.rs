@@ -110,7 +110,6 @@ impl PoseRefiner<'_> {
         for f in self.frames.iter_mut() {
             f.anchor = f.correction;
         }
-
         report.unwrap_or(RoundReport { residual_before: 0.0, residual_after: 0.0 })
     }
 }
