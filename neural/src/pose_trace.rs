@@ -27,6 +27,8 @@ pub struct PoseErrors {
     pub twist_deg: f32,
     pub swing_deg: f32,
     pub per_joint_deg: [f32; NUM_JOINTS],
+    /// Each frame's translation error (world, cm).
+    pub per_frame_trans: Vec<Vec3>,
 }
 
 /// A joint's bone direction in its own frame at rest (the rest pose has no rotations): toward
@@ -49,7 +51,7 @@ fn joint_error(refined: Vec3, truth: Vec3) -> Vec3 {
 pub fn pose_errors(refined: &[BodyParams], truth: &[BodyParams], rest_joints: &[Vec3; NUM_JOINTS]) -> PoseErrors {
     let n = refined.len().min(truth.len()).max(1) as f32;
     let nj = NUM_JOINTS as f32;
-    let mut e = PoseErrors { joint_deg: 0.0, trans_cm: 0.0, posed_joints_cm: 0.0, common_deg: 0.0, common_trans_cm: 0.0, common_trans: Vec3::ZERO, twist_deg: 0.0, swing_deg: 0.0, per_joint_deg: [0.0; NUM_JOINTS] };
+    let mut e = PoseErrors { joint_deg: 0.0, trans_cm: 0.0, posed_joints_cm: 0.0, common_deg: 0.0, common_trans_cm: 0.0, common_trans: Vec3::ZERO, twist_deg: 0.0, swing_deg: 0.0, per_joint_deg: [0.0; NUM_JOINTS], per_frame_trans: Vec::new() };
     let mut mean_err = [Vec3::ZERO; NUM_JOINTS];
     let mut mean_trans = Vec3::ZERO;
     for (r, t) in refined.iter().zip(truth) {
@@ -65,6 +67,7 @@ pub fn pose_errors(refined: &[BodyParams], truth: &[BodyParams], rest_joints: &[
         }
         e.trans_cm += (r.trans - t.trans).length() * 100.0 / n;
         mean_trans += (r.trans - t.trans) / n;
+        e.per_frame_trans.push((r.trans - t.trans) * 100.0);
         let (pr, pt) = (forward_kinematics(rest_joints, &r.rotations(), r.trans).posed_joints(), forward_kinematics(rest_joints, &t.rotations(), t.trans).posed_joints());
         e.posed_joints_cm += pr.iter().zip(&pt).map(|(a, b)| (*a - *b).length()).sum::<f32>() * 100.0 / (n * nj);
     }
@@ -85,15 +88,22 @@ impl std::fmt::Display for PoseErrors {
 }
 
 impl PoseErrors {
-    /// Each joint's mean angle error, by name.
+    /// Each joint's mean angle error, by name, and each frame's translation error.
     pub fn per_joint(&self) -> String {
-        (0..NUM_JOINTS).map(|j| format!("{} {:.1}", JOINT_NAMES[j], self.per_joint_deg[j])).collect::<Vec<_>>().join(", ")
+        let joints = (0..NUM_JOINTS).map(|j| format!("{} {:.1}", JOINT_NAMES[j], self.per_joint_deg[j])).collect::<Vec<_>>().join(", ");
+        let frames = self.per_frame_trans.iter().map(|t| format!("[{:.2}, {:.2}, {:.2}]", t.x, t.y, t.z)).collect::<Vec<_>>().join(" ");
+        format!("{joints}\n  translation per frame (cm): {frames}")
     }
 }
 
-/// The true fitting of each given one: the record of `exact` nearest to it (the perturbation is
-/// a few degrees; the frames of a capture are further apart than that).
+/// The true fitting of each given one: the record of `exact` with its index, or nearest to it
+/// when some frames were left out (the perturbation is a few degrees).
 pub fn match_truth(given: &[BodyParams], exact: &[BodyParams]) -> Vec<BodyParams> {
+    // The same frames in the same order (the evaluation's captures): by index. Matching by
+    // nearest pose mixed up two similar frames of one subject (a pelvis 25 deg "off").
+    if given.len() == exact.len() {
+        return exact.to_vec();
+    }
     given
         .iter()
         .map(|g| {

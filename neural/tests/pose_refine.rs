@@ -233,6 +233,31 @@ fn upper_body_prealignment_corrects_the_arms_and_leaves_the_legs_to_the_fittings
 }
 
 #[test]
+fn the_trunk_stage_moves_the_trunk_and_the_translation_alone() {
+    // Pre-alignment's first stage: the trunk's points correct the pelvis, the spine and the
+    // translation; every other joint keeps the given fitting exactly.
+    let (capture, truth) = capture(open_body_lowpoly(), 4);
+    let body = BodySdf::new(&capture);
+    let mut refiner = PoseRefiner::new(&capture, PoseRefineOptions::default());
+    let given: Vec<BodyParams> = capture.frames.iter().map(|f| f.params.clone()).collect();
+    let before = pose_errors(&given, &truth, &capture.rest_joints());
+    let report = refiner.prealign_trunk(&|_, p: &[Vec3]| body.beyond_clothing(p, 0.03));
+    let refined = refiner.refined();
+    let after = pose_errors(&refined, &truth, &capture.rest_joints());
+    eprintln!("before: {before}\n  {}\nafter: {after}\n  {}\n{report:?}", before.per_joint(), after.per_joint());
+    const TRUNK: [usize; 4] = [0, 3, 6, 9];
+    for (r, g) in refined.iter().zip(&given) {
+        for j in (0..24).filter(|j| !TRUNK.contains(j)) {
+            assert!((r.pose[j] - g.pose[j]).length() < 1e-6, "joint {j} moved: {} -> {}", g.pose[j], r.pose[j]);
+        }
+    }
+    let trunk = |e: &avatar_neural::pose_trace::PoseErrors| TRUNK.iter().map(|&j| e.per_joint_deg[j]).sum::<f32>() / 4.0;
+    assert!(trunk(&after) < 0.7 * trunk(&before), "trunk {:.2} -> {:.2} deg", trunk(&before), trunk(&after));
+    assert!(after.trans_cm < 0.5 * before.trans_cm, "{before} -> {after}");
+    assert!(report.residual_after < report.residual_before, "{report:?}");
+}
+
+#[test]
 fn fits_prealign_then_refine_twice_and_not_at_all_when_off() {
     let o = PoseRefineOptions::default();
     assert!(o.prealign_rounds > 0);
