@@ -258,6 +258,25 @@ fn the_trunk_stage_moves_the_trunk_and_the_translation_alone() {
 }
 
 #[test]
+fn pre_alignment_from_two_starts_keeps_each_frames_better_fit() {
+    // The whole body from the given fittings, and the trunk first: each frame keeps the start
+    // that fits the body better, so the poses are no further from the truth than the whole
+    // body's alone, and exact fittings stay exact (`prealignment_leaves_exact_fittings...`).
+    let (capture, truth) = capture(open_body_lowpoly(), 4);
+    let body = BodySdf::new(&capture);
+    let sdf = |_: usize, p: &[Vec3]| body.beyond_clothing(p, 0.03);
+    let mut alone = PoseRefiner::new(&capture, PoseRefineOptions { prealign_trunk_first: false, ..PoseRefineOptions::default() });
+    let alone_report = alone.prealign(&sdf);
+    let mut both = PoseRefiner::new(&capture, PoseRefineOptions::default());
+    assert!(both.options.prealign_trunk_first);
+    let both_report = both.prealign(&sdf);
+    let (a, b) = (pose_errors(&alone.refined(), &truth, &capture.rest_joints()), pose_errors(&both.refined(), &truth, &capture.rest_joints()));
+    eprintln!("whole body alone: {a}\n{alone_report:?}\ntwo starts: {b}\n{both_report:?}");
+    assert!(b.posed_joints_cm <= 1.05 * a.posed_joints_cm, "{a} -> {b}");
+    assert!(both_report.residual_after <= alone_report.residual_after * 1.02, "{alone_report:?} -> {both_report:?}");
+}
+
+#[test]
 fn fits_prealign_then_refine_twice_and_not_at_all_when_off() {
     let o = PoseRefineOptions::default();
     assert!(o.prealign_rounds > 0);

@@ -54,16 +54,99 @@ impl PoseRefiner<'_> {
     /// observable, so no zero-mean constraint here but along the body's axis; the later rounds
     /// keep their mean correction relative to this one.
     ///
-    /// With `prealign_trunk_first`, the trunk's points first move only the pelvis, the spine
-    /// and the translation (the upper body's schedule). All joints at once, the chain's
-    /// cheapest way to fit the arms can be to bend the spine: a squat's upper spine went 10
-    /// degrees sideways and its pelvis 1.4 cm up, a local minimum (residual 4.3 mm against 2.9
-    /// at the true poses).
+    /// With `prealign_trunk_first`, a second start: the trunk's points first move only the
+    /// pelvis, the spine and the translation (the upper body's schedule), then the whole body
+    /// as from the given fittings; each frame keeps the start whose poses fit the body better
+    /// (`body_residuals`). All joints at once, the chain's cheapest way to fit the arms can be
+    /// to bend the spine: a squat's upper spine went 10 degrees sideways and its pelvis 1.4 cm
+    /// up, a local minimum (residual 4.3 mm against 2.9 at the true poses). The trunk alone is
+    /// no better start where the limbs are right: it moved exact fittings' posed joints 0.65
+    /// cm, and the whole body brought them back only to 0.4 (t-shirt's NC on the user table
+    /// 0.942 -> 0.941 with the trunk first everywhere).
     pub fn prealign(&mut self, sdf: FrameSdf) -> RoundReport {
-        if self.options.prealign_trunk_first {
-            self.prealign_trunk(sdf);
+        let schedule = (self.options.prealign_rounds, self.options.prealign_iterations);
+        if !self.options.prealign_trunk_first {
+            return self.prealign_points(sdf, RoundPoints::Body, schedule);
         }
-        self.prealign_points(sdf, RoundPoints::Body, (self.options.prealign_rounds, self.options.prealign_iterations))
+        let given = self.state();
+        let whole_report = self.prealign_points(sdf, RoundPoints::Body, schedule);
+        let (whole, whole_residuals) = (self.state(), self.body_residuals(sdf));
+        self.restore(&given, |_| true);
+        self.prealign_trunk(sdf);
+        let report = self.prealign_points(sdf, RoundPoints::Body, schedule);
+        let trunk_residuals = self.body_residuals(sdf);
+        let whole_better: Vec<bool> = whole_residuals.iter().zip(&trunk_residuals).map(|(w, t)| w <= t).collect();
+        self.restore(&whole, |k| whole_better[k]);
+        if whole_better.iter().any(|&w| !w) && whole_better.iter().any(|&w| w) {
+            // Frames from both starts: their shared translation along the body's axis back to
+            // the given fittings' (each start held it there alone).
+            self.hold_shared_axial_translation();
+            for k in 0..self.frames.len() {
+                self.recanonicalise(k);
+            }
+        }
+        for f in self.frames.iter_mut() {
+            f.anchor = f.correction;
+        }
+        if let Some(e) = self.errors() {
+            eprintln!("pose trace: pre-alignment from the trunk first kept for {} of {} frames; {e}", whole_better.iter().filter(|&&w| !w).count(), whole_better.len());
+        }
+        // Both starts begin at the given fittings.
+        let after = if whole_better.iter().all(|&w| w) { whole_report.residual_after } else { report.residual_after };
+        RoundReport { residual_before: whole_report.residual_before, residual_after: after }
+    }
+
+    /// Each frame's correction and canonical points (pre-alignment moves nothing else).
+    fn state(&self) -> Vec<(PoseCorrection, Vec<Vec3>, Vec<Vec3>)> {
+        self.frames.iter().map(|f| (f.correction, f.canonical.clone(), f.free_canonical.clone())).collect()
+    }
+
+    /// Back to `state` for the frames `which` names.
+    fn restore(&mut self, state: &[(PoseCorrection, Vec<Vec3>, Vec<Vec3>)], which: impl Fn(usize) -> bool) {
+        for (k, (f, (c, canonical, free))) in self.frames.iter_mut().zip(state).enumerate() {
+            if which(k) {
+                f.correction = *c;
+                f.canonical.clone_from(canonical);
+                f.free_canonical.clone_from(free);
+            }
+        }
+    }
+
+    /// Each frame's mean |residual| against `sdf` over its pre-alignment points (the whole
+    /// body's; each residual capped at `prealign_cutoff`, so a pose cannot look better by
+    /// pushing points out of reach).
+    fn body_residuals(&self, sdf: FrameSdf) -> Vec<f32> {
+        let field = &self.capture.field;
+        let cutoff = self.options.prealign_cutoff;
+        (0..self.frames.len())
+            .map(|k| {
+                let frame = &self.frames[k];
+                let bones = frame.correction.bones(&self.rest_joints, &frame.given);
+                let xc: Vec<Vec3> = self
+                    .subset(k, self.options.prealign_points_per_frame)
+                    .into_iter()
+                    .map(|i| (i, field.weights_at(frame.canonical[i])))
+                    .filter(|(_, w)| RoundPoints::Body.takes(w))
+                    .map(|(i, w)| blend_transform(&bones.transforms, &w).inverse().transform_point3(frame.posed[i]))
+                    .collect();
+                let (f, _) = sdf(k, &xc);
+                f.iter().map(|v| v.abs().min(cutoff)).sum::<f32>() / f.len().max(1) as f32
+            })
+            .collect()
+    }
+
+    /// The frames' shared translation along the body's axis is left to the given fittings:
+    /// against the naked body it is biased by the clothing, shoes and hair (exact fittings
+    /// moved 4 mm down, all frames alike). Across the body it is free.
+    fn hold_shared_axial_translation(&mut self) {
+        if self.frames.len() < 2 {
+            return;
+        }
+        let n = self.frames.len() as f32;
+        // Each frame's body axis: the root's rotation of canonical up.
+        let up: Vec<Vec3> = self.frames.iter().map(|f| glam::Quat::from_scaled_axis(f.correction.apply(&f.given).pose[0]) * Vec3::Y).collect();
+        let mean = self.frames.iter().zip(&up).map(|(f, u)| f.correction.translation.dot(*u)).sum::<f32>() / n;
+        self.frames.iter_mut().zip(&up).for_each(|(f, u)| f.correction.translation -= *u * mean);
     }
 
     /// Pre-alignment's first stage: the trunk's points (pelvis and spine) move only the trunk's
@@ -105,15 +188,7 @@ impl PoseRefiner<'_> {
                 break;
             }
             best = Some((r.residual_before, start));
-            // The frames' shared translation along the body's axis is left to the given
-            // fittings: against the naked body it is biased by the clothing, shoes and hair
-            // (exact fittings moved 4 mm down, all frames alike). Across the body it is free.
-            if self.frames.len() > 1 {
-                // Each frame's body axis: the root's rotation of canonical up.
-                let up: Vec<Vec3> = self.frames.iter().map(|f| glam::Quat::from_scaled_axis(f.correction.apply(&f.given).pose[0]) * Vec3::Y).collect();
-                let mean = self.frames.iter().zip(&up).map(|(f, u)| f.correction.translation.dot(*u)).sum::<f32>() / n;
-                self.frames.iter_mut().zip(&up).for_each(|(f, u)| f.correction.translation -= *u * mean);
-            }
+            self.hold_shared_axial_translation();
             for k in 0..self.frames.len() {
                 self.recanonicalise(k);
             }
