@@ -28,18 +28,9 @@ impl PoseRefiner<'_> {
     /// `sdf` at the current poses: high for tight clothing, low for a dress, whose skirt the
     /// body does not explain (pre-alignment then pulls the legs toward the skirt).
     pub fn near_share(&self, sdf: FrameSdf) -> f32 {
-        let field = &self.capture.field;
         let (mut near, mut all) = (0usize, 0usize);
-        for (k, frame) in self.frames.iter().enumerate() {
-            let bones = frame.correction.bones(&self.rest_joints, &frame.given);
-            let xc: Vec<Vec3> = self
-                .subset(k, self.options.prealign_points_per_frame)
-                .into_iter()
-                .map(|i| (i, field.weights_at(frame.canonical[i])))
-                .filter(|(_, w)| RoundPoints::Body.takes(w))
-                .map(|(i, w)| blend_transform(&bones.transforms, &w).inverse().transform_point3(frame.posed[i]))
-                .collect();
-            let (f, _) = sdf(k, &xc);
+        for k in 0..self.frames.len() {
+            let f = self.body_point_sdf(k, sdf);
             near += f.iter().filter(|v| v.abs() <= self.options.prealign_cutoff).count();
             all += f.len();
         }
@@ -116,23 +107,29 @@ impl PoseRefiner<'_> {
     /// body's; each residual capped at `prealign_cutoff`, so a pose cannot look better by
     /// pushing points out of reach).
     fn body_residuals(&self, sdf: FrameSdf) -> Vec<f32> {
-        let field = &self.capture.field;
         let cutoff = self.options.prealign_cutoff;
         (0..self.frames.len())
             .map(|k| {
-                let frame = &self.frames[k];
-                let bones = frame.correction.bones(&self.rest_joints, &frame.given);
-                let xc: Vec<Vec3> = self
-                    .subset(k, self.options.prealign_points_per_frame)
-                    .into_iter()
-                    .map(|i| (i, field.weights_at(frame.canonical[i])))
-                    .filter(|(_, w)| RoundPoints::Body.takes(w))
-                    .map(|(i, w)| blend_transform(&bones.transforms, &w).inverse().transform_point3(frame.posed[i]))
-                    .collect();
-                let (f, _) = sdf(k, &xc);
+                let f = self.body_point_sdf(k, sdf);
                 f.iter().map(|v| v.abs().min(cutoff)).sum::<f32>() / f.len().max(1) as f32
             })
             .collect()
+    }
+
+    /// `sdf` at frame `k`'s pre-alignment points (its even subsample, extremities left out),
+    /// canonicalised for its current pose with the weights at their canonical points.
+    fn body_point_sdf(&self, k: usize, sdf: FrameSdf) -> Vec<f32> {
+        let field = &self.capture.field;
+        let frame = &self.frames[k];
+        let bones = frame.correction.bones(&self.rest_joints, &frame.given);
+        let xc: Vec<Vec3> = self
+            .subset(k, self.options.prealign_points_per_frame)
+            .into_iter()
+            .map(|i| (i, field.weights_at(frame.canonical[i])))
+            .filter(|(_, w)| RoundPoints::Body.takes(w))
+            .map(|(i, w)| blend_transform(&bones.transforms, &w).inverse().transform_point3(frame.posed[i]))
+            .collect();
+        sdf(k, &xc).0
     }
 
     /// The frames' shared translation along the body's axis is left to the given fittings:
