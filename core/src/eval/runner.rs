@@ -170,6 +170,16 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
                         .enumerate()
                         .map(|(k, (p, gt))| evaluate_frame(&predictor.predict(p)?, gt, &regions, &config.metrics, config.seed + k as u64))
                         .collect::<Result<_>>()?;
+                    let n = scores.len().max(1) as f32;
+                    let mean = |f: fn(&FrameMetrics) -> f32| scores.iter().map(f).sum::<f32>() / n;
+                    progress(&format!(
+                        "subject {subject}, {}: {} Chamfer-L2 {:.3} cm, NC {:.4}, spurious {:.1} %",
+                        outfit.name(),
+                        predictor.name(),
+                        mean(|s| s.chamfer_cm),
+                        mean(|s| s.nc),
+                        100.0 * mean(|s| s.surface.spurious)
+                    ));
                     let a = &mut acc[m][si][oi];
                     a.training_frames = train.len();
                     a.metrics.extend(scores);
