@@ -5,7 +5,7 @@
 
 use super::conditions::{capture_seed, CaptureConditions};
 use super::dataset::*;
-use super::metrics::{evaluate_frame, FrameMetrics, MetricOptions, Regions};
+use super::metrics::{evaluate_frame, FrameMetrics, MetricOptions, Regions, Summary};
 use super::predictor::{FitData, Predictor};
 use super::protocol::{heldout_frames, interpolation_frames, training_selection, Protocol, Shots};
 pub use super::report::{Report, RowResult};
@@ -170,8 +170,8 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
                         .enumerate()
                         .map(|(k, (p, gt))| evaluate_frame(&predictor.predict(p)?, gt, &regions, &config.metrics, config.seed + k as u64))
                         .collect::<Result<_>>()?;
-                    let n = scores.len().max(1) as f32;
-                    let mean = |f: fn(&FrameMetrics) -> f32| scores.iter().map(f).sum::<f32>() / n;
+                    // The subject's share of the row, averaged as the row's summary averages.
+                    let mean = |f: fn(&FrameMetrics) -> f32| Summary::of(&scores.iter().map(f).collect::<Vec<_>>()).map_or(f32::NAN, |s| s.mean);
                     progress(&format!(
                         "subject {subject}, {}: {} Chamfer-L2 {:.3} cm, NC {:.4}, spurious {:.1} %",
                         outfit.name(),

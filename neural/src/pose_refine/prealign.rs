@@ -12,6 +12,10 @@ use glam::Vec3;
 /// cm at 5 deg / 2 cm.
 const UPPER_BODY_SCHEDULE: (usize, usize) = (4, 5);
 
+/// What pre-alignment changes of a frame: its correction, its canonical points and its
+/// free-space samples' canonical points.
+type FrameState = (PoseCorrection, Vec<Vec3>, Vec<Vec3>);
+
 impl PoseRefiner<'_> {
     /// [`PoseRefiner::prealign`] on the points of the spine, the arms and the head's joints
     /// alone (the pelvis's and the legs' left out, besides the extremities): a dress's skirt
@@ -88,12 +92,12 @@ impl PoseRefiner<'_> {
     }
 
     /// Each frame's correction and canonical points (pre-alignment moves nothing else).
-    fn state(&self) -> Vec<(PoseCorrection, Vec<Vec3>, Vec<Vec3>)> {
+    fn state(&self) -> Vec<FrameState> {
         self.frames.iter().map(|f| (f.correction, f.canonical.clone(), f.free_canonical.clone())).collect()
     }
 
     /// Back to `state` for the frames `which` names.
-    fn restore(&mut self, state: &[(PoseCorrection, Vec<Vec3>, Vec<Vec3>)], which: impl Fn(usize) -> bool) {
+    fn restore(&mut self, state: &[FrameState], which: impl Fn(usize) -> bool) {
         for (k, (f, (c, canonical, free))) in self.frames.iter_mut().zip(state).enumerate() {
             if which(k) {
                 f.correction = *c;
