@@ -134,10 +134,15 @@ fn cache_round_trip_and_corrupt_cache_rebuilt() {
     let (b, w) = cached_field(body, &rest, &opts, Some(dir.path())).unwrap();
     assert!(w.is_none());
     assert_eq!(a.dims, b.dims);
+    // The first run's field is the one later runs read back, to the bit: both fit one avatar.
+    assert_eq!(a.weights, b.weights, "the built field differs from the cached one");
+    assert_eq!((a.origin, a.cell), (b.origin, b.cell));
+    // And it is the full-precision field to within the compact form's rounding.
+    let full = avatar_core::canonical::SkinningField::build(body, &rest, &opts).unwrap();
     for p in rest.iter().step_by(31) {
-        let (wa, wb) = (a.weights_at(*p), b.weights_at(*p));
-        let diff: f32 = (0..NUM_JOINTS).map(|j| (wa[j] - wb[j]).abs()).sum();
-        assert!(diff < 0.05, "cached field differs by {diff}");
+        let (wa, wf) = (a.weights_at(*p), full.weights_at(*p));
+        let diff: f32 = (0..NUM_JOINTS).map(|j| (wa[j] - wf[j]).abs()).sum();
+        assert!(diff < 0.05, "the cached field differs from the built one by {diff}");
     }
     let file = std::fs::read_dir(dir.path()).unwrap().next().unwrap().unwrap().path();
     let bytes = std::fs::read(&file).unwrap();

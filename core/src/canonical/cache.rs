@@ -59,16 +59,26 @@ pub fn cached_field(body: &BodyModel, rest: &[Vec3], options: &FieldOptions, cac
             Err(e) => warning = Some(format!("discarded a bad skinning-field cache ({e}); rebuilding")),
         }
     }
-    let field = SkinningField::build(body, rest, options)?;
+    let built = SkinningField::build(body, rest, options)?;
+    // The field returned is the cache's compact form, the one a later run reads back: a first
+    // run and every later one fit the same avatar (with the full-precision field the first run
+    // of a capture differed from the rest).
+    let bytes = encode(&built);
+    let field = decode(&bytes, &path)?;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     // Caching is an optimisation: failing to write the cache is not an error for the user.
-    if let Err(e) = write_field(&path, &field) {
+    if let Err(e) = crate::io::write_bytes_atomic(&path, &bytes) {
         warning = Some(format!("could not write the skinning-field cache: {e}"));
     }
     Ok((field, warning))
 }
 
 pub fn write_field(path: &Path, f: &SkinningField) -> Result<()> {
+    crate::io::write_bytes_atomic(path, &encode(f))
+}
+
+/// A field in the cache's compact form.
+fn encode(f: &SkinningField) -> Vec<u8> {
     let mut out = Vec::with_capacity(64 + f.num_nodes() * TOP * 3);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
@@ -86,11 +96,16 @@ pub fn write_field(path: &Path, f: &SkinningField) -> Result<()> {
             out.extend_from_slice(&((w[j].clamp(0.0, 1.0) * 65535.0).round() as u16).to_le_bytes());
         }
     }
-    crate::io::write_bytes_atomic(path, &out)
+    out
 }
 
 pub fn read_field(path: &Path) -> Result<SkinningField> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    decode(&bytes, path)
+}
+
+/// A field from the cache's compact form (`path`: the file it stands for, in errors).
+fn decode(bytes: &[u8], path: &Path) -> Result<SkinningField> {
     let bad = |m: &str| Error::file(path, m.to_string());
     if bytes.len() < 36 || &bytes[..4] != MAGIC {
         return Err(bad("not a skinning-field cache file"));
