@@ -73,6 +73,13 @@ impl Predictor for NeuralRow {
         });
         if let Some(Fitted::Hyper(a)) = &mut self.fitted {
             a.resolution = self.resolution;
+            // Diagnostic: AVATAR_EVAL_SAVE=DIR keeps each fitted MetaAvatar as DIR/CAPTURE.avatar
+            // (with `--keep-captures`, `examples/posed_errors` then measures changes to posing
+            // without a refit).
+            if let (Some(dir), Some(name)) = (std::env::var_os("AVATAR_EVAL_SAVE"), data.capture_dir.file_name()) {
+                let path = std::path::Path::new(&dir).join(name).with_extension("avatar");
+                a.save(&path).map_err(|e| Error::invalid(format!("{}: {e}", path.display())))?;
+            }
         }
         Ok(())
     }
