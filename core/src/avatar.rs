@@ -32,11 +32,6 @@ impl PoseSurface {
         if let Some(smoother) = smoother {
             smoother.smooth(&mut points);
         }
-        if let Some(moves) = source.pose_displacements(params, reference, weights) {
-            for (p, d) in points.iter_mut().zip(moves) {
-                *p += d;
-            }
-        }
         Ok(PoseSurface { points, weights: weights.to_vec() })
     }
 
@@ -61,13 +56,6 @@ pub trait AvatarSource: Sync {
     fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
         self.skinning_weights(&mesh.positions)
     }
-    /// Canonical displacements of a mesh's vertices (`weights`: their skinning weights) at a
-    /// pose beyond its surface there: the swing of loose cloth (`canonical::loose_swing`).
-    /// `None`: the avatar has none.
-    fn pose_displacements(&self, _params: &BodyParams, _mesh: &[Vec3], _weights: &[Weights]) -> Option<Vec<Vec3>> {
-        None
-    }
-
     /// The smoothing an avatar gives its canonical surfaces (`canonical::offset_smoothing`),
     /// measured once for a reference mesh whose projections onto each pose's surface
     /// ([`PoseSurface::project`]) should come out as `canonical_mesh` does; `None`: none.

@@ -7,6 +7,9 @@
 //! `zero` the zero pose. PIECES=1: each frame's connected pieces, their area and the share of
 //! it farther than 2 cm from the truth.
 //! CAPTURE gives the body and the subject's shape (the capture the avatar was fitted from).
+//! An evaluation's avatars and captures: `AVATAR_EVAL_SAVE=DIR avatar-studio eval ...
+//! --keep-captures CAPS` writes DIR/NAME.avatar beside CAPS/NAME. AVATAR_POSE_AT_REST=1 poses
+//! the rest pose's canonical surface at every pose (what the pose-conditioned SDF adds).
 use avatar_core::capture::Capture;
 use avatar_core::eval::metrics::{evaluate_frame, MetricOptions, Regions};
 use avatar_core::eval::runner::{ground_truth_mesh, query};
@@ -25,20 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if args.len() < 5 {
         return Err("usage: posed_errors AVATAR CAPTURE SUBJECT OUTFIT [EVERY] [CLIP,...]".into());
     }
-    let mut avatar = avatar_neural::MetaAvatar::load(&args[1])?;
-    // RELEARN_SWING=1: learn the loose cloth's swing anew from the capture's first 8 frames
-    // (their depth points at the given fittings, the avatar's refined poses), with today's
-    // options (`AVATAR_SWING_*`).
-    if std::env::var_os("RELEARN_SWING").is_some() {
-        let points = avatar_neural::capture_points::CapturePoints::open(std::path::Path::new(&args[2]), avatar.header.frames)?;
-        let poses: Vec<_> = match &avatar.header.refined_poses {
-            Some(r) => r.iter().map(|p| p.refined.clone()).collect(),
-            None => points.frames.iter().map(|f| f.params.clone()).collect(),
-        };
-        let frames: Vec<_> = points.frames.iter().zip(poses).map(|(f, p)| (p, points.world_points(&f.points, &f.params))).collect();
-        let fit = avatar.learn_swing(&frames)?;
-        println!("swing relearned: {fit:?}");
-    }
+    let avatar = avatar_neural::MetaAvatar::load(&args[1])?;
     let capture = Capture::open(&args[2])?;
     let subject: u64 = args[3].parse()?;
     let every: usize = args.get(5).map(|s| s.parse()).transpose()?.unwrap_or(10);

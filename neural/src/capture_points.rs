@@ -162,19 +162,6 @@ impl CapturePoints {
         }
     }
 
-    /// Canonical points (normalised) forward-skinned by the field at a pose: a frame's depth
-    /// points (world, metres) again, for the pose its points were canonicalized at.
-    pub fn world_points(&self, unit: &[Vec3], params: &BodyParams) -> Vec<Vec3> {
-        use rayon::prelude::*;
-        let bones = self.body.pose(&BodyParams { betas: self.betas.clone(), ..params.clone() }).bones;
-        unit.par_iter()
-            .map(|q| {
-                let x = self.normalisation.from_unit(*q);
-                avatar_core::body::blend_transform(&bones.transforms, &self.field.weights_at(x)).transform_point3(x)
-            })
-            .collect()
-    }
-
     /// The subject's rest joints (metres).
     pub fn rest_joints(&self) -> [Vec3; NUM_JOINTS] {
         self.body.regress_joints(&self.rest)

@@ -226,11 +226,6 @@ impl GarmentSkinner {
         GarmentSkinner { body, options: GarmentSkinning::default() }
     }
 
-    /// The rest body's signed distance (what tells loose cloth from tight).
-    pub fn body(&self) -> &SignedDistance {
-        &self.body
-    }
-
     /// The weights of a canonical mesh's vertices.
     pub fn weights(&self, field: &SkinningField, mesh: &TriMesh) -> Vec<Weights> {
         garment_weights(field, &self.body, mesh, &self.options)

@@ -10,7 +10,6 @@ pub mod normalise;
 pub mod report;
 pub mod root_finding;
 pub mod garment_skinning;
-pub mod loose_swing;
 pub mod offset_smoothing;
 pub mod sheets;
 pub mod shell;
@@ -21,7 +20,6 @@ pub use canonicalize::{canonicalize_points, choose_by_agreement, choose_nearest,
 pub use field::{FieldOptions, SkinningField, FIELD_CELLS};
 pub use normalise::Normalisation;
 pub use garment_skinning::{field_weights, forward_skin_with_weights, garment_weights, inpaint_loose_weights, GarmentSkinner, GarmentSkinning};
-pub use loose_swing::{fit_loose_swing, swing_features, swing_profile, LooseSwing, SwingFit, SwingFrame, SwingOptions, SwingProfile};
 pub use offset_smoothing::{smooth_body_offsets, OffsetSmoothing, SurfaceSmoother};
 pub use sheets::{open_inner_walls, SheetOptions};
 pub use shell::{shell_samples, ShellOptions};

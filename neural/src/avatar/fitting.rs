@@ -229,32 +229,7 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
     if let Some(e) = refiner.as_ref().and_then(|r| r.errors()) {
         eprintln!("pose trace: refined: {e}\n  per joint: {}", e.per_joint());
     }
-    let mut avatar = MetaAvatar::from_fitted(capture, init, done, options.steps, &model.expect("the fit returns its network"), refiner.as_ref());
-    let mut report = FitReport::of(capture);
-    if done == options.steps {
-        learn_swing(&mut avatar, capture, &samples, refiner.as_ref(), &mut report);
-    }
-    (avatar, report)
-}
-
-/// The finished avatar learns how its loose cloth swings (`canonical::loose_swing`) from the
-/// frames' depth points at their refined poses.
-fn learn_swing(avatar: &mut MetaAvatar, capture: &CapturePoints, samples: &[crate::pose_sample::PoseSample], refiner: Option<&PoseRefiner>, report: &mut FitReport) {
-    let params: Vec<avatar_core::body::BodyParams> = match refiner {
-        Some(r) => r.refined(),
-        None => capture.frames.iter().map(|f| f.params.clone()).collect(),
-    };
-    // The samples' canonical points are the refined poses' (pose refinement canonicalises anew).
-    let frames: Vec<(avatar_core::body::BodyParams, Vec<Vec3>)> = params.into_iter().zip(samples).map(|(p, s)| (p.clone(), capture.world_points(&s.points, &p))).collect();
-    match avatar.learn_swing(&frames) {
-        Ok(Some(fit)) => {
-            if std::env::var_os("AVATAR_SWING_TRACE").is_some() {
-                eprintln!("loose swing: {} points, RMS {:.2} -> {:.2} cm, {:?}", fit.points, fit.rms_before * 100.0, fit.rms_after * 100.0, fit.swing);
-            }
-        }
-        Ok(None) => {}
-        Err(e) => report.warnings.push(format!("the loose cloth's swing was not learned: {e}")),
-    }
+    (MetaAvatar::from_fitted(capture, init, done, options.steps, &model.expect("the fit returns its network"), refiner.as_ref()), FitReport::of(capture))
 }
 
 /// The static SDF's fit: all frames pooled (the SDF ignores the pose), the capture's sign prior.

@@ -16,7 +16,7 @@ use crate::flat_params::{flatten, load_flat};
 use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
-use avatar_core::canonical::{field_weights, fit_loose_swing, forward_skin_with_weights, swing_profile, BodyWrap, GarmentSkinner, LooseSwing, Normalisation, SkinningField, SurfaceChoice, SwingFit, SwingFrame, SwingOptions};
+use avatar_core::canonical::{field_weights, forward_skin_with_weights, BodyWrap, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice};
 use crate::error::{Error, Result};
 use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::extract::extract;
@@ -89,10 +89,6 @@ pub struct MetaAvatarHeader {
     /// Each training frame's given and refined fitting (absent without pose refinement).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refined_poses: Option<Vec<RefinedPose>>,
-    /// The swing of loose cloth below the hips learned from the training frames
-    /// (`canonical::loose_swing`; absent where there is none).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub loose_swing: Option<LooseSwing>,
 }
 
 /// The bone encoder's Adam rate when fine-tuning from scratch (the reference's).
@@ -137,7 +133,6 @@ impl MetaAvatar {
             partial: PartialFit::of(done, requested),
             body: section,
             refined_poses,
-            loose_swing: None,
         };
         let wrap = Arc::new(BodyWrap::new(&body, &capture.betas));
         MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), skinner: GarmentSkinner::with_body(capture.rest_sdf.clone()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: super::header::OUTPUT_RESOLUTION, surface: SurfaceChoice::default(), wrap, decided: OnceLock::new() }
@@ -260,66 +255,16 @@ impl MetaAvatar {
         BodyParams { betas: self.header.betas.clone(), ..BodyParams::default() }
     }
 
-    /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh, its
-    /// loose cloth swung first: `canonical::loose_swing`).
+    /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh).
     pub fn posed_mesh(&self, params: &BodyParams) -> Result<TriMesh> {
-        // AVATAR_POSE_AT_REST (diagnostic): the rest pose's canonical surface at every pose.
+        // AVATAR_POSE_AT_REST (diagnostic): the rest pose's canonical surface at every pose, to
+        // measure what the pose-conditioned SDF adds (docs/evaluation.md, session 17).
         let conditioned = if std::env::var_os("AVATAR_POSE_AT_REST").is_some() { self.rest_params() } else { params.clone() };
-        let mut canonical = self.canonical_mesh_at(&conditioned, self.resolution)?;
-        let weights = self.mesh_weights(&canonical);
-        if let Some(moves) = self.swing_displacements(params, &canonical.positions, &weights) {
-            for (x, d) in canonical.positions.iter_mut().zip(moves) {
-                *x += d;
-            }
-        }
-        Ok(forward_skin_with_weights(&self.bones(params), &canonical, &weights))
-    }
-
-    /// The loose cloth's swing at a pose for canonical vertices with these weights.
-    fn swing_displacements(&self, params: &BodyParams, positions: &[Vec3], weights: &[Weights]) -> Option<Vec<Vec3>> {
-        let swing = self.swing()?;
-        let profile = swing_profile(positions, weights, self.skinner.body(), &self.rest_joints, &SwingOptions::default());
-        Some(swing.displacements(&profile, params, &self.rest_joints))
-    }
-
-    fn bones(&self, params: &BodyParams) -> avatar_core::body::Bones {
+        let canonical = self.canonical_mesh_at(&conditioned, self.resolution)?;
         let mut p = params.clone();
         p.betas = self.header.betas.clone();
-        self.body.pose(&p).bones
-    }
-
-    /// The swing posing applies (`AVATAR_NO_SWING` set: none, a diagnostic).
-    fn swing(&self) -> Option<&LooseSwing> {
-        self.header.loose_swing.as_ref().filter(|_| std::env::var_os("AVATAR_NO_SWING").is_none())
-    }
-
-    /// Learn the swing of the loose cloth below the hips from the training frames: each
-    /// frame's (refined) fitting and its depth points (world, metres). Nothing where the
-    /// avatar has no loose pieces or too few points lie on them.
-    pub fn learn_swing(&mut self, frames: &[(BodyParams, Vec<Vec3>)]) -> Result<Option<SwingFit>> {
-        if self.surface_kind() == SurfaceChoice::WrappedBody {
-            return Ok(None);
-        }
-        let options = SwingOptions::default();
-        let mut data = Vec::with_capacity(frames.len());
-        // AVATAR_SWING_REFERENCE (diagnostic): every frame's residual measured against the rest
-        // pose's canonical surface, not the frame's own pose-conditioned one.
-        let reference = match std::env::var_os("AVATAR_SWING_REFERENCE") {
-            Some(_) => Some(self.canonical_mesh_at(&self.rest_params(), self.resolution)?),
-            None => None,
-        };
-        for (params, observed) in frames {
-            let canonical = match &reference {
-                Some(mesh) => mesh.clone(),
-                None => self.canonical_mesh_at(params, self.resolution)?,
-            };
-            let weights = self.mesh_weights(&canonical);
-            let profile = swing_profile(&canonical.positions, &weights, self.skinner.body(), &self.rest_joints, &options);
-            data.push(SwingFrame { params: params.clone(), bones: self.bones(params), canonical, weights, profile, observed: observed.clone() });
-        }
-        let fit = fit_loose_swing(&data, &self.rest_joints, &options);
-        self.header.loose_swing = fit.map(|f| f.swing);
-        Ok(fit)
+        let bones = self.body.pose(&p).bones;
+        Ok(forward_skin_with_weights(&bones, &canonical, &self.mesh_weights(&canonical)))
     }
 
     /// The skinning weights of a canonical mesh of this avatar: a wrapped body's vertices (and
@@ -362,9 +307,6 @@ impl AvatarSource for MetaAvatar {
     }
     fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
         self.mesh_weights(mesh)
-    }
-    fn pose_displacements(&self, params: &BodyParams, mesh: &[Vec3], weights: &[Weights]) -> Option<Vec<Vec3>> {
-        self.swing_displacements(params, mesh, weights)
     }
     /// A wrapped body's reference (the rest pose's, as the studio and the exporter take it)
     /// keeps the body vertices its surface swallowed where they are at every pose.
