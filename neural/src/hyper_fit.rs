@@ -23,6 +23,13 @@ use crate::pose_sample::PoseSample;
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HyperFitOptions {
     pub steps: usize,
+    /// A personal avatar that has loose pieces after `steps` (a skirt, a coat's tails:
+    /// `SurfaceChoice::WrappedWithLoose`) goes on to this many times `steps` in all: such cloth
+    /// is still being reconstructed there while the body-hugging kinds have converged (user
+    /// table's dress at 512 steps: 0.841 -> 0.821 cm, spurious 10.6 -> 10.3 %; at 1,024 no
+    /// better; docs/evaluation.md, session 17). 1 or less: no more steps.
+    #[serde(default = "no_loose_extension")]
+    pub loose_step_factor: f32,
     /// Adam learning rates: heads and low-rank bases, bone encoder, the SDF's base weights.
     pub lr_heads: f64,
     pub lr_encoder: f64,
@@ -56,6 +63,7 @@ impl Default for HyperFitOptions {
         HyperFitOptions {
             // The reference's 256 epochs: with every frame in every step, one step an epoch.
             steps: 256,
+            loose_step_factor: 2.0,
             // The reference's fine-tuning rate for the hypernetwork (1e-6). 1e-5 let the heads
             // fit the training poses' residuals and lose accuracy at held-out poses (eval at
             // 256: 8-frame NC 0.875 at 1e-5, 0.837 at 1e-4).
@@ -87,7 +95,17 @@ impl Default for HyperFitOptions {
     }
 }
 
+/// Options written before the loose cloth's longer fit: none.
+fn no_loose_extension() -> f32 {
+    1.0
+}
+
 impl HyperFitOptions {
+    /// The steps a fit runs in all when its avatar has loose pieces after `steps`.
+    pub fn loose_steps(&self) -> usize {
+        if self.loose_step_factor > 1.0 { ((self.steps as f64) * self.loose_step_factor as f64).round() as usize } else { self.steps }
+    }
+
     /// The static SDF's fit with the same budget: the same steps, rate of the SDF weights, loss
     /// and points a step (all poses pooled). The static meta-SDF row of the evaluation and
     /// `fit --static` use it, so the two kinds of avatar compare like for like.

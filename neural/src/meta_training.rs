@@ -75,6 +75,8 @@ impl Default for MetaOptions {
                 off_per_pose: 500,
                 // Meta-training data has no free-space samples; 0 keeps older checkpoints' config.
                 free_space_per_pose: 0,
+                // Fine-tuning's alone; 1 keeps older checkpoints' config.
+                loose_step_factor: 1.0,
                 lr_heads: 1e-5,
                 lr_encoder: 1e-4,
                 weights: IgrWeights::default(),

@@ -26,7 +26,8 @@ pub struct Args {
     /// Use the first N usable frames.
     #[arg(long, default_value_t = 8)]
     frames: usize,
-    /// Optimisation steps (each over up to 8 frames: one epoch of the reference).
+    /// Optimisation steps (each over up to 8 frames: one epoch of the reference). A MetaAvatar
+    /// with loose cloth after them (a skirt, a coat's tails) goes on to twice as many.
     #[arg(long, default_value_t = 256)]
     steps: usize,
     /// Meta-learned model file (default: the shipped compact model).
@@ -74,8 +75,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         });
     }
     let t = Instant::now();
-    let steps = args.steps;
-    let progress = |step: usize, loss: f32, terms: [f32; 4]| {
+    // The fit's own count: an avatar with loose cloth goes on past --steps
+    // (`HyperFitOptions::loose_step_factor`).
+    let progress = |step: usize, steps: usize, loss: f32, terms: [f32; 4]| {
         let done = (step + 1) as f64 / steps as f64;
         let left = t.elapsed().as_secs_f64() * (1.0 - done) / done.max(1e-9);
         let bar: String = (0..20).map(|i| if (i as f64) < done * 20.0 { '#' } else { '.' }).collect();
@@ -103,8 +105,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let capture = CapturePoints::open_with(&args.capture, args.frames, args.body_model.as_deref())?;
     let fit = AvatarFit { kind, options, chunk: 0, cancel: Some(&cancel) };
     let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| {
-        if let FitEvent::Progress { step, loss, terms, .. } = e {
-            progress(step, loss, terms)
+        if let FitEvent::Progress { step, steps, loss, terms } = e {
+            progress(step, steps, loss, terms)
         }
     });
     avatar.save(&args.out)?;

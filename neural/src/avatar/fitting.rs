@@ -11,7 +11,7 @@ use crate::avatar::meta_avatar::{Init, MetaAvatar, SCRATCH_ENCODER_RATE};
 use crate::avatar::static_avatar::StaticAvatar;
 use crate::avatar::{AnyAvatar, PartialFit};
 use crate::capture_points::CapturePoints;
-use avatar_core::canonical::ShellOptions;
+use avatar_core::canonical::{ShellOptions, SurfaceChoice};
 use crate::fit::{fit_sdf_resuming, FitOptions, Progress, SdfOptimiser, SignPrior};
 use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
 use crate::pose_refine::{refine_round, PoseRefiner};
@@ -101,19 +101,19 @@ enum Chunk<'a> {
     Partial(usize),
 }
 
-/// The chunk loop both kinds share; returns the steps that ran. Chunks also end at the steps
+/// The chunk loop both kinds share, from step `from` to `steps`; returns the steps done. Chunks also end at the steps
 /// `breaks` names (without a partial avatar). The fit calls the sign prior once a step: its
 /// calls are the steps that ran when a cancel stops it early (neural/tests/partial_fit.rs
 /// checks the count).
 #[allow(clippy::too_many_arguments)]
-fn in_chunks(steps: usize, chunk: usize, breaks: &[usize], cancel: Option<&AtomicBool>, prior: SignPrior, on_event: &mut dyn FnMut(FitEvent), fit: &mut dyn FnMut(Chunk) -> Option<AnyAvatar>) -> usize {
+fn in_chunks(from: usize, steps: usize, chunk: usize, breaks: &[usize], cancel: Option<&AtomicBool>, prior: SignPrior, on_event: &mut dyn FnMut(FitEvent), fit: &mut dyn FnMut(Chunk) -> Option<AnyAvatar>) -> usize {
     let every = chunk_len(chunk, steps);
-    let steps_run = AtomicUsize::new(0);
+    let steps_run = AtomicUsize::new(from);
     let counted = |p: &[Vec3]| {
         steps_run.fetch_add(1, Ordering::Relaxed);
         prior(p)
     };
-    let mut done = 0;
+    let mut done = from;
     while done < steps && !cancelled(cancel) {
         let next_look = (done / every + 1) * every;
         let next_break = breaks.iter().copied().find(|&s| s > done).unwrap_or(usize::MAX);
@@ -208,7 +208,10 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
         r.redraw_shells(&ShellOptions::default());
         r.update_samples(&mut samples, encoding);
     }
-    let done = in_chunks(options.steps, chunk, &rounds, cancel, &capture.sign_prior(), on_event, &mut |c| match c {
+    // The steps in all: `options.steps`, more for loose cloth (below).
+    let total = std::cell::Cell::new(options.steps);
+    let prior = capture.sign_prior();
+    let mut run = |c: Chunk| match c {
         Chunk::Run { steps, done, prior, progress } => {
             let chunk_options = HyperFitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
             model = model.take().map(|m| fit_hyper(m, &samples, &chunk_options, &mut optimisers, &device, Some(prior), cancel, progress));
@@ -224,12 +227,25 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
             }
             None
         }
-        Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Meta(MetaAvatar::from_fitted(capture, init, done, options.steps, m, refiner.as_ref()))),
-    });
+        Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Meta(MetaAvatar::from_fitted(capture, init, done, total.get(), m, refiner.as_ref()))),
+    };
+    let mut done = in_chunks(0, options.steps, chunk, &rounds, cancel, &prior, on_event, &mut run);
+    // Loose cloth is still being reconstructed where the body-hugging kinds have converged:
+    // an avatar with loose pieces by then goes on (`HyperFitOptions::loose_step_factor`). Not
+    // from scratch: a barely trained random SDF's blobs are no cloth, and the baseline keeps
+    // the budget it is compared at.
+    let longer = if matches!(init, Init::MetaLearned(_)) { options.loose_steps() } else { options.steps };
+    if done == options.steps && longer > done && !cancelled(cancel) {
+        let has_loose = matches!(run(Chunk::Partial(done)), Some(AnyAvatar::Meta(a)) if a.surface_kind() == SurfaceChoice::WrappedWithLoose);
+        if has_loose {
+            total.set(longer);
+            done = in_chunks(done, longer, chunk, &[], cancel, &prior, on_event, &mut run);
+        }
+    }
     if let Some(e) = refiner.as_ref().and_then(|r| r.errors()) {
         eprintln!("pose trace: refined: {e}\n  per joint: {}", e.per_joint());
     }
-    (MetaAvatar::from_fitted(capture, init, done, options.steps, &model.expect("the fit returns its network"), refiner.as_ref()), FitReport::of(capture))
+    (MetaAvatar::from_fitted(capture, init, done, total.get(), &model.expect("the fit returns its network"), refiner.as_ref()), FitReport::of(capture))
 }
 
 /// The static SDF's fit: all frames pooled (the SDF ignores the pose), the capture's sign prior.
@@ -240,7 +256,7 @@ pub(crate) fn fit_static(capture: &CapturePoints, siren: SirenConfig, init: Opti
     let device = crate::compute::training_device();
     let mut model = Some(init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device));
     let mut optimiser = SdfOptimiser::default();
-    let done = in_chunks(options.steps, chunk, &[], cancel, &capture.sign_prior(), on_event, &mut |c| match c {
+    let done = in_chunks(0, options.steps, chunk, &[], cancel, &capture.sign_prior(), on_event, &mut |c| match c {
         Chunk::Run { steps, done, prior, progress } => {
             let chunk_options = FitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
             model = model.take().map(|m| fit_sdf_resuming(m, &points, &normals, &outside, &chunk_options, &mut optimiser, &device, Some(prior), cancel, progress));
@@ -295,5 +311,80 @@ impl StaticAvatar {
     /// from `HyperFitOptions::static_equivalent`).
     pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
         fit_static(capture, siren, init, options, 0, cancel, &mut progress_only(progress))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What a chunk loop asked of a stand-in fit: the runs (first step, steps), the breaks
+    /// (after step), the partial avatars (after step), and the progress events (step, total).
+    #[derive(Default)]
+    struct Calls {
+        runs: Vec<(usize, usize)>,
+        breaks: Vec<usize>,
+        partials: Vec<usize>,
+        progress: Vec<(usize, usize)>,
+    }
+
+    fn loop_calls(from: usize, steps: usize, chunk: usize, breaks: &[usize]) -> (usize, Calls) {
+        let mut calls = Calls::default();
+        let mut last_done = from;
+        let mut events = Vec::new();
+        let prior = |p: &[Vec3]| vec![0.0; p.len()];
+        let mut fit = |c: Chunk| {
+            match c {
+                Chunk::Run { steps, done, prior, progress } => {
+                    calls.runs.push((done, steps));
+                    for i in 0..steps {
+                        prior(&[]);
+                        progress(i, 0.0, [0.0; 4]);
+                    }
+                    last_done = done + steps;
+                }
+                Chunk::Break => calls.breaks.push(last_done),
+                Chunk::Partial(done) => calls.partials.push(done),
+            }
+            None
+        };
+        let done = in_chunks(from, steps, chunk, breaks, None, &prior, &mut |e| {
+            if let FitEvent::Progress { step, steps, .. } = e {
+                events.push((step, steps));
+            }
+        }, &mut fit);
+        calls.progress = events;
+        (done, calls)
+    }
+
+    /// The loose cloth's longer fit goes on where the first part stopped: chunks, partial
+    /// avatars and progress continue from that step, and progress counts to the new total.
+    #[test]
+    fn the_chunk_loop_goes_on_from_where_it_stopped_to_a_new_total() {
+        let (done, first) = loop_calls(0, 256, 64, &[16, 48]);
+        assert_eq!(done, 256);
+        assert_eq!(first.runs, [(0, 16), (16, 32), (48, 16), (64, 64), (128, 64), (192, 64)]);
+        assert_eq!(first.breaks, [16, 48]);
+        assert_eq!(first.partials, [64, 128, 192]);
+        assert_eq!(first.progress.first(), Some(&(0, 256)));
+        assert_eq!(first.progress.last(), Some(&(255, 256)));
+
+        let (done, more) = loop_calls(256, 512, 64, &[]);
+        assert_eq!(done, 512);
+        assert_eq!(more.runs, [(256, 64), (320, 64), (384, 64), (448, 64)]);
+        assert!(more.breaks.is_empty());
+        assert_eq!(more.partials, [320, 384, 448]);
+        assert_eq!(more.progress.len(), 256);
+        assert_eq!(more.progress.first(), Some(&(256, 512)));
+        assert_eq!(more.progress.last(), Some(&(511, 512)));
+    }
+
+    #[test]
+    fn loose_cloth_gets_the_factor_of_the_steps_and_a_factor_of_one_none() {
+        let o = HyperFitOptions::default();
+        assert_eq!((o.steps, o.loose_steps()), (256, 512));
+        assert_eq!(HyperFitOptions { steps: 100, loose_step_factor: 1.5, ..o.clone() }.loose_steps(), 150);
+        assert_eq!(HyperFitOptions { loose_step_factor: 1.0, ..o.clone() }.loose_steps(), 256);
+        assert_eq!(HyperFitOptions { loose_step_factor: 0.0, ..o }.loose_steps(), 256);
     }
 }
