@@ -26,8 +26,8 @@ pub struct HyperFitOptions {
     /// A personal avatar that has loose pieces after `steps` (a skirt, a coat's tails:
     /// `SurfaceChoice::WrappedWithLoose`) goes on to this many times `steps` in all: such cloth
     /// is still being reconstructed there while the body-hugging kinds have converged (user
-    /// table's dress at 512 steps: 0.841 -> 0.821 cm, spurious 10.6 -> 10.3 %; at 1,024 no
-    /// better; docs/evaluation.md, session 17). 1 or less: no more steps.
+    /// table: dress 0.841 -> 0.829 cm, spurious 10.6 -> 10.3 %; blazer 0.829 -> 0.784 cm,
+    /// 6.0 -> 5.0 %; 1,024 steps no better; docs/evaluation.md, session 17). 1 or less: no more steps.
     #[serde(default = "no_loose_extension")]
     pub loose_step_factor: f32,
     /// Adam learning rates: heads and low-rank bases, bone encoder, the SDF's base weights.
