@@ -73,10 +73,6 @@ pub fn cached_field(body: &BodyModel, rest: &[Vec3], options: &FieldOptions, cac
     Ok((field, warning))
 }
 
-pub fn write_field(path: &Path, f: &SkinningField) -> Result<()> {
-    crate::io::write_bytes_atomic(path, &encode(f))
-}
-
 /// A field in the cache's compact form.
 fn encode(f: &SkinningField) -> Vec<u8> {
     let mut out = Vec::with_capacity(64 + f.num_nodes() * TOP * 3);

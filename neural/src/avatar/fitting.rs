@@ -101,8 +101,8 @@ enum Chunk<'a> {
     Partial(usize),
 }
 
-/// The chunk loop both kinds share, from step `from` to `steps`; returns the steps done. Chunks also end at the steps
-/// `breaks` names (without a partial avatar). The fit calls the sign prior once a step: its
+/// The chunk loop both kinds share, from step `from` to `steps`; returns the steps done.
+/// Chunks also end at the steps `breaks` names (without a partial avatar). The fit calls the sign prior once a step: its
 /// calls are the steps that ran when a cancel stops it early (neural/tests/partial_fit.rs
 /// checks the count).
 #[allow(clippy::too_many_arguments)]
