@@ -10,6 +10,7 @@
 //! An evaluation's avatars and captures: `AVATAR_EVAL_SAVE=DIR avatar-studio eval ...
 //! --keep-captures CAPS` writes DIR/NAME.avatar beside CAPS/NAME. AVATAR_POSE_AT_REST=1 poses
 //! the rest pose's canonical surface at every pose (what the pose-conditioned SDF adds).
+//! RESOLUTION=N meshes the avatar on N cells.
 use avatar_core::capture::Capture;
 use avatar_core::eval::metrics::{evaluate_frame, MetricOptions, Regions};
 use avatar_core::eval::runner::{ground_truth_mesh, query};
@@ -28,7 +29,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if args.len() < 5 {
         return Err("usage: posed_errors AVATAR CAPTURE SUBJECT OUTFIT [EVERY] [CLIP,...]".into());
     }
-    let avatar = avatar_neural::MetaAvatar::load(&args[1])?;
+    let mut avatar = avatar_neural::MetaAvatar::load(&args[1])?;
+    // RESOLUTION=N: mesh on N cells instead of the output resolution (loose pieces at most
+    // `LOOSE_RESOLUTION`).
+    if let Ok(r) = std::env::var("RESOLUTION") {
+        avatar.resolution = r.parse()?;
+    }
     let capture = Capture::open(&args[2])?;
     let subject: u64 = args[3].parse()?;
     let every: usize = args.get(5).map(|s| s.parse()).transpose()?.unwrap_or(10);
