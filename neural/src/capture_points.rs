@@ -71,22 +71,46 @@ pub fn shell_samples_of(body: &SignedDistance, points: &[Vec<Vec3>], normals: &[
 /// Frames with fewer canonical points are skipped (with a warning).
 const MIN_FRAME_POINTS: usize = 50;
 
+/// How many of a capture's usable frames a fit takes: the first `at_most`, refused when fewer
+/// than `at_least` are usable (or than the capture has, when it has fewer).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameCount {
+    pub at_least: usize,
+    pub at_most: usize,
+}
+
+impl FrameCount {
+    /// `fit`'s default: up to 32 usable frames, refused under 8. Pose refinement cannot see the
+    /// error the frames' fittings share (it is also a change of the avatar's shape), and that
+    /// error averages down as 1 / sqrt(frames): fittings off by 5 deg / 2 cm cost the tight
+    /// outfit +22 % Chamfer-L2 against exact fittings with 8 frames, +4.5 % with 36, the dress
+    /// +27 % and +10 %; the fit takes a quarter (tight) to a half (dress) longer
+    /// (docs/evaluation.md, session 18).
+    pub const DEFAULT: FrameCount = FrameCount { at_least: 8, at_most: 32 };
+
+    /// Exactly `n` usable frames (`fit --frames N`).
+    pub fn exactly(n: usize) -> FrameCount {
+        FrameCount { at_least: n, at_most: n }
+    }
+}
+
 impl CapturePoints {
     /// Canonicalize the first `frames` usable frames of the capture in `dir`.
     pub fn open(dir: &Path, frames: usize) -> Result<CapturePoints> {
-        Self::open_with(dir, frames, None)
+        Self::open_with(dir, FrameCount::exactly(frames), None)
     }
 
-    /// Like [`CapturePoints::open`], with `body_model` (an SMPL npz) replacing the body model
-    /// the capture names (`fit --body-model`).
-    pub fn open_with(dir: &Path, frames: usize, body_model: Option<&Path>) -> Result<CapturePoints> {
+    /// Like [`CapturePoints::open`], for a range of frame counts, with `body_model` (an SMPL
+    /// npz) replacing the body model the capture names (`fit --body-model`).
+    pub fn open_with(dir: &Path, count: FrameCount, body_model: Option<&Path>) -> Result<CapturePoints> {
+        let (frames, at_least) = (count.at_most.max(1), count.at_least.clamp(1, count.at_most.max(1)));
         let capture = Capture::open_with(dir, &CaptureOptions { body_model: body_model.map(Path::to_path_buf), ..CaptureOptions::default() })?;
         let mut warnings: Vec<String> = capture.warnings.iter().map(|w| w.to_string()).collect();
         // Most frames without depth near the body: the one-line reason (units, camera, axes).
         warnings.extend(capture.diagnose());
         // Too few usable frames is refused here already, before the skinning field is built.
-        let opened: Vec<usize> = capture.frames.iter().map(|f| f.index).take(frames.max(1)).collect();
-        avatar_core::capture::plausibility::require_usable_frames(&capture, frames.max(1), &opened, &[])?;
+        let opened: Vec<usize> = capture.frames.iter().map(|f| f.index).take(frames).collect();
+        avatar_core::capture::plausibility::require_usable_frames(&capture, at_least, &opened, &[])?;
         let betas = capture.frames[0].params.betas.clone();
         let field_options = FieldOptions::default();
         let cache = default_cache_dir();
@@ -98,7 +122,7 @@ impl CapturePoints {
         // The first `frames` usable frames: a frame skipped here is replaced by the next one.
         let (mut used, mut skipped) = (Vec::new(), Vec::new());
         for f in &capture.frames {
-            if out.len() >= frames.max(1) {
+            if out.len() >= frames {
                 break;
             }
             let c = canon.frame(f);
@@ -114,7 +138,7 @@ impl CapturePoints {
             out.push(FramePoints { params: f.params.clone(), points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals, free_space, shells: Vec::new() });
         }
         // Fewer usable frames than asked (and than the capture has) is an error naming them.
-        avatar_core::capture::plausibility::require_usable_frames(&capture, frames.max(1), &used, &skipped)?;
+        avatar_core::capture::plausibility::require_usable_frames(&capture, at_least, &used, &skipped)?;
         let total: usize = out.iter().map(|f| f.points.len()).sum();
         if total < 100 {
             return Err(Error::invalid(format!("{}: only {total} canonical points survived; cannot fit an avatar", dir.display())));

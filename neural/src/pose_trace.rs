@@ -55,15 +55,15 @@ pub fn pose_errors(refined: &[BodyParams], truth: &[BodyParams], rest_joints: &[
     let mut mean_err = [Vec3::ZERO; NUM_JOINTS];
     let mut mean_trans = Vec3::ZERO;
     for (r, t) in refined.iter().zip(truth) {
-        for j in 0..NUM_JOINTS {
+        for (j, (per_joint, mean)) in e.per_joint_deg.iter_mut().zip(mean_err.iter_mut()).enumerate() {
             let err = joint_error(r.pose[j], t.pose[j]);
             let angle = err.length().to_degrees();
             let twist = err.dot(bone_axis(rest_joints, j)).abs().to_degrees();
-            e.per_joint_deg[j] += angle / n;
+            *per_joint += angle / n;
             e.joint_deg += angle / (n * nj);
             e.twist_deg += twist / (n * nj);
             e.swing_deg += (angle * angle - twist * twist).max(0.0).sqrt() / (n * nj);
-            mean_err[j] += err / n;
+            *mean += err / n;
         }
         e.trans_cm += (r.trans - t.trans).length() * 100.0 / n;
         mean_trans += (r.trans - t.trans) / n;

@@ -3,7 +3,7 @@
 //! with the same networks, `--static` the pose-independent SDF.
 
 use anyhow::bail;
-use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::capture_points::{CapturePoints, FrameCount};
 use avatar_neural::avatar::{fit_avatar, AnyAvatar, AvatarFit, FitEvent, FitKind};
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaModel};
 use std::io::Write;
@@ -23,9 +23,10 @@ pub struct Args {
     /// body model capture.json names. The avatar stores the subject's shaped body, not the file.
     #[arg(long)]
     body_model: Option<PathBuf>,
-    /// Use the first N usable frames.
-    #[arg(long, default_value_t = 8)]
-    frames: usize,
+    /// Use the first N usable frames (default: up to 32, refused under 8; more frames average
+    /// down the fittings' shared error, which pose refinement cannot see: docs/evaluation.md).
+    #[arg(long)]
+    frames: Option<usize>,
     /// Optimisation steps (each over up to 8 frames: one epoch of the reference). A MetaAvatar
     /// with loose cloth after them (a skirt, a coat's tails) goes on to twice as many.
     #[arg(long, default_value_t = 256)]
@@ -56,7 +57,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     args.device.select()?;
-    if args.steps == 0 || args.frames == 0 {
+    if args.steps == 0 || args.frames == Some(0) {
         bail!("--steps and --frames must be at least 1");
     }
     avatar_core::io::Inputs::new().capture(&args.capture).maybe_file(args.model.as_ref()).check_file(&args.out, &["avatar"])?;
@@ -102,7 +103,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (Some(m), true) if args.from_scratch => (FitKind::Static { siren: m.header.config.siren, init: None }, "static SDF (from scratch)".to_string()),
         (Some(m), true) => (FitKind::Static { siren: m.header.config.siren, init: Some(m.static_siren()) }, "static SDF (static meta-SDF)".to_string()),
     };
-    let capture = CapturePoints::open_with(&args.capture, args.frames, args.body_model.as_deref())?;
+    let frames = args.frames.map_or(FrameCount::DEFAULT, FrameCount::exactly);
+    let capture = CapturePoints::open_with(&args.capture, frames, args.body_model.as_deref())?;
     let fit = AvatarFit { kind, options, chunk: 0, cancel: Some(&cancel) };
     let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| {
         if let FitEvent::Progress { step, steps, loss, terms } = e {

@@ -1,0 +1,45 @@
+//! How many frames a fit takes (`FrameCount`): `fit`'s default takes up to its most and only
+//! refuses below its least; an exact count refuses fewer usable frames, naming the bad one.
+
+use avatar_core::capture::CaptureManifest;
+use avatar_neural::capture_points::{CapturePoints, FrameCount};
+use std::path::Path;
+
+/// The demo's first five frames in a new folder, frame 2's depth PNG replaced by text.
+fn five_frames_one_broken() -> tempfile::TempDir {
+    let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
+    let dir = tempfile::tempdir().unwrap();
+    let mut manifest = CaptureManifest::load(&demo).unwrap();
+    manifest.frames.truncate(5);
+    std::fs::create_dir_all(dir.path().join("depth")).unwrap();
+    for (i, f) in manifest.frames.iter().enumerate() {
+        let to = dir.path().join(&f.depth);
+        if i == 2 {
+            std::fs::write(&to, "not a png").unwrap();
+        } else {
+            std::fs::copy(demo.join(&f.depth), &to).unwrap();
+        }
+    }
+    manifest.save(dir.path()).unwrap();
+    dir
+}
+
+#[test]
+fn a_range_takes_every_usable_frame_up_to_its_most_and_an_exact_count_refuses_fewer() {
+    let dir = five_frames_one_broken();
+    // Up to 32, at least 3: the four usable frames of five, the broken one skipped.
+    let all = CapturePoints::open_with(dir.path(), FrameCount { at_least: 3, at_most: 32 }, None).unwrap();
+    assert_eq!(all.frames.len(), 4);
+    // At most 2: the first two usable frames.
+    let two = CapturePoints::open_with(dir.path(), FrameCount { at_least: 1, at_most: 2 }, None).unwrap();
+    assert_eq!(two.frames.len(), 2);
+    assert_eq!(two.frames[1].params, all.frames[1].params);
+    // Exactly 5 is more than are usable: refused, naming the capture and the broken frame.
+    let err = CapturePoints::open_with(dir.path(), FrameCount::exactly(5), None).err().expect("4 usable frames of the 5 asked is refused").to_string();
+    for want in ["capture.json", "only 4 usable frames", "of the 5 asked", "000002.png", "--frames 4"] {
+        assert!(err.contains(want), "missing {want:?} in {err}");
+    }
+    // The default asks for at least 8, or every frame of a smaller capture: 5 here, so refused too.
+    assert!(CapturePoints::open_with(dir.path(), FrameCount::DEFAULT, None).is_err());
+    assert_eq!(FrameCount::exactly(4), FrameCount { at_least: 4, at_most: 4 });
+}
