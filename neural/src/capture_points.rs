@@ -86,7 +86,13 @@ impl FrameCount {
     /// outfit +22 % Chamfer-L2 against exact fittings with 8 frames, +4.5 % with 36, the dress
     /// +27 % and +10 %; the fit takes a quarter (tight) to a half (dress) longer
     /// (docs/evaluation.md, session 18).
-    pub const DEFAULT: FrameCount = FrameCount { at_least: 8, at_most: 32 };
+    pub const DEFAULT: FrameCount = FrameCount::up_to(32);
+
+    /// Up to `n` usable frames, refused under 8 (under `n` when it is smaller): the studio's
+    /// fit panel, whose number is the most it takes.
+    pub const fn up_to(n: usize) -> FrameCount {
+        FrameCount { at_least: if n < 8 { n } else { 8 }, at_most: n }
+    }
 
     /// Exactly `n` usable frames (`fit --frames N`).
     pub fn exactly(n: usize) -> FrameCount {

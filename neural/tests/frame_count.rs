@@ -1,5 +1,6 @@
-//! How many frames a fit takes (`FrameCount`): `fit`'s default takes up to its most and only
-//! refuses below its least; an exact count refuses fewer usable frames, naming the bad one.
+//! How many frames a fit takes (`FrameCount`): `fit`'s default and the studio's panel take up
+//! to their most and only refuse below their least; an exact count (`fit --frames N`) refuses
+//! fewer usable frames, naming the bad one.
 
 use avatar_core::capture::CaptureManifest;
 use avatar_neural::capture_points::{CapturePoints, FrameCount};
@@ -42,4 +43,8 @@ fn a_range_takes_every_usable_frame_up_to_its_most_and_an_exact_count_refuses_fe
     // The default asks for at least 8, or every frame of a smaller capture: 5 here, so refused too.
     assert!(CapturePoints::open_with(dir.path(), FrameCount::DEFAULT, None).is_err());
     assert_eq!(FrameCount::exactly(4), FrameCount { at_least: 4, at_most: 4 });
+    // The studio's panel: its number is the most, and under 8 also the least.
+    assert_eq!(FrameCount::up_to(4), FrameCount::exactly(4));
+    assert_eq!(FrameCount::up_to(32), FrameCount::DEFAULT);
+    assert_eq!(FrameCount::up_to(20), FrameCount { at_least: 8, at_most: 20 });
 }

@@ -5,7 +5,7 @@ use crate::studio::avatar::{studio_avatar, CanonicalMesh, StudioAvatar};
 use crate::studio::fit_config::FitConfig;
 use crate::studio::tasks::Task;
 use avatar_neural::avatar::{fit_avatar, AvatarFit, FitEvent};
-use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::capture_points::{CapturePoints, FrameCount};
 use avatar_neural::MetaModel;
 use crossbeam_channel::Receiver;
 use std::path::{Path, PathBuf};
@@ -88,7 +88,7 @@ pub fn run_fit(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, after_chunk: &d
         return Err(crate::error::StudioError::invalid("steps, frames, points per step, width and layers must be at least 1"));
     }
     let t = Instant::now();
-    let capture = CapturePoints::open(dir, cfg.frames)?;
+    let capture = CapturePoints::open_with(dir, FrameCount::up_to(cfg.frames), None)?;
     send(JobEvent::Started { points: capture.num_points(), frames: capture.frames.len() });
     let model = MetaModel::shipped();
     let fit = AvatarFit { kind: cfg.fit_kind(&model), options: cfg.fit_options(), chunk: cfg.preview_every, cancel: Some(cancel) };

@@ -2,6 +2,7 @@
 //! `avatar_neural::avatar::fitting`.
 
 use avatar_neural::avatar::FitKind;
+use avatar_neural::capture_points::FrameCount;
 use avatar_neural::{HyperFitOptions, Init, MetaModel, SirenConfig};
 
 /// Which avatar a fit produces.
@@ -47,12 +48,12 @@ pub struct FitConfig {
 }
 
 impl Default for FitConfig {
-    /// `avatar-studio fit`'s defaults: the MetaAvatar, 8 frames, 256 steps.
+    /// `avatar-studio fit`'s defaults: the MetaAvatar, up to 32 frames, 256 steps.
     fn default() -> Self {
         let fit = HyperFitOptions::default();
         FitConfig {
             kind: AvatarKind::MetaAvatar,
-            frames: 8,
+            frames: FrameCount::DEFAULT.at_most,
             steps: fit.steps,
             hidden: 128,
             layers: 4,

@@ -141,7 +141,9 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
                 .labelled_by(l.id);
             ui.end_row();
             let l = ui.label("Frames");
-            ui.add(egui::DragValue::new(&mut cfg.frames).range(1..=64)).labelled_by(l.id);
+            ui.add(egui::DragValue::new(&mut cfg.frames).range(1..=64))
+                .on_hover_text("The most usable frames the fit takes (refused under 8, or under this number when it is smaller). More frames average down the error the fittings share, which pose refinement cannot correct.")
+                .labelled_by(l.id);
             ui.end_row();
             let l = ui.label("Steps");
             ui.add(egui::DragValue::new(&mut cfg.steps).range(1..=20000).speed(10.0)).labelled_by(l.id);
