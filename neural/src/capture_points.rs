@@ -83,8 +83,8 @@ impl FrameCount {
     /// `fit`'s default: up to 32 usable frames, refused under 8. Pose refinement cannot see the
     /// error the frames' fittings share (it is also a change of the avatar's shape), and that
     /// error averages down as 1 / sqrt(frames): fittings off by 5 deg / 2 cm cost the tight
-    /// outfit +22 % Chamfer-L2 against exact fittings with 8 frames, +4.5 % with 36, the dress
-    /// +27 % and +10 %; the fit takes a quarter (tight) to a half (dress) longer
+    /// outfit +22 % Chamfer-L2 against exact fittings with 8 frames, -2.7 % with 32, the dress
+    /// +27 % and +12.8 %; the fit takes a quarter (tight) to a half (dress) longer
     /// (docs/evaluation.md, session 18).
     pub const DEFAULT: FrameCount = FrameCount::up_to(32);
 
