@@ -12,7 +12,10 @@ fn collect(dir: &Path, root: &Path, out: &mut Vec<(String, PathBuf)>) {
         if p.is_dir() {
             collect(&p, root, out);
         } else if let Ok(rel) = p.strip_prefix(root) {
-            out.push((rel.to_string_lossy().replace('\\', "/"), p.canonicalize().unwrap_or(p.clone())));
+            out.push((
+                rel.to_string_lossy().replace('\\', "/"),
+                p.canonicalize().unwrap_or(p.clone()),
+            ));
         }
     }
 }
@@ -23,7 +26,9 @@ fn main() {
     println!("cargo:rerun-if-changed={}", root.join("depth").display());
     let mut files = Vec::new();
     collect(&root, &root, &mut files);
-    let mut src = String::from("/// The demo capture's files: (path inside the capture folder, bytes).\npub const DEMO_FILES: &[(&str, &[u8])] = &[\n");
+    let mut src = String::from(
+        "/// The demo capture's files: (path inside the capture folder, bytes).\npub const DEMO_FILES: &[(&str, &[u8])] = &[\n",
+    );
     for (rel, abs) in &files {
         writeln!(src, "    ({rel:?}, include_bytes!({:?})),", abs.display().to_string()).unwrap();
     }

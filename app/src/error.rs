@@ -82,11 +82,16 @@ mod tests {
 
     #[test]
     fn messages_name_the_file_and_keep_the_cause_once() {
-        let e = StudioError::from(avatar_core::Error::file("a/x.avatar", "bad header")).context("Could not open the avatar a/x.avatar");
+        let e = StudioError::from(avatar_core::Error::file("a/x.avatar", "bad header"))
+            .context("Could not open the avatar a/x.avatar");
         assert_eq!(e.to_string(), "Could not open the avatar a/x.avatar: a/x.avatar: bad header");
         assert!(std::error::Error::source(&e).is_none());
-        let r: Result<()> = Err(avatar_neural::Error::invalid("no frames")).context("Could not mesh the avatar");
+        let r: Result<()> =
+            Err(avatar_neural::Error::invalid("no frames")).context("Could not mesh the avatar");
         assert_eq!(r.unwrap_err().to_string(), "Could not mesh the avatar: no frames");
-        assert_eq!(StudioError::file("p.studio.json", "not a studio project").to_string(), "p.studio.json: not a studio project");
+        assert_eq!(
+            StudioError::file("p.studio.json", "not a studio project").to_string(),
+            "p.studio.json: not a studio project"
+        );
     }
 }

@@ -22,8 +22,10 @@ fn main() -> std::process::ExitCode {
 
 /// No subcommand: the studio window, with the demo capture (or the given capture/project).
 fn open_studio(args: cli::StudioArgs, started: std::time::Instant) -> anyhow::Result<()> {
-    use avatar_studio::studio::{run, StudioOptions};
-    let screenshot = args.screenshot.or_else(|| std::env::var_os("AVATAR_STUDIO_SCREENSHOT").filter(|v| !v.is_empty()).map(Into::into));
+    use avatar_studio::studio::{StudioOptions, run};
+    let screenshot = args.screenshot.or_else(|| {
+        std::env::var_os("AVATAR_STUDIO_SCREENSHOT").filter(|v| !v.is_empty()).map(Into::into)
+    });
     let (project, capture) = match args.open {
         Some(p) if p.to_string_lossy().ends_with(".studio.json") => (Some(p), None),
         Some(p) => (None, Some(p)),

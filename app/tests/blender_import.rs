@@ -40,7 +40,12 @@ fn glb_counts(path: &Path) -> (usize, usize, usize) {
     (joints, targets, samples[0])
 }
 
-fn run_check(blender: &Path, glb: &Path, expect: (usize, usize, usize), extra: &[&std::ffi::OsStr]) -> Output {
+fn run_check(
+    blender: &Path,
+    glb: &Path,
+    expect: (usize, usize, usize),
+    extra: &[&std::ffi::OsStr],
+) -> Output {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/blender/check_glb.py");
     Command::new(blender)
         .args(["-b", "--factory-startup", "--python-exit-code", "2", "--python"])
@@ -58,7 +63,10 @@ fn run_check(blender: &Path, glb: &Path, expect: (usize, usize, usize), extra: &
 fn summary(out: &Output) -> serde_json::Value {
     let stdout = String::from_utf8_lossy(&out.stdout);
     let line = stdout.lines().find_map(|l| l.strip_prefix("BLENDER_CHECK ")).unwrap_or_else(|| {
-        panic!("no BLENDER_CHECK line; stdout:\n{stdout}\nstderr:\n{}", String::from_utf8_lossy(&out.stderr))
+        panic!(
+            "no BLENDER_CHECK line; stdout:\n{stdout}\nstderr:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        )
     });
     serde_json::from_str(line).unwrap()
 }
@@ -67,9 +75,13 @@ fn summary(out: &Output) -> serde_json::Value {
 fn blender_imports_and_plays_the_exported_glb() {
     let Some(blender) = find_blender() else {
         if std::env::var_os("CI").is_some() {
-            panic!("blender is not on PATH, and CI must run the Blender import check: install it (scripts/test.sh does: apt-get install --no-install-recommends blender python3-numpy)");
+            panic!(
+                "blender is not on PATH, and CI must run the Blender import check: install it (scripts/test.sh does: apt-get install --no-install-recommends blender python3-numpy)"
+            );
         }
-        eprintln!("notice: blender not on PATH (or BLENDER unset); skipping the Blender import check (apt-get install --no-install-recommends blender python3-numpy)");
+        eprintln!(
+            "notice: blender not on PATH (or BLENDER unset); skipping the Blender import check (apt-get install --no-install-recommends blender python3-numpy)"
+        );
         return;
     };
 
@@ -77,20 +89,53 @@ fn blender_imports_and_plays_the_exported_glb() {
     let glb = dir.path().join("walk.glb");
     // A material colour of the artist's choice (the studio's View panel sets the same option).
     let color = [0.2f32, 0.5, 0.3];
-    let out = studio().args(["export", "--motion", "walk", "--frames", "12", "--targets", "16", "--color", "0.2,0.5,0.3", "--out"]).arg(&glb).output().unwrap();
+    let out = studio()
+        .args([
+            "export",
+            "--motion",
+            "walk",
+            "--frames",
+            "12",
+            "--targets",
+            "16",
+            "--color",
+            "0.2,0.5,0.3",
+            "--out",
+        ])
+        .arg(&glb)
+        .output()
+        .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let seq = dir.path().join("seq");
-    let out = studio().args(["export", "--motion", "walk", "--frames", "12", "--format", "obj", "--out"]).arg(&seq).output().unwrap();
+    let out = studio()
+        .args(["export", "--motion", "walk", "--frames", "12", "--format", "obj", "--out"])
+        .arg(&seq)
+        .output()
+        .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 
     let (joints, targets, frames) = glb_counts(&glb);
     let doc = gltf::Gltf::from_slice(&std::fs::read(&glb).unwrap()).unwrap().document;
-    let factor = doc.meshes().next().unwrap().primitives().next().unwrap().material().pbr_metallic_roughness().base_color_factor();
+    let factor = doc
+        .meshes()
+        .next()
+        .unwrap()
+        .primitives()
+        .next()
+        .unwrap()
+        .material()
+        .pbr_metallic_roughness()
+        .base_color_factor();
     assert_eq!(factor, [color[0], color[1], color[2], 1.0], "the chosen colour is in the file");
     assert_eq!((joints, frames), (24, 12));
     assert!(targets >= 2, "{targets} morph targets");
 
-    let out = run_check(&blender, &glb, (joints, targets, frames), &["--compare-obj".as_ref(), seq.as_os_str()]);
+    let out = run_check(
+        &blender,
+        &glb,
+        (joints, targets, frames),
+        &["--compare-obj".as_ref(), seq.as_os_str()],
+    );
     let s = summary(&out);
     assert!(
         out.status.success(),
@@ -111,9 +156,13 @@ fn blender_imports_and_plays_the_exported_glb() {
     assert_eq!(s["animated_shape_keys"], targets - 1);
     assert_eq!(s["import_warnings"], serde_json::json!([]), "Blender's glTF importer complained");
     assert_eq!(s["material"], "avatar", "the exported material reaches Blender");
-    let base: Vec<f64> = s["base_color"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    let base: Vec<f64> =
+        s["base_color"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
     assert_eq!(base.len(), 3);
-    assert!(base.iter().zip(color).all(|(b, e)| (b - e as f64).abs() < 1e-3), "Blender's base colour {base:?}, the chosen {color:?}");
+    assert!(
+        base.iter().zip(color).all(|(b, e)| (b - e as f64).abs() < 1e-3),
+        "Blender's base colour {base:?}, the chosen {color:?}"
+    );
     // Blender's evaluated mesh is the studio's posed mesh (12 frames, 16 targets: exact PCA).
     assert_eq!(s["obj_frames_compared"], frames);
     assert!(s["obj_max_error_mm"].as_f64().unwrap() < 0.5, "{s}");
@@ -123,6 +172,9 @@ fn blender_imports_and_plays_the_exported_glb() {
     let out = run_check(&blender, &glb, (joints + 1, targets, frames), &[]);
     assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stdout));
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(stdout.contains("BLENDER_CHECK_FAILED: joints: Blender has 24 bones, expected 25"), "{stdout}");
+    assert!(
+        stdout.contains("BLENDER_CHECK_FAILED: joints: Blender has 24 bones, expected 25"),
+        "{stdout}"
+    );
     assert_eq!(summary(&out)["ok"], false);
 }

@@ -13,9 +13,11 @@ fn body_command_poses_and_writes_obj() {
     // Left shoulder lowered 1.2 rad about z: the left hand drops well below shoulder height.
     let mut p = vec![[0.0f32; 3]; 24];
     p[16] = [0.0, 0.0, -1.2];
-    std::fs::write(&pose, serde_json::json!({"pose": p, "trans": [0.0, 1.0, 0.0]}).to_string()).unwrap();
+    std::fs::write(&pose, serde_json::json!({"pose": p, "trans": [0.0, 1.0, 0.0]}).to_string())
+        .unwrap();
     let out = dir.path().join("body.obj");
-    let status = studio().args(["body", "--pose"]).arg(&pose).arg("--out").arg(&out).status().unwrap();
+    let status =
+        studio().args(["body", "--pose"]).arg(&pose).arg("--out").arg(&out).status().unwrap();
     assert!(status.success());
     let mesh = avatar_core::mesh::io::read_obj(&out).unwrap();
     let model = avatar_core::body::open_body_ref();
@@ -36,9 +38,13 @@ fn body_command_reports_bad_pose_file_by_name() {
     let pose = dir.path().join("broken_pose.json");
     std::fs::write(&pose, "{\"pose\": [0, 0").unwrap();
     let out = dir.path().join("x.obj");
-    let result = studio().args(["body", "--pose"]).arg(&pose).arg("--out").arg(&out).output().unwrap();
+    let result =
+        studio().args(["body", "--pose"]).arg(&pose).arg("--out").arg(&out).output().unwrap();
     assert!(!result.status.success());
     let stderr = String::from_utf8_lossy(&result.stderr);
-    assert!(stderr.contains("broken_pose.json") && stderr.contains("not a valid pose JSON"), "{stderr}");
+    assert!(
+        stderr.contains("broken_pose.json") && stderr.contains("not a valid pose JSON"),
+        "{stderr}"
+    );
     assert!(!out.exists(), "no output on error");
 }

@@ -19,16 +19,26 @@ fn canonicalizes_the_demo_capture() {
         .unwrap();
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
-    assert!(stderr.contains("frame 0:") && stderr.contains("dropped by the 2 cm filter"), "{stderr}");
+    assert!(
+        stderr.contains("frame 0:") && stderr.contains("dropped by the 2 cm filter"),
+        "{stderr}"
+    );
     let text = std::fs::read(&out).unwrap();
     let header = String::from_utf8_lossy(&text[..text.len().min(400)]).to_string();
     assert!(header.contains("property float nx"), "{header}");
-    let n: usize = header.lines().find_map(|l| l.strip_prefix("element vertex ")).unwrap().trim().parse().unwrap();
+    let n: usize = header
+        .lines()
+        .find_map(|l| l.strip_prefix("element vertex "))
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
     assert!(n > 4000, "{n} points");
     // Binary PLY: x y z nx ny nz per point. Canonical points lie on the T-posed body's clothes:
     // within 5 cm of the canonical body surface for nearly all, unit normals.
     let start = text.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
-    let floats: Vec<f32> = text[start..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    let floats: Vec<f32> =
+        text[start..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
     assert_eq!(floats.len(), n * 6);
     let body = avatar_core::body::open_body_ref();
     let bvh = avatar_core::mesh::bvh::Bvh::build(&body.mesh(body.shaped_vertices(&[])));

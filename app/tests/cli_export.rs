@@ -12,21 +12,32 @@ fn studio() -> Command {
 fn exports_a_valid_glb_and_an_obj_sequence() {
     let dir = tempfile::tempdir().unwrap();
     let glb = dir.path().join("anim.glb");
-    let out = studio().args(["export", "--motion", "kick", "--frames", "15", "--targets", "16", "--out"]).arg(&glb).output().unwrap();
+    let out = studio()
+        .args(["export", "--motion", "kick", "--frames", "15", "--targets", "16", "--out"])
+        .arg(&glb)
+        .output()
+        .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("15 frames") && stdout.contains("morph targets"), "{stdout}");
     let bytes = std::fs::read(&glb).unwrap();
     assert_eq!(&bytes[..4], b"glTF");
     let validator = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/gltf-validator");
-    assert!(validator.join("node_modules/gltf-validator").exists(), "run `npm ci --prefix tests/gltf-validator` (scripts/test.sh does)");
+    assert!(
+        validator.join("node_modules/gltf-validator").exists(),
+        "run `npm ci --prefix tests/gltf-validator` (scripts/test.sh does)"
+    );
     let v = Command::new("node").arg(validator.join("validate.mjs")).arg(&glb).output().unwrap();
     let report: serde_json::Value = serde_json::from_slice(&v.stdout).unwrap();
     assert_eq!(report["issues"]["numErrors"], 0, "{}", report["issues"]["messages"]);
     assert_eq!(report["issues"]["numWarnings"], 0, "{}", report["issues"]["messages"]);
 
     let seq = dir.path().join("seq");
-    let out = studio().args(["export", "--motion", "walk", "--frames", "3", "--format", "obj", "--out"]).arg(&seq).output().unwrap();
+    let out = studio()
+        .args(["export", "--motion", "walk", "--frames", "3", "--format", "obj", "--out"])
+        .arg(&seq)
+        .output()
+        .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let mesh = avatar_core::mesh::io::read_obj(seq.join("frame_000002.obj")).unwrap();
     assert!(mesh.positions.len() > 10_000);
@@ -36,7 +47,13 @@ fn exports_a_valid_glb_and_an_obj_sequence() {
 fn bad_arguments_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let run = |args: &[&str]| {
-        let o = studio().arg("export").args(args).arg("--out").arg(dir.path().join("x.glb")).output().unwrap();
+        let o = studio()
+            .arg("export")
+            .args(args)
+            .arg("--out")
+            .arg(dir.path().join("x.glb"))
+            .output()
+            .unwrap();
         assert!(!o.status.success());
         String::from_utf8_lossy(&o.stderr).to_string()
     };

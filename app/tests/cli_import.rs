@@ -1,11 +1,16 @@
 //! `avatar-studio import scan` and `fit` on its capture, `fit` refusing a capture with
 //! translations in millimetres unless `--frames` allows it, and `export` playing a BVH file.
 
-use avatar_core::body::{open_body_ref, BodyParams};
-use avatar_core::capture::{write_depth_png, CaptureManifest, FrameRecord, Intrinsics, DEPTH_SCALE_MM};
-use avatar_core::mesh::io::write_obj;
+use avatar_core::body::{BodyParams, open_body_ref};
+use avatar_core::capture::{
+    CaptureManifest, DEPTH_SCALE_MM, FrameRecord, Intrinsics, write_depth_png,
+};
 use avatar_core::mesh::TriMesh;
-use avatar_core::synth::{canonical_surface, orbit, pose_surface, render_depth, ClothedTemplate, Outfit, PinholeCamera, PoseFeatures};
+use avatar_core::mesh::io::write_obj;
+use avatar_core::synth::{
+    ClothedTemplate, Outfit, PinholeCamera, PoseFeatures, canonical_surface, orbit, pose_surface,
+    render_depth,
+};
 use glam::Vec3;
 use std::path::Path;
 use std::process::Command;
@@ -28,13 +33,33 @@ fn a_scan_imports_into_a_capture_that_fit_takes() {
     let t = ClothedTemplate::build(body, &[], Outfit::LongsleeveTrousers);
     let posed = body.pose(&pose);
     let canonical = canonical_surface(&t, &PoseFeatures::of(&posed.bones), 1);
-    write_obj(dir.path().join("scan.obj"), &TriMesh::new(pose_surface(&t, &canonical, &posed.bones), t.faces.clone())).unwrap();
+    write_obj(
+        dir.path().join("scan.obj"),
+        &TriMesh::new(pose_surface(&t, &canonical, &posed.bones), t.faces.clone()),
+    )
+    .unwrap();
     std::fs::write(dir.path().join("pose.json"), serde_json::to_string(&pose).unwrap()).unwrap();
     let cap = dir.path().join("capture");
-    let o = studio().args(["import", "scan"]).arg(dir.path().join("scan.obj")).arg("--fitting").arg(dir.path().join("pose.json")).arg("--out").arg(&cap).args(["--views", "4", "--resolution", "128"]).output().unwrap();
+    let o = studio()
+        .args(["import", "scan"])
+        .arg(dir.path().join("scan.obj"))
+        .arg("--fitting")
+        .arg(dir.path().join("pose.json"))
+        .arg("--out")
+        .arg(&cap)
+        .args(["--views", "4", "--resolution", "128"])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("4 views"), "{}", text(&o));
-    let o = studio().arg("fit").arg(&cap).arg("--out").arg(dir.path().join("scan.avatar")).args(["--steps", "2", "--frames", "4"]).output().unwrap();
+    let o = studio()
+        .arg("fit")
+        .arg(&cap)
+        .arg("--out")
+        .arg(dir.path().join("scan.avatar"))
+        .args(["--steps", "2", "--frames", "4"])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("4 frames"), "{}", text(&o));
 }
@@ -44,7 +69,14 @@ fn fit_refuses_millimetre_translations_unless_frames_allows_it() {
     let dir = tempfile::tempdir().unwrap();
     let body = open_body_ref();
     let cam = PinholeCamera::metaavatar();
-    let intr = Intrinsics { fx: cam.fx, fy: cam.fy, cx: cam.cx, cy: cam.cy, width: cam.width, height: cam.height };
+    let intr = Intrinsics {
+        fx: cam.fx,
+        fy: cam.fy,
+        cx: cam.cx,
+        cy: cam.cy,
+        width: cam.width,
+        height: cam.height,
+    };
     let mut m = CaptureManifest::new(intr, DEPTH_SCALE_MM);
     for i in 0..4 {
         let mut p = BodyParams::default();
@@ -55,21 +87,48 @@ fn fit_refuses_millimetre_translations_unless_frames_allows_it() {
         let c2w = orbit(Vec3::new(0.0, -0.2, 0.0), 2.6, 0.5 * i as f32);
         let r = render_depth(&cam, c2w, &body.pose(&p).vertices, &body.faces);
         let name = format!("depth/{i:06}.png");
-        write_depth_png(dir.path().join(&name), &r.depth, cam.width, cam.height, DEPTH_SCALE_MM).unwrap();
-        let mut rec = FrameRecord { depth: name, mask: None, pose: Some(p.flat_pose()), shape: vec![], translation: Some((p.trans * 1000.0).to_array()), camera_to_world: None };
+        write_depth_png(dir.path().join(&name), &r.depth, cam.width, cam.height, DEPTH_SCALE_MM)
+            .unwrap();
+        let mut rec = FrameRecord {
+            depth: name,
+            mask: None,
+            pose: Some(p.flat_pose()),
+            shape: vec![],
+            translation: Some((p.trans * 1000.0).to_array()),
+            camera_to_world: None,
+        };
         rec.set_camera_to_world(c2w);
         m.frames.push(rec);
     }
     m.save(dir.path()).unwrap();
     let out = dir.path().join("mm.avatar");
-    let o = studio().arg("fit").arg(dir.path()).arg("--out").arg(&out).args(["--steps", "1"]).output().unwrap();
+    let o = studio()
+        .arg("fit")
+        .arg(dir.path())
+        .arg("--out")
+        .arg(&out)
+        .args(["--steps", "1"])
+        .output()
+        .unwrap();
     let msg = text(&o);
     assert!(!o.status.success(), "{msg}");
-    for want in ["only 1 usable frame (frame 1) of the 4 asked", "translations look like millimetres", "frame 0 (", "--frames 1"] {
+    for want in [
+        "only 1 usable frame (frame 1) of the 4 asked",
+        "translations look like millimetres",
+        "frame 0 (",
+        "--frames 1",
+    ] {
         assert!(msg.contains(want), "missing {want:?} in {msg}");
     }
     assert!(!out.exists());
-    let o = studio().arg("fit").arg(dir.path()).arg("--out").arg(&out).args(["--steps", "1", "--frames", "1"]).output().unwrap();
+    let o = studio()
+        .arg("fit")
+        .arg(dir.path())
+        .arg("--out")
+        .arg(&out)
+        .args(["--steps", "1", "--frames", "1"])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("millimetres"), "the warning stays: {}", text(&o));
 }
@@ -138,20 +197,39 @@ fn export_plays_a_bvh_file() {
     let bvh = dir.path().join("kneebend.bvh");
     std::fs::write(&bvh, BVH).unwrap();
     let seq = dir.path().join("seq");
-    let o = studio().args(["export", "--format", "obj", "--motion"]).arg(&bvh).arg("--out").arg(&seq).output().unwrap();
+    let o = studio()
+        .args(["export", "--format", "obj", "--motion"])
+        .arg(&bvh)
+        .arg("--out")
+        .arg(&seq)
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", text(&o));
     assert!(Path::new(&seq).join("frame_000003.obj").exists(), "{}", text(&o));
     let clip = avatar_core::motion::MotionClip::load(&bvh).unwrap();
     assert!((clip.fps - 60.0).abs() < 0.01 && clip.len() == 4);
     // The left knee turned 60 degrees between the first and the last frame (the hip's rest
     // correction conjugates it, the angle stays).
-    let (q0, q3) = (glam::Quat::from_scaled_axis(clip.frames[0].pose[4]), glam::Quat::from_scaled_axis(clip.frames[3].pose[4]));
+    let (q0, q3) = (
+        glam::Quat::from_scaled_axis(clip.frames[0].pose[4]),
+        glam::Quat::from_scaled_axis(clip.frames[3].pose[4]),
+    );
     let d = q0.conjugate() * q3;
     let angle = (2.0 * d.xyz().length().atan2(d.w.abs())).to_degrees();
     assert!((angle - 60.0).abs() < 0.01, "{q0} {q3}: {angle}");
     assert!((clip.frames[3].trans.z - clip.frames[0].trans.z - 0.03).abs() < 1e-5);
     // A file that is cut short is named with its line.
     std::fs::write(&bvh, BVH.rsplit_once("0 88 3").unwrap().0).unwrap();
-    let o = studio().args(["export", "--format", "obj", "--motion"]).arg(&bvh).arg("--out").arg(dir.path().join("x")).output().unwrap();
-    assert!(!o.status.success() && text(&o).contains("kneebend.bvh") && text(&o).contains("line 54"), "{}", text(&o));
+    let o = studio()
+        .args(["export", "--format", "obj", "--motion"])
+        .arg(&bvh)
+        .arg("--out")
+        .arg(dir.path().join("x"))
+        .output()
+        .unwrap();
+    assert!(
+        !o.status.success() && text(&o).contains("kneebend.bvh") && text(&o).contains("line 54"),
+        "{}",
+        text(&o)
+    );
 }

@@ -13,8 +13,18 @@ fn repo() -> PathBuf {
 }
 
 /// The command in docs/synthetic-data.md that makes assets/demo.
-pub const DEMO_ARGS: [&str; 10] =
-    ["--seed", "2024", "--outfits", "longsleeve_trousers", "--clips", "walk", "--frames-per-clip", "32", "--no-ground-truth", "--turn=45"];
+pub const DEMO_ARGS: [&str; 10] = [
+    "--seed",
+    "2024",
+    "--outfits",
+    "longsleeve_trousers",
+    "--clips",
+    "walk",
+    "--frames-per-clip",
+    "32",
+    "--no-ground-truth",
+    "--turn=45",
+];
 
 pub const MOTION_FILES: [&str; 5] = ["walk", "raise_arms", "squat", "kick", "jumping_jacks"];
 
@@ -27,7 +37,10 @@ fn listing(dir: &Path) -> Vec<(String, Vec<u8>)> {
             if p.is_dir() {
                 stack.push(p);
             } else {
-                out.push((p.strip_prefix(dir).unwrap().display().to_string(), std::fs::read(&p).unwrap()));
+                out.push((
+                    p.strip_prefix(dir).unwrap().display().to_string(),
+                    std::fs::read(&p).unwrap(),
+                ));
             }
         }
     }
@@ -43,13 +56,21 @@ fn demo_capture_regenerates_byte_for_byte() {
     let demo = repo().join("assets/demo");
     if std::env::var_os("UPDATE_ASSETS").is_some() {
         let _ = std::fs::remove_dir_all(&demo);
-        let status = studio().arg("synth").arg("--out").arg(&demo).args(DEMO_ARGS).status().unwrap();
+        let status =
+            studio().arg("synth").arg("--out").arg(&demo).args(DEMO_ARGS).status().unwrap();
         assert!(status.success());
     }
     let (a, b) = (listing(tmp.path()), listing(&demo));
-    assert_eq!(a.iter().map(|f| &f.0).collect::<Vec<_>>(), b.iter().map(|f| &f.0).collect::<Vec<_>>());
+    assert_eq!(
+        a.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        b.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
     for (x, y) in a.iter().zip(&b) {
-        assert!(x.1 == y.1, "assets/demo/{} differs from a fresh run of the documented command", x.0);
+        assert!(
+            x.1 == y.1,
+            "assets/demo/{} differs from a fresh run of the documented command",
+            x.0
+        );
     }
     // And the demo opens as a capture with every frame usable.
     let cap = avatar_core::capture::Capture::open(&demo).unwrap();
@@ -78,19 +99,42 @@ fn several_combinations_go_to_named_folders_and_bad_names_are_listed() {
         .arg("synth")
         .arg("--out")
         .arg(tmp.path())
-        .args(["--subjects", "2", "--outfits", "dress,tshirt_shorts", "--clips", "squat", "--frames-per-clip", "2"])
+        .args([
+            "--subjects",
+            "2",
+            "--outfits",
+            "dress,tshirt_shorts",
+            "--clips",
+            "squat",
+            "--frames-per-clip",
+            "2",
+        ])
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    for s in ["s00_dress_squat", "s01_dress_squat", "s00_tshirt_shorts_squat", "s01_tshirt_shorts_squat"] {
+    for s in
+        ["s00_dress_squat", "s01_dress_squat", "s00_tshirt_shorts_squat", "s01_tshirt_shorts_squat"]
+    {
         assert!(tmp.path().join(s).join("capture.json").exists(), "{s}");
         assert!(tmp.path().join(s).join("gt/frames.npz").exists(), "{s}");
     }
-    let out = studio().arg("synth").arg("--out").arg(tmp.path().join("x")).args(["--outfits", "kimono"]).output().unwrap();
+    let out = studio()
+        .arg("synth")
+        .arg("--out")
+        .arg(tmp.path().join("x"))
+        .args(["--outfits", "kimono"])
+        .output()
+        .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("kimono") && err.contains("polo_loose"), "{err}");
-    let out = studio().arg("synth").arg("--out").arg(tmp.path().join("y")).args(["--clips", "moonwalk"]).output().unwrap();
+    let out = studio()
+        .arg("synth")
+        .arg("--out")
+        .arg(tmp.path().join("y"))
+        .args(["--clips", "moonwalk"])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("moonwalk") && err.contains("squat"), "{err}");
 }

@@ -11,12 +11,12 @@
 //! the measured number is in docs/capture-format.md. The capture's depth against the scan is
 //! checked exactly in CI by core/tests/scan.rs.
 
-use avatar_core::body::{open_body_ref, BodyParams};
-use avatar_core::capture::scan::{import_scan, ScanViews};
+use avatar_core::body::{BodyParams, open_body_ref};
+use avatar_core::capture::scan::{ScanViews, import_scan};
 use avatar_core::eval::metrics::Prepared;
-use avatar_core::mesh::io::write_obj;
 use avatar_core::mesh::TriMesh;
-use avatar_core::synth::{canonical_surface, pose_surface, ClothedTemplate, Outfit, PoseFeatures};
+use avatar_core::mesh::io::write_obj;
+use avatar_core::synth::{ClothedTemplate, Outfit, PoseFeatures, canonical_surface, pose_surface};
 use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
 use glam::Vec3;
 
@@ -53,10 +53,21 @@ fn avatar_from_a_scan_is_within_1cm_chamfer() {
     let t = std::time::Instant::now();
     let model = MetaModel::shipped();
     let options = HyperFitOptions { steps: 256, seed: 0, ..HyperFitOptions::default() };
-    let (avatar, report) = MetaAvatar::fit_capture(&out, 8, &Init::MetaLearned(&model), &options, None, &mut |_, _, _| {}).unwrap();
+    let (avatar, report) = MetaAvatar::fit_capture(
+        &out,
+        8,
+        &Init::MetaLearned(&model),
+        &options,
+        None,
+        &mut |_, _, _| {},
+    )
+    .unwrap();
     let fitted = avatar.posed_mesh(&scan_pose()).unwrap();
     let (a, b) = (Prepared::new(&fitted, "avatar").unwrap(), Prepared::new(&mesh, "scan").unwrap());
-    let mean = |from: &TriMesh, to: &Prepared| from.positions.iter().map(|p| to.surface_distance(*p)).sum::<f32>() / from.positions.len() as f32;
+    let mean = |from: &TriMesh, to: &Prepared| {
+        from.positions.iter().map(|p| to.surface_distance(*p)).sum::<f32>()
+            / from.positions.len() as f32
+    };
     let (to_scan, to_avatar) = (mean(&fitted, &b), mean(&mesh, &a));
     let chamfer = 0.5 * (to_scan + to_avatar);
     println!(

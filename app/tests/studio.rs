@@ -2,8 +2,8 @@
 //! scripts/test.sh sets WGPU_BACKEND=vulkan). Snapshots live in tests/snapshots/ and are
 //! (re)written with UPDATE_SNAPSHOTS=1.
 
-use avatar_studio::studio::fit_config::FitConfig;
 use avatar_studio::studio::camera::Preset;
+use avatar_studio::studio::fit_config::FitConfig;
 use avatar_studio::studio::project::ViewMode;
 use avatar_studio::studio::settings::ScriptedDialogs;
 use avatar_studio::studio::{Command, StudioApp, StudioOptions};
@@ -17,7 +17,10 @@ use std::time::{Duration, Instant};
 const SIZE: [f32; 2] = [920.0, 560.0];
 
 fn harness(options: StudioOptions) -> Harness<'static, StudioApp> {
-    let mut h = Harness::builder().with_size(SIZE).wgpu().build_eframe(move |cc| StudioApp::new(cc, options));
+    let mut h = Harness::builder()
+        .with_size(SIZE)
+        .wgpu()
+        .build_eframe(move |cc| StudioApp::new(cc, options));
     h.state_mut().show_timings = false; // timings vary from run to run
     h
 }
@@ -83,7 +86,9 @@ fn demo_fit_and_pose_snapshots() {
     // A fine-tuning job held after its first chunk: progress, plot and the partial result.
     let dir = h.state().capture.as_ref().unwrap().dir.clone();
     let ctx = h.ctx.clone();
-    let job = avatar_studio::studio::avatar_job::FitJob::start(dir, test_fit(), move || ctx.request_repaint());
+    let job = avatar_studio::studio::avatar_job::FitJob::start(dir, test_fit(), move || {
+        ctx.request_repaint()
+    });
     job.pause();
     h.state_mut().apply(Command::WatchFit(job));
     h.state_mut().set_mode(ViewMode::Canonical);
@@ -133,8 +138,13 @@ fn demo_fit_and_pose_snapshots() {
 #[test]
 fn a_bad_capture_shows_an_error_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("capture.json"), "{ \"format\": \"avatar-studio-capture\", \"version\": 1, \"frames\": [ }").unwrap();
-    let mut h = harness(StudioOptions { capture: Some(dir.path().to_path_buf()), ..Default::default() });
+    std::fs::write(
+        dir.path().join("capture.json"),
+        "{ \"format\": \"avatar-studio-capture\", \"version\": 1, \"frames\": [ }",
+    )
+    .unwrap();
+    let mut h =
+        harness(StudioOptions { capture: Some(dir.path().to_path_buf()), ..Default::default() });
     settle(&mut h, "opening a bad capture");
     let err = h.state().error.clone().expect("an error is shown");
     assert!(err.contains("capture.json"), "{err}");
@@ -150,8 +160,14 @@ fn a_bad_capture_shows_an_error_naming_the_file() {
     for _ in 0..5 {
         h.step();
     }
-    assert!(h.state().error.is_some() && !h.state().busy(), "the error stays shown and nothing runs");
-    assert!(h.query_by_label_contains("/captures/broken/capture.json").is_some(), "the error's text is on screen before the snapshot");
+    assert!(
+        h.state().error.is_some() && !h.state().busy(),
+        "the error stays shown and nothing runs"
+    );
+    assert!(
+        h.query_by_label_contains("/captures/broken/capture.json").is_some(),
+        "the error's text is on screen before the snapshot"
+    );
     snap(&mut h, "error_bad_capture", &tolerant(200));
 }
 
@@ -205,7 +221,11 @@ fn a_whole_session_through_the_ui() {
     assert_eq!(png.len(), 1, "one screenshot");
     let img = image::open(&png[0]).expect("the screenshot is a PNG");
     let vp = h.state().viewport_rect().unwrap();
-    assert_eq!((img.width(), img.height()), (vp.width().round() as u32, vp.height().round() as u32), "the viewport is cropped");
+    assert_eq!(
+        (img.width(), img.height()),
+        (vp.width().round() as u32, vp.height().round() as u32),
+        "the viewport is cropped"
+    );
 
     // The side view with a material colour of the artist's choice (exported too).
     h.state_mut().view.material = [0.2, 0.5, 0.3];
@@ -220,21 +240,34 @@ fn a_whole_session_through_the_ui() {
     click(&mut h, "Export glTF…");
     settle(&mut h, "exporting");
     assert!(glb.exists(), "{:?}", h.state().status);
-    let g = gltf::Gltf::from_slice(&std::fs::read(&glb).expect("the glTF was written")).expect("the exported glTF parses");
+    let g = gltf::Gltf::from_slice(&std::fs::read(&glb).expect("the glTF was written"))
+        .expect("the exported glTF parses");
     let buffers = vec![g.blob.clone().expect("a binary chunk")];
     let doc = g.document;
     let anim = doc.animations().next().expect("an animation");
     let frames = h.state().timeline.frames();
     let channel = anim.channels().next().unwrap();
-    let times: Vec<f32> = channel.reader(|b| Some(&buffers[b.index()][..])).read_inputs().unwrap().collect();
+    let times: Vec<f32> =
+        channel.reader(|b| Some(&buffers[b.index()][..])).read_inputs().unwrap().collect();
     assert_eq!(times.len(), frames, "one key per clip frame");
     assert_eq!(doc.skins().next().unwrap().joints().count(), 24);
     let material = doc.meshes().next().unwrap().primitives().next().unwrap().material();
-    assert_eq!(material.pbr_metallic_roughness().base_color_factor(), [0.2, 0.5, 0.3, 1.0], "the studio's colour is exported");
+    assert_eq!(
+        material.pbr_metallic_roughness().base_color_factor(),
+        [0.2, 0.5, 0.3, 1.0],
+        "the studio's colour is exported"
+    );
     // The Khronos validator accepts it (scripts/test.sh installs it, as for the CLI's test).
     let validator = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/gltf-validator");
-    assert!(validator.join("node_modules/gltf-validator").exists(), "run `npm ci --prefix tests/gltf-validator` (scripts/test.sh does)");
-    let v = std::process::Command::new("node").arg(validator.join("validate.mjs")).arg(&glb).output().unwrap();
+    assert!(
+        validator.join("node_modules/gltf-validator").exists(),
+        "run `npm ci --prefix tests/gltf-validator` (scripts/test.sh does)"
+    );
+    let v = std::process::Command::new("node")
+        .arg(validator.join("validate.mjs"))
+        .arg(&glb)
+        .output()
+        .unwrap();
     let report: serde_json::Value = serde_json::from_slice(&v.stdout).unwrap();
     assert_eq!(report["issues"]["numErrors"], 0, "{}", report["issues"]["messages"]);
     click(&mut h, "Export OBJ…");
@@ -268,7 +301,8 @@ fn frames_with_problems_are_flagged_with_the_reason() {
     let broken = dir.path().join("depth/000003.png");
     let bytes = std::fs::read(&broken).unwrap();
     std::fs::write(&broken, &bytes[..bytes.len() / 3]).unwrap();
-    let mut h = harness(StudioOptions { capture: Some(dir.path().to_path_buf()), ..Default::default() });
+    let mut h =
+        harness(StudioOptions { capture: Some(dir.path().to_path_buf()), ..Default::default() });
     settle(&mut h, "opening a capture with a bad frame");
     let c = h.state().capture.clone().expect("the capture opens");
     assert!(h.state().error.is_none());
@@ -287,7 +321,7 @@ fn frames_with_problems_are_flagged_with_the_reason() {
 #[test]
 fn pose_dependent_avatars_are_projected_per_pose() {
     use avatar_core::export::{AvatarSource, SyntheticAvatar};
-    use avatar_studio::studio::avatar::{canonical_of, StudioAvatar};
+    use avatar_studio::studio::avatar::{StudioAvatar, canonical_of};
     use avatar_studio::studio::posing::{Posable, PoseWorker};
     use avatar_studio::studio::timeline::Timeline;
     use std::sync::Arc;
@@ -307,7 +341,13 @@ fn pose_dependent_avatars_are_projected_per_pose() {
         }
     }
     let body = avatar_core::body::open_body();
-    let synthetic = SyntheticAvatar::new(body.clone(), 2024, avatar_core::synth::Outfit::LongsleeveTrousers, &Default::default()).unwrap();
+    let synthetic = SyntheticAvatar::new(
+        body.clone(),
+        2024,
+        avatar_core::synth::Outfit::LongsleeveTrousers,
+        &Default::default(),
+    )
+    .unwrap();
     let avatar: Arc<dyn StudioAvatar> = Arc::new(Synthetic(synthetic));
     let betas = avatar.source().betas().to_vec();
     let reference = Arc::new(canonical_of(avatar.as_ref(), &betas).unwrap());
@@ -327,10 +367,18 @@ fn pose_dependent_avatars_are_projected_per_pose() {
             std::thread::sleep(Duration::from_millis(2));
         }
     };
-    let projected = pose_at(f, Posable::PoseDependent { avatar: avatar.clone(), reference: reference.clone(), rest_normals: None });
+    let projected = pose_at(
+        f,
+        Posable::PoseDependent {
+            avatar: avatar.clone(),
+            reference: reference.clone(),
+            rest_normals: None,
+        },
+    );
     let rigid = pose_at(f, Posable::Mesh(reference.clone()));
     assert_eq!(projected.len(), rigid.len());
-    let differs = projected.iter().zip(&rigid).map(|(a, b)| (*a - *b).length()).fold(0.0f32, f32::max);
+    let differs =
+        projected.iter().zip(&rigid).map(|(a, b)| (*a - *b).length()).fold(0.0f32, f32::max);
     assert!(differs > 1e-3, "the clothing follows the pose ({differs} m)");
 }
 
@@ -342,10 +390,13 @@ fn cancelled_and_dropped_jobs() {
     let private = private_demo();
     let dir = private.path().to_path_buf();
     let listing = || -> Vec<(std::path::PathBuf, u64, std::time::SystemTime)> {
-        let mut v: Vec<_> = walk(&dir).into_iter().map(|p| {
-            let m = std::fs::metadata(&p).unwrap();
-            (p, m.len(), m.modified().unwrap())
-        }).collect();
+        let mut v: Vec<_> = walk(&dir)
+            .into_iter()
+            .map(|p| {
+                let m = std::fs::metadata(&p).unwrap();
+                (p, m.len(), m.modified().unwrap())
+            })
+            .collect();
         v.sort();
         v
     };
@@ -440,7 +491,12 @@ fn playback_after_baking() {
         let s = h.state();
         assert!(s.timeline.playing);
         let posed = s.posed.as_ref().expect("a posed mesh");
-        assert_eq!(posed.id, 0, "frame {} is the baked mesh, not a live pose", s.timeline.current_frame());
+        assert_eq!(
+            posed.id,
+            0,
+            "frame {} is the baked mesh, not a live pose",
+            s.timeline.current_frame()
+        );
         assert!(s.viewport_moving, "playing redraws every frame (lavapipe: without MSAA)");
         seen.insert(s.timeline.current_frame());
     }
@@ -464,7 +520,11 @@ fn playback_after_baking() {
     assert!(moved > 0.05, "the baked frames differ by {moved} m");
     let differing = image_a.pixels().zip(image_b.pixels()).filter(|(x, y)| x != y).count();
     assert!(differing > 1000, "the viewport changed ({differing} pixels)");
-    assert!(matches!(&h.state().status, Some(avatar_studio::studio::state::Status::Info(m)) if m.starts_with("Baked 96 frames")), "{:?}", h.state().status);
+    assert!(
+        matches!(&h.state().status, Some(avatar_studio::studio::state::Status::Info(m)) if m.starts_with("Baked 96 frames")),
+        "{:?}",
+        h.state().status
+    );
     h.state_mut().status = None; // it names the bake's time
     snap(&mut h, "playback_baked", &tolerant(200));
 }
@@ -508,7 +568,11 @@ fn the_in_app_path_dialog_saves_without_a_portal() {
     // A failure is a visible message: opening a file that is not there.
     h.state_mut().apply(Command::OpenPath(dir.join("missing.avatar")));
     settle(&mut h, "opening a missing avatar");
-    assert!(h.state().error.as_deref().is_some_and(|e| e.contains("missing.avatar")), "{:?}", h.state().error);
+    assert!(
+        h.state().error.as_deref().is_some_and(|e| e.contains("missing.avatar")),
+        "{:?}",
+        h.state().error
+    );
     let _ = std::fs::remove_dir_all(&dir);
     // ? lists the shortcuts.
     h.key_press(egui::Key::Questionmark);
@@ -546,17 +610,33 @@ fn the_capture_view_shows_the_refined_pose_of_a_frame() {
     settle(&mut h, "opening the demo");
     h.state_mut().set_mode(ViewMode::Capture);
     h.state_mut().view.selected_frame = 0;
-    let given = h.state().capture.as_ref().unwrap().frames[0].params.clone().expect("the demo's frame 0 has a fitting");
+    let given = h.state().capture.as_ref().unwrap().frames[0]
+        .params
+        .clone()
+        .expect("the demo's frame 0 has a fitting");
     let before: Vec<[f32; 3]> = h.state().build_scene().vertices.iter().map(|v| v.pos).collect();
     let mut refined = given.clone();
     refined.pose[18].y += 0.5; // the left elbow, 29 degrees
     refined.trans.x += 0.05;
-    let synthetic = SyntheticAvatar::new(avatar_core::body::open_body(), 2024, avatar_core::synth::Outfit::TshirtShorts, &Default::default()).unwrap();
-    h.state_mut().avatar = Some(Arc::new(Refined(synthetic, vec![RefinedPose { given: given.clone(), refined: refined.clone() }])));
+    let synthetic = SyntheticAvatar::new(
+        avatar_core::body::open_body(),
+        2024,
+        avatar_core::synth::Outfit::TshirtShorts,
+        &Default::default(),
+    )
+    .unwrap();
+    h.state_mut().avatar = Some(Arc::new(Refined(
+        synthetic,
+        vec![RefinedPose { given: given.clone(), refined: refined.clone() }],
+    )));
     assert_eq!(h.state().refined_fitting(&given), Some(&refined));
     let after: Vec<[f32; 3]> = h.state().build_scene().vertices.iter().map(|v| v.pos).collect();
     assert_eq!(before.len(), after.len());
-    let moved = before.iter().zip(&after).map(|(a, b)| glam::Vec3::from(*a).distance(glam::Vec3::from(*b))).fold(0.0f32, f32::max);
+    let moved = before
+        .iter()
+        .zip(&after)
+        .map(|(a, b)| glam::Vec3::from(*a).distance(glam::Vec3::from(*b)))
+        .fold(0.0f32, f32::max);
     assert!(moved > 0.05, "the body moved to the refined pose ({moved} m)");
     // Another frame has no refined fitting: its body stays at the given one.
     let other = h.state().capture.as_ref().unwrap().frames[1].params.clone().unwrap();
@@ -569,8 +649,10 @@ fn the_capture_view_shows_the_refined_pose_of_a_frame() {
 /// scan without its fitting is refused with a message naming the file.
 #[test]
 fn an_obj_scan_opens_as_a_capture() {
-    use avatar_core::body::{open_body_ref, BodyParams};
-    use avatar_core::synth::{canonical_surface, pose_surface, ClothedTemplate, Outfit, PoseFeatures};
+    use avatar_core::body::{BodyParams, open_body_ref};
+    use avatar_core::synth::{
+        ClothedTemplate, Outfit, PoseFeatures, canonical_surface, pose_surface,
+    };
     use avatar_studio::studio::settings::{NoDialogs, PathPurpose};
     // A synthetic clothed person, arms lowered and turned, written as an OBJ with its fitting.
     let mut pose = BodyParams::default();
@@ -581,17 +663,25 @@ fn an_obj_scan_opens_as_a_capture() {
     let t = ClothedTemplate::build(body, &[], Outfit::PoloLoose);
     let posed = body.pose(&pose);
     let canonical = canonical_surface(&t, &PoseFeatures::of(&posed.bones), 7);
-    let mesh = avatar_core::mesh::TriMesh::new(pose_surface(&t, &canonical, &posed.bones), t.faces.clone());
+    let mesh = avatar_core::mesh::TriMesh::new(
+        pose_surface(&t, &canonical, &posed.bones),
+        t.faces.clone(),
+    );
     let dir = tempfile::tempdir().unwrap();
     let scan = dir.path().join("person.obj");
     avatar_core::mesh::io::write_obj(&scan, &mesh).unwrap();
-    std::fs::write(dir.path().join("person.pose.json"), serde_json::to_string(&pose).unwrap()).unwrap();
+    std::fs::write(dir.path().join("person.pose.json"), serde_json::to_string(&pose).unwrap())
+        .unwrap();
     let scan_bytes = std::fs::read(&scan).unwrap();
 
     let mut h = harness(StudioOptions::default());
     h.state_mut().set_dialogs(Box::new(NoDialogs));
     h.state_mut().apply(Command::AskPath(PathPurpose::OpenScan));
-    h.state_mut().path_dialog.as_mut().expect("the in-app dialog is open").go_to(dir.path().to_path_buf());
+    h.state_mut()
+        .path_dialog
+        .as_mut()
+        .expect("the in-app dialog is open")
+        .go_to(dir.path().to_path_buf());
     for _ in 0..3 {
         h.step();
     }
@@ -606,17 +696,26 @@ fn an_obj_scan_opens_as_a_capture() {
     let c = app.capture.as_ref().expect("the scan is open as a capture");
     assert_eq!((c.frames.len(), c.usable(), c.name.as_str()), (8, 8, "person.obj"));
     assert_eq!(app.capture_source.as_deref(), Some(scan.to_str().unwrap()));
-    assert!(c.dir.starts_with(avatar_studio::studio::demo::cache_dir()), "imported into the cache: {}", c.dir.display());
+    assert!(
+        c.dir.starts_with(avatar_studio::studio::demo::cache_dir()),
+        "imported into the cache: {}",
+        c.dir.display()
+    );
     // Every frame's back-projected depth lies on the scan (0.1 mm depth steps).
     let surface = avatar_core::eval::metrics::Prepared::new(&mesh, "scan").unwrap();
     for f in &c.frames {
         assert!(f.points.len() > 1000, "frame {}: {} points", f.index, f.points.len());
-        let mean = f.points.iter().map(|p| surface.surface_distance(*p)).sum::<f32>() / f.points.len() as f32;
+        let mean = f.points.iter().map(|p| surface.surface_distance(*p)).sum::<f32>()
+            / f.points.len() as f32;
         assert!(mean < 2e-3, "frame {}: the depth is {mean} m from the scan", f.index);
     }
     let capture_dir = c.dir.clone();
     assert_eq!(std::fs::read(&scan).unwrap(), scan_bytes, "the scan is only read");
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2, "nothing is written beside the scan");
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        2,
+        "nothing is written beside the scan"
+    );
     // Opened again (a typed or dropped path): the same capture, not imported again.
     h.state_mut().apply(Command::OpenPath(scan.clone()));
     settle(&mut h, "reopening the scan");
@@ -656,7 +755,11 @@ fn a_moving_view_paints_the_panels_as_egui_does() {
         h.step();
         let moving = h.render().expect("render");
         let software = h.state().viewport_moving && h.state().flat_painting();
-        assert_eq!(h.state().ui_meshes_painted, software, "the panels are ours exactly when moving on a software renderer");
+        assert_eq!(
+            h.state().ui_meshes_painted,
+            software,
+            "the panels are ours exactly when moving on a software renderer"
+        );
         let view = h.state().viewport_rect().expect("a viewport");
         let button = h.get_by_label("Turntable").rect();
         let ppp = h.ctx.pixels_per_point();
@@ -674,7 +777,10 @@ fn a_moving_view_paints_the_panels_as_egui_does() {
         }
         // Measured: none differs at all (a texture coordinate 1 % off: 12,000 pixels).
         assert!(compared > 100_000, "{compared} pixels outside the view");
-        assert!(differing <= compared / 10_000, "frame {frame}: {differing} of {compared} pixels differ by more than 8 levels (worst {worst})");
+        assert!(
+            differing <= compared / 10_000,
+            "frame {frame}: {differing} of {compared} pixels differ by more than 8 levels (worst {worst})"
+        );
         moving
     };
     let first = compare(&mut h, 0);

@@ -3,8 +3,8 @@
 //! neural avatars (crate avatar-neural) and the synthetic subjects of `export::source`
 //! implement it; the exporter and the studio's poser only ever talk to this trait.
 
+use crate::body::{BodyModel, BodyParams, NUM_JOINTS, Weights, blend_transform};
 use crate::canonical::SurfaceSmoother;
-use crate::body::{blend_transform, BodyModel, BodyParams, Weights, NUM_JOINTS};
 use crate::error::Result;
 use crate::mesh::TriMesh;
 use glam::{Mat4, Vec3};
@@ -27,7 +27,14 @@ pub struct PoseSurface {
 
 impl PoseSurface {
     /// `smoother`: the avatar's `surface_smoother` for this reference, if it has one.
-    pub fn project(source: &dyn AvatarSource, params: &BodyParams, reference: &[Vec3], weights: &[Weights], smoother: Option<&SurfaceSmoother>, steps: usize) -> Result<PoseSurface> {
+    pub fn project(
+        source: &dyn AvatarSource,
+        params: &BodyParams,
+        reference: &[Vec3],
+        weights: &[Weights],
+        smoother: Option<&SurfaceSmoother>,
+        steps: usize,
+    ) -> Result<PoseSurface> {
         let mut points = source.project(params, reference, steps)?;
         if let Some(smoother) = smoother {
             smoother.smooth(&mut points);
@@ -37,7 +44,11 @@ impl PoseSurface {
 
     /// Linear blend skinning by the pose's bone transforms: the posed points.
     pub fn skin(&self, bones: &[Mat4; NUM_JOINTS]) -> Vec<Vec3> {
-        self.points.par_iter().zip(&self.weights).map(|(v, w)| blend_transform(bones, w).transform_point3(*v)).collect()
+        self.points
+            .par_iter()
+            .zip(&self.weights)
+            .map(|(v, w)| blend_transform(bones, w).transform_point3(*v))
+            .collect()
     }
 }
 

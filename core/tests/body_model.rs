@@ -1,7 +1,7 @@
 //! Body model: the SMPL npz loader on a synthetic model written by the test (never a licensed
 //! file), pose correctives, LBS round trips, and clear errors for bad model files.
 
-use avatar_core::body::{skinning, BodyModel, BodyParams, NUM_JOINTS, SMPL_PARENTS};
+use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, SMPL_PARENTS, skinning};
 use glam::Vec3;
 use npyz::WriterBuilder;
 use rand::{Rng, SeedableRng};
@@ -24,14 +24,30 @@ struct Synthetic {
 fn rest_joints() -> [Vec3; NUM_JOINTS] {
     let mut j = [Vec3::ZERO; NUM_JOINTS];
     let offsets: [Vec3; NUM_JOINTS] = [
-        Vec3::new(0.0, 0.9, 0.0), Vec3::new(0.09, -0.08, 0.0), Vec3::new(-0.09, -0.08, 0.0),
-        Vec3::new(0.0, 0.1, 0.0), Vec3::new(0.0, -0.38, 0.0), Vec3::new(0.0, -0.38, 0.0),
-        Vec3::new(0.0, 0.13, 0.0), Vec3::new(0.0, -0.4, 0.0), Vec3::new(0.0, -0.4, 0.0),
-        Vec3::new(0.0, 0.05, 0.0), Vec3::new(0.0, -0.05, 0.12), Vec3::new(0.0, -0.05, 0.12),
-        Vec3::new(0.0, 0.2, 0.0), Vec3::new(0.07, 0.11, 0.0), Vec3::new(-0.07, 0.11, 0.0),
-        Vec3::new(0.0, 0.1, 0.0), Vec3::new(0.1, 0.02, 0.0), Vec3::new(-0.1, 0.02, 0.0),
-        Vec3::new(0.26, 0.0, 0.0), Vec3::new(-0.26, 0.0, 0.0), Vec3::new(0.25, 0.0, 0.0),
-        Vec3::new(-0.25, 0.0, 0.0), Vec3::new(0.08, 0.0, 0.0), Vec3::new(-0.08, 0.0, 0.0),
+        Vec3::new(0.0, 0.9, 0.0),
+        Vec3::new(0.09, -0.08, 0.0),
+        Vec3::new(-0.09, -0.08, 0.0),
+        Vec3::new(0.0, 0.1, 0.0),
+        Vec3::new(0.0, -0.38, 0.0),
+        Vec3::new(0.0, -0.38, 0.0),
+        Vec3::new(0.0, 0.13, 0.0),
+        Vec3::new(0.0, -0.4, 0.0),
+        Vec3::new(0.0, -0.4, 0.0),
+        Vec3::new(0.0, 0.05, 0.0),
+        Vec3::new(0.0, -0.05, 0.12),
+        Vec3::new(0.0, -0.05, 0.12),
+        Vec3::new(0.0, 0.2, 0.0),
+        Vec3::new(0.07, 0.11, 0.0),
+        Vec3::new(-0.07, 0.11, 0.0),
+        Vec3::new(0.0, 0.1, 0.0),
+        Vec3::new(0.1, 0.02, 0.0),
+        Vec3::new(-0.1, 0.02, 0.0),
+        Vec3::new(0.26, 0.0, 0.0),
+        Vec3::new(-0.26, 0.0, 0.0),
+        Vec3::new(0.25, 0.0, 0.0),
+        Vec3::new(-0.25, 0.0, 0.0),
+        Vec3::new(0.08, 0.0, 0.0),
+        Vec3::new(-0.08, 0.0, 0.0),
     ];
     for i in 0..NUM_JOINTS {
         j[i] = offsets[i] + if i == 0 { Vec3::ZERO } else { j[SMPL_PARENTS[i] as usize] };
@@ -50,7 +66,12 @@ fn synthetic(seed: u64) -> Synthetic {
     for j in 0..NUM_JOINTS {
         for i in 0..per_joint {
             let v = j * per_joint + i;
-            let p = joints[j] + Vec3::new(rng.random_range(-0.04..0.04), rng.random_range(-0.04..0.04), rng.random_range(-0.04..0.04));
+            let p = joints[j]
+                + Vec3::new(
+                    rng.random_range(-0.04..0.04),
+                    rng.random_range(-0.04..0.04),
+                    rng.random_range(-0.04..0.04),
+                );
             v_template.extend(p.to_array().map(f64::from));
             // Blend the own joint with its parent: smooth-ish multi-joint weights.
             let own = rng.random_range(0.5..1.0);
@@ -85,17 +106,35 @@ fn write_npz(path: &Path, arrays: &[(&str, Vec<u64>, Data)]) {
         for (name, shape, data) in arrays {
             match data {
                 Data::F64(d) => {
-                    let mut w = npz.array::<f64>(name, Default::default()).unwrap().default_dtype().shape(shape).begin_nd().unwrap();
+                    let mut w = npz
+                        .array::<f64>(name, Default::default())
+                        .unwrap()
+                        .default_dtype()
+                        .shape(shape)
+                        .begin_nd()
+                        .unwrap();
                     w.extend(d.iter().copied()).unwrap();
                     w.finish().unwrap();
                 }
                 Data::I64(d) => {
-                    let mut w = npz.array::<i64>(name, Default::default()).unwrap().default_dtype().shape(shape).begin_nd().unwrap();
+                    let mut w = npz
+                        .array::<i64>(name, Default::default())
+                        .unwrap()
+                        .default_dtype()
+                        .shape(shape)
+                        .begin_nd()
+                        .unwrap();
                     w.extend(d.iter().copied()).unwrap();
                     w.finish().unwrap();
                 }
                 Data::U32(d) => {
-                    let mut w = npz.array::<u32>(name, Default::default()).unwrap().default_dtype().shape(shape).begin_nd().unwrap();
+                    let mut w = npz
+                        .array::<u32>(name, Default::default())
+                        .unwrap()
+                        .default_dtype()
+                        .shape(shape)
+                        .begin_nd()
+                        .unwrap();
                     w.extend(d.iter().copied()).unwrap();
                     w.finish().unwrap();
                 }
@@ -106,7 +145,8 @@ fn write_npz(path: &Path, arrays: &[(&str, Vec<u64>, Data)]) {
 }
 
 fn kintree() -> Vec<i64> {
-    let mut k: Vec<i64> = SMPL_PARENTS.iter().map(|&p| if p < 0 { 4294967295 } else { p as i64 }).collect();
+    let mut k: Vec<i64> =
+        SMPL_PARENTS.iter().map(|&p| if p < 0 { 4294967295 } else { p as i64 }).collect();
     k.extend(0..NUM_JOINTS as i64);
     k
 }
@@ -142,7 +182,11 @@ fn write_model(path: &Path, s: &Synthetic, tamper: Option<(&str, Option<(Vec<u64
 fn random_params(rng: &mut ChaCha8Rng, k: usize, scale: f32) -> BodyParams {
     let mut p = BodyParams::default();
     for aa in p.pose.iter_mut() {
-        *aa = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) * scale;
+        *aa = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        ) * scale;
     }
     p.betas = (0..k).map(|_| rng.random_range(-2.0..2.0)).collect();
     p.trans = Vec3::new(0.3, -0.2, 1.5);
@@ -178,12 +222,19 @@ fn synthetic_smpl_npz_loads_and_poses_with_correctives() {
     let mut expected = [0f64; 3];
     for c in 0..3 {
         expected[c] = s.v_template[v * 3 + c]
-            + (0..s.k).map(|b| s.shapedirs[(v * 3 + c) * s.k + b] * params.betas[b] as f64).sum::<f64>()
+            + (0..s.k)
+                .map(|b| s.shapedirs[(v * 3 + c) * s.k + b] * params.betas[b] as f64)
+                .sum::<f64>()
             + (0..207).map(|p| s.posedirs[(v * 3 + c) * 207 + p] * feat[p] as f64).sum::<f64>();
     }
     let got = posed.rest_vertices[v];
     for c in 0..3 {
-        assert!((got[c] as f64 - expected[c]).abs() < 1e-5, "component {c}: {} vs {}", got[c], expected[c]);
+        assert!(
+            (got[c] as f64 - expected[c]).abs() < 1e-5,
+            "component {c}: {} vs {}",
+            got[c],
+            expected[c]
+        );
     }
     // The corrective is not negligible, so the check above can fail.
     let shaped = model.shaped_vertices(&params.betas);
@@ -208,7 +259,12 @@ fn lbs_pose_then_inverse_pose_round_trip_within_1e5() {
         }
         assert!(worst < 1e-5, "round trip error {worst} m");
         // And the pose really moved the body.
-        let moved = posed.vertices.iter().zip(&posed.rest_vertices).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);
+        let moved = posed
+            .vertices
+            .iter()
+            .zip(&posed.rest_vertices)
+            .map(|(a, b)| (*a - *b).length())
+            .fold(0.0, f32::max);
         assert!(moved > 0.1);
     }
 }
@@ -233,8 +289,20 @@ fn bad_model_files_name_the_problem() {
         ("shapedirs", Some((vec![5, 3, 2], vec![0.0; 30])), "'shapedirs'"),
         ("v_template", Some((vec![s.nv as u64, 2], vec![0.0; s.nv * 2])), "'v_template'"),
         ("kintree_table", Some((vec![2, 52], vec![0.0; 104])), "only SMPL's 24-joint"),
-        ("weights", Some((vec![s.nv as u64, 24], { let mut w = s.weights.clone(); w[24 * 10 + 3] = f64::NAN; w })), "'weights': contains NaN"),
-        ("weights", Some((vec![s.nv as u64, 24], s.weights.iter().map(|w| w * 2.0).collect())), "sum to 2"),
+        (
+            "weights",
+            Some((vec![s.nv as u64, 24], {
+                let mut w = s.weights.clone();
+                w[24 * 10 + 3] = f64::NAN;
+                w
+            })),
+            "'weights': contains NaN",
+        ),
+        (
+            "weights",
+            Some((vec![s.nv as u64, 24], s.weights.iter().map(|w| w * 2.0).collect())),
+            "sum to 2",
+        ),
         ("f", Some((vec![1, 3], vec![0.0, 1.0, 1e6])), "'f': face 0"),
     ];
     for (i, (key, new, expect)) in cases.into_iter().enumerate() {
@@ -248,5 +316,10 @@ fn bad_model_files_name_the_problem() {
     let junk = dir.path().join("junk.npz");
     std::fs::write(&junk, b"definitely not a zip").unwrap();
     assert!(BodyModel::load_npz(&junk).unwrap_err().to_string().contains("junk.npz"));
-    assert!(BodyModel::load_npz(dir.path().join("nope.npz")).unwrap_err().to_string().contains("nope.npz"));
+    assert!(
+        BodyModel::load_npz(dir.path().join("nope.npz"))
+            .unwrap_err()
+            .to_string()
+            .contains("nope.npz")
+    );
 }

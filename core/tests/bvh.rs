@@ -3,31 +3,91 @@
 //! skeleton; a known joint rotation lands on the right SMPL joint, the frame rate and the
 //! root translation are kept, and bad files are refused naming the file and the line.
 
-use avatar_core::body::{open_body_ref, NUM_JOINTS, SMPL_PARENTS};
+use avatar_core::body::{NUM_JOINTS, SMPL_PARENTS, open_body_ref};
+use avatar_core::motion::MotionClip;
 use avatar_core::motion::bvh::BvhFile;
 use avatar_core::motion::retarget::JointMap;
-use avatar_core::motion::MotionClip;
 use glam::{Mat3, Quat, Vec3};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 const MIXAMO: [&str; NUM_JOINTS] = [
-    "mixamorig:Hips", "mixamorig:LeftUpLeg", "mixamorig:RightUpLeg", "mixamorig:Spine", "mixamorig:LeftLeg",
-    "mixamorig:RightLeg", "mixamorig:Spine1", "mixamorig:LeftFoot", "mixamorig:RightFoot", "mixamorig:Spine2",
-    "mixamorig:LeftToeBase", "mixamorig:RightToeBase", "mixamorig:Neck", "mixamorig:LeftShoulder",
-    "mixamorig:RightShoulder", "mixamorig:Head", "mixamorig:LeftArm", "mixamorig:RightArm", "mixamorig:LeftForeArm",
-    "mixamorig:RightForeArm", "mixamorig:LeftHand", "mixamorig:RightHand", "mixamorig:LeftHandMiddle1",
+    "mixamorig:Hips",
+    "mixamorig:LeftUpLeg",
+    "mixamorig:RightUpLeg",
+    "mixamorig:Spine",
+    "mixamorig:LeftLeg",
+    "mixamorig:RightLeg",
+    "mixamorig:Spine1",
+    "mixamorig:LeftFoot",
+    "mixamorig:RightFoot",
+    "mixamorig:Spine2",
+    "mixamorig:LeftToeBase",
+    "mixamorig:RightToeBase",
+    "mixamorig:Neck",
+    "mixamorig:LeftShoulder",
+    "mixamorig:RightShoulder",
+    "mixamorig:Head",
+    "mixamorig:LeftArm",
+    "mixamorig:RightArm",
+    "mixamorig:LeftForeArm",
+    "mixamorig:RightForeArm",
+    "mixamorig:LeftHand",
+    "mixamorig:RightHand",
+    "mixamorig:LeftHandMiddle1",
     "mixamorig:RightHandMiddle1",
 ];
 const CMU: [&str; NUM_JOINTS] = [
-    "Hips", "LeftUpLeg", "RightUpLeg", "LowerBack", "LeftLeg", "RightLeg", "Spine", "LeftFoot", "RightFoot", "Spine1",
-    "LeftToeBase", "RightToeBase", "Neck", "LeftShoulder", "RightShoulder", "Head", "LeftArm", "RightArm",
-    "LeftForeArm", "RightForeArm", "LeftHand", "RightHand", "LeftFingerBase", "RightFingerBase",
+    "Hips",
+    "LeftUpLeg",
+    "RightUpLeg",
+    "LowerBack",
+    "LeftLeg",
+    "RightLeg",
+    "Spine",
+    "LeftFoot",
+    "RightFoot",
+    "Spine1",
+    "LeftToeBase",
+    "RightToeBase",
+    "Neck",
+    "LeftShoulder",
+    "RightShoulder",
+    "Head",
+    "LeftArm",
+    "RightArm",
+    "LeftForeArm",
+    "RightForeArm",
+    "LeftHand",
+    "RightHand",
+    "LeftFingerBase",
+    "RightFingerBase",
 ];
 const BLENDER: [&str; NUM_JOINTS] = [
-    "spine", "thigh.L", "thigh.R", "spine.001", "shin.L", "shin.R", "spine.002", "foot.L", "foot.R", "spine.003",
-    "toe.L", "toe.R", "spine.004", "shoulder.L", "shoulder.R", "spine.006", "upper_arm.L", "upper_arm.R", "forearm.L",
-    "forearm.R", "hand.L", "hand.R", "palm.L", "palm.R",
+    "spine",
+    "thigh.L",
+    "thigh.R",
+    "spine.001",
+    "shin.L",
+    "shin.R",
+    "spine.002",
+    "foot.L",
+    "foot.R",
+    "spine.003",
+    "toe.L",
+    "toe.R",
+    "spine.004",
+    "shoulder.L",
+    "shoulder.R",
+    "spine.006",
+    "upper_arm.L",
+    "upper_arm.R",
+    "forearm.L",
+    "forearm.R",
+    "hand.L",
+    "hand.R",
+    "palm.L",
+    "palm.R",
 ];
 
 /// How to write the test skeleton.
@@ -45,7 +105,13 @@ struct Skeleton<'a> {
 
 impl Default for Skeleton<'_> {
     fn default() -> Self {
-        Skeleton { names: MIXAMO, units: 100.0, a_pose_deg: 0.0, neck1: false, order: "Zrotation Xrotation Yrotation" }
+        Skeleton {
+            names: MIXAMO,
+            units: 100.0,
+            a_pose_deg: 0.0,
+            neck1: false,
+            order: "Zrotation Xrotation Yrotation",
+        }
     }
 }
 
@@ -75,21 +141,45 @@ fn write_bvh(s: &Skeleton, frames: &[Frame], frame_time: f32) -> String {
     let off = rest_offsets(s);
     let mut text = String::from("HIERARCHY\n");
     let mut order = Vec::new();
-    fn joint(k: usize, depth: usize, s: &Skeleton, off: &[Vec3; NUM_JOINTS], text: &mut String, order: &mut Vec<usize>) {
+    fn joint(
+        k: usize,
+        depth: usize,
+        s: &Skeleton,
+        off: &[Vec3; NUM_JOINTS],
+        text: &mut String,
+        order: &mut Vec<usize>,
+    ) {
         let pad = "  ".repeat(depth);
         let kw = if k == 0 { "ROOT" } else { "JOINT" };
         let mut o = off[k] * s.units;
         if k == 15 && s.neck1 {
             o *= 0.5;
-            let _ = writeln!(text, "{pad}JOINT Neck1\n{pad}{{\n{pad}  OFFSET {} {} {}\n{pad}  CHANNELS 3 {}", o.x, o.y, o.z, s.order);
+            let _ = writeln!(
+                text,
+                "{pad}JOINT Neck1\n{pad}{{\n{pad}  OFFSET {} {} {}\n{pad}  CHANNELS 3 {}",
+                o.x, o.y, o.z, s.order
+            );
             order.push(usize::MAX);
         }
-        let channels = if k == 0 { format!("6 Xposition Yposition Zposition {}", s.order) } else { format!("3 {}", s.order) };
-        let _ = writeln!(text, "{pad}{kw} {}\n{pad}{{\n{pad}  OFFSET {} {} {}\n{pad}  CHANNELS {channels}", s.names[k], o.x, o.y, o.z);
+        let channels = if k == 0 {
+            format!("6 Xposition Yposition Zposition {}", s.order)
+        } else {
+            format!("3 {}", s.order)
+        };
+        let _ = writeln!(
+            text,
+            "{pad}{kw} {}\n{pad}{{\n{pad}  OFFSET {} {} {}\n{pad}  CHANNELS {channels}",
+            s.names[k], o.x, o.y, o.z
+        );
         order.push(k);
-        let children: Vec<usize> = (1..NUM_JOINTS).filter(|&c| SMPL_PARENTS[c] as usize == k).collect();
+        let children: Vec<usize> =
+            (1..NUM_JOINTS).filter(|&c| SMPL_PARENTS[c] as usize == k).collect();
         if children.is_empty() {
-            let _ = writeln!(text, "{pad}  End Site\n{pad}  {{\n{pad}    OFFSET 0 0 {}\n{pad}  }}", 0.05 * s.units);
+            let _ = writeln!(
+                text,
+                "{pad}  End Site\n{pad}  {{\n{pad}    OFFSET 0 0 {}\n{pad}  }}",
+                0.05 * s.units
+            );
         }
         for c in children {
             joint(c, depth + 1, s, off, text, order);
@@ -128,7 +218,12 @@ fn channel_rotation(order: &str, e: [f32; 3]) -> Quat {
 fn standing_height(s: &Skeleton) -> f32 {
     let text = write_bvh(s, &[still(Vec3::ZERO)], 0.1);
     let b = BvhFile::parse(&text).unwrap();
-    let lo = b.rest_positions().into_iter().chain(b.rest_end_sites()).map(|p| p.y).fold(f32::INFINITY, f32::min);
+    let lo = b
+        .rest_positions()
+        .into_iter()
+        .chain(b.rest_end_sites())
+        .map(|p| p.y)
+        .fold(f32::INFINITY, f32::min);
     -lo / s.units
 }
 
@@ -161,7 +256,11 @@ fn a_joint_rotation_lands_on_the_mapped_smpl_joint() {
     let got = Quat::from_scaled_axis(clip.frames[0].pose[18]);
     assert!(angle_between(got, expect) < 0.01, "left_elbow: {got} vs {expect}");
     for j in (0..NUM_JOINTS).filter(|&j| j != 18) {
-        assert!(clip.frames[0].pose[j].length() < 1e-4, "joint {j} moved: {}", clip.frames[0].pose[j]);
+        assert!(
+            clip.frames[0].pose[j].length() < 1e-4,
+            "joint {j} moved: {}",
+            clip.frames[0].pose[j]
+        );
     }
     // Standing at the rest hips height: no translation.
     assert!(clip.frames[0].trans.length() < 1e-4, "{}", clip.frames[0].trans);
@@ -170,7 +269,11 @@ fn a_joint_rotation_lands_on_the_mapped_smpl_joint() {
 #[test]
 fn posed_joints_match_the_bvh_skeleton_for_any_channel_order() {
     let body = open_body_ref();
-    for order in ["Zrotation Xrotation Yrotation", "Xrotation Yrotation Zrotation", "Yrotation Zrotation Xrotation"] {
+    for order in [
+        "Zrotation Xrotation Yrotation",
+        "Xrotation Yrotation Zrotation",
+        "Yrotation Zrotation Xrotation",
+    ] {
         let s = Skeleton { order, ..Skeleton::default() };
         let mut f = still(Vec3::new(0.1, 0.8, -0.2));
         for (j, e) in f.euler.iter_mut().enumerate() {
@@ -198,16 +301,28 @@ fn frame_rate_units_and_root_translation_are_kept() {
     let dir = tempfile::tempdir().unwrap();
     let h = standing_height(&Skeleton::default());
     let frames = |n: usize| -> Vec<Frame> {
-        (0..n).map(|i| {
-            let t = i as f32 / 10.0;
-            let mut f = still(Vec3::new(0.3 * t, h + 0.05 * (6.0 * t).sin(), -0.8 * t));
-            f.euler[0] = [30.0 * t, 0.0, 0.0]; // Zrotation first
-            f.euler[1] = [0.0, -40.0 * t, 0.0];
-            f
-        }).collect()
+        (0..n)
+            .map(|i| {
+                let t = i as f32 / 10.0;
+                let mut f = still(Vec3::new(0.3 * t, h + 0.05 * (6.0 * t).sin(), -0.8 * t));
+                f.euler[0] = [30.0 * t, 0.0, 0.0]; // Zrotation first
+                f.euler[1] = [0.0, -40.0 * t, 0.0];
+                f
+            })
+            .collect()
     };
-    let cm = MotionClip::load(save(dir.path(), "walk_cm.bvh", &write_bvh(&Skeleton::default(), &frames(12), 1.0 / 120.0))).unwrap();
-    let m = MotionClip::load(save(dir.path(), "walk_m.bvh", &write_bvh(&Skeleton { units: 1.0, ..Skeleton::default() }, &frames(12), 1.0 / 120.0))).unwrap();
+    let cm = MotionClip::load(save(
+        dir.path(),
+        "walk_cm.bvh",
+        &write_bvh(&Skeleton::default(), &frames(12), 1.0 / 120.0),
+    ))
+    .unwrap();
+    let m = MotionClip::load(save(
+        dir.path(),
+        "walk_m.bvh",
+        &write_bvh(&Skeleton { units: 1.0, ..Skeleton::default() }, &frames(12), 1.0 / 120.0),
+    ))
+    .unwrap();
     assert!((cm.fps - 120.0).abs() < 1e-3, "{}", cm.fps);
     assert_eq!(cm.len(), 12);
     for (i, (a, b)) in cm.frames.iter().zip(&m.frames).enumerate() {
@@ -216,7 +331,10 @@ fn frame_rate_units_and_root_translation_are_kept() {
         assert!((a.trans - want).length() < 1e-4, "frame {i}: {} vs {want}", a.trans);
         assert!((a.trans - b.trans).length() < 1e-5);
         for j in 0..NUM_JOINTS {
-            assert!((a.pose[j] - b.pose[j]).length() < 1e-5, "cm and m differ at frame {i} joint {j}");
+            assert!(
+                (a.pose[j] - b.pose[j]).length() < 1e-5,
+                "cm and m differ at frame {i} joint {j}"
+            );
         }
     }
     // The root's 30 degrees a unit of t about Z (the channel order's first) is the global orientation.
@@ -240,7 +358,13 @@ fn cmu_and_blender_names_and_an_a_pose_rest() {
 
     // Blender metarig names in metres, with the left arm resting in an A-pose (45 degrees down):
     // every channel zero still shows the A-pose on the SMPL body (the rest correction).
-    let s = Skeleton { names: BLENDER, units: 1.0, a_pose_deg: 45.0, order: "Xrotation Yrotation Zrotation", ..Skeleton::default() };
+    let s = Skeleton {
+        names: BLENDER,
+        units: 1.0,
+        a_pose_deg: 45.0,
+        order: "Xrotation Yrotation Zrotation",
+        ..Skeleton::default()
+    };
     let text = write_bvh(&s, &[still(Vec3::new(0.0, standing_height(&s), 0.0))], 1.0 / 24.0);
     let bvh = BvhFile::parse(&text).unwrap();
     assert_eq!(JointMap::by_names(&bvh).unwrap().source, "blender");
@@ -270,14 +394,26 @@ fn a_mapping_file_names_an_unknown_skeleton() {
     let path = save(dir.path(), "robot.bvh", &write_bvh(&s, &[f], 1.0 / 30.0));
     let e = MotionClip::load(&path).unwrap_err().to_string();
     assert!(e.contains("robot.bvh") && e.contains("mapping file"), "{e}");
-    let joints: serde_json::Map<String, serde_json::Value> =
-        (0..NUM_JOINTS).map(|j| (names[j].to_string(), avatar_core::body::JOINT_NAMES[j].into())).collect();
-    save(dir.path(), "robot.map.json", &serde_json::json!({ "joints": joints, "scale": 0.01 }).to_string());
+    let joints: serde_json::Map<String, serde_json::Value> = (0..NUM_JOINTS)
+        .map(|j| (names[j].to_string(), avatar_core::body::JOINT_NAMES[j].into()))
+        .collect();
+    save(
+        dir.path(),
+        "robot.map.json",
+        &serde_json::json!({ "joints": joints, "scale": 0.01 }).to_string(),
+    );
     let clip = MotionClip::load(&path).unwrap();
     let got = Quat::from_scaled_axis(clip.frames[0].pose[5]);
-    assert!(angle_between(got, Quat::from_rotation_x(25f32.to_radians())) < 0.01, "right_knee {got}");
+    assert!(
+        angle_between(got, Quat::from_rotation_x(25f32.to_radians())) < 0.01,
+        "right_knee {got}"
+    );
     // A bad mapping file is named with the problem.
-    save(dir.path(), "robot.map.json", r#"{"joints": {"bone00": "pelvis", "bone01": "left_thigh"}}"#);
+    save(
+        dir.path(),
+        "robot.map.json",
+        r#"{"joints": {"bone00": "pelvis", "bone01": "left_thigh"}}"#,
+    );
     let e = MotionClip::load(&path).unwrap_err().to_string();
     assert!(e.contains("robot.map.json") && e.contains("left_thigh"), "{e}");
 }
@@ -293,28 +429,54 @@ fn bad_files_are_refused_naming_the_file_and_the_line() {
     // A truncated MOTION block (Frames: 3, two frame lines).
     let truncated = lines[..lines.len() - 1].join("\n") + "\n";
     let e = MotionClip::load(save(dir.path(), "cut.bvh", &truncated)).unwrap_err().to_string();
-    assert!(e.contains("cut.bvh") && e.contains("truncated") && e.contains(&format!("line {}", motion + 4)), "{e}");
+    assert!(
+        e.contains("cut.bvh")
+            && e.contains("truncated")
+            && e.contains(&format!("line {}", motion + 4)),
+        "{e}"
+    );
 
     // NaN in the second frame.
     let mut v: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
     let second = motion + 3; // MOTION, Frames, Frame Time, frame 0, frame 1 (0-based index motion+3)
     v[second] = v[second].replacen(" 0", " NaN", 1);
-    let e = MotionClip::load(save(dir.path(), "nan.bvh", &(v.join("\n") + "\n"))).unwrap_err().to_string();
-    assert!(e.contains("nan.bvh") && e.contains(&format!("line {}", second + 1)) && e.contains("not a finite number"), "{e}");
+    let e = MotionClip::load(save(dir.path(), "nan.bvh", &(v.join("\n") + "\n")))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("nan.bvh")
+            && e.contains(&format!("line {}", second + 1))
+            && e.contains("not a finite number"),
+        "{e}"
+    );
 
     // A joint without its CHANNELS line.
     let channels = lines.iter().position(|l| l.trim_start().starts_with("CHANNELS 3")).unwrap();
     let mut v: Vec<&str> = lines.clone();
     v.remove(channels);
-    let e = MotionClip::load(save(dir.path(), "nochan.bvh", &(v.join("\n") + "\n"))).unwrap_err().to_string();
-    assert!(e.contains("nochan.bvh") && e.contains(&format!("line {}", channels + 1)) && e.contains("CHANNELS"), "{e}");
+    let e = MotionClip::load(save(dir.path(), "nochan.bvh", &(v.join("\n") + "\n")))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("nochan.bvh")
+            && e.contains(&format!("line {}", channels + 1))
+            && e.contains("CHANNELS"),
+        "{e}"
+    );
 
     // A frame line with a missing value.
     let mut v: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
     let first = motion + 2;
     v[first] = v[first].rsplit_once(' ').unwrap().0.to_string();
-    let e = MotionClip::load(save(dir.path(), "short.bvh", &(v.join("\n") + "\n"))).unwrap_err().to_string();
-    assert!(e.contains("short.bvh") && e.contains(&format!("line {}", first + 1)) && e.contains("values"), "{e}");
+    let e = MotionClip::load(save(dir.path(), "short.bvh", &(v.join("\n") + "\n")))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("short.bvh")
+            && e.contains(&format!("line {}", first + 1))
+            && e.contains("values"),
+        "{e}"
+    );
 
     // Not a BVH file at all.
     let e = MotionClip::load(save(dir.path(), "empty.bvh", "")).unwrap_err().to_string();
@@ -327,7 +489,13 @@ fn a_retargeted_clip_is_a_valid_clip() {
     let mut f = still(Vec3::new(0.0, 1.0, 0.0));
     f.euler[0] = [170.0, -170.0, 175.0]; // large root rotations stay within pi per joint
     let bvh = BvhFile::parse(&write_bvh(&s, &[f], 0.04)).unwrap();
-    let clip = avatar_core::motion::retarget::retarget(&bvh, &JointMap::by_names(&bvh).unwrap(), open_body_ref(), "x").unwrap();
+    let clip = avatar_core::motion::retarget::retarget(
+        &bvh,
+        &JointMap::by_names(&bvh).unwrap(),
+        open_body_ref(),
+        "x",
+    )
+    .unwrap();
     clip.validate().unwrap();
     assert!(clip.frames[0].pose.iter().all(|a| a.length() <= std::f32::consts::PI + 1e-4));
 }

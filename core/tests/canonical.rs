@@ -2,7 +2,7 @@
 //! recovers known canonical points under library poses, forward-then-inverse round trips, the
 //! normalisation, the cache.
 
-use avatar_core::body::{open_body_ref, BodyParams, NUM_JOINTS};
+use avatar_core::body::{BodyParams, NUM_JOINTS, open_body_ref};
 use avatar_core::canonical::*;
 use avatar_core::motion::clip_by_name;
 use glam::Vec3;
@@ -68,23 +68,43 @@ fn root_finding_recovers_known_canonical_points() {
     // Points on and off the body (up to 10 cm out, like clothing), skipping hands and feet.
     let pts: Vec<(Vec3, Vec3)> = (0..c.rest.len())
         .step_by(53)
-        .filter(|&v| !matches!(avatar_core::body::skinning::dominant_joint(&body.weights[v]), 7 | 8 | 10 | 11 | 20 | 21 | 22 | 23))
+        .filter(|&v| {
+            !matches!(
+                avatar_core::body::skinning::dominant_joint(&body.weights[v]),
+                7 | 8 | 10 | 11 | 20 | 21 | 22 | 23
+            )
+        })
         .enumerate()
         .map(|(k, v)| (c.rest[v] + normals[v] * (0.1 * (k % 5) as f32 / 4.0), normals[v]))
         .collect();
     let (mut ok, mut total) = (0, 0);
     for p in library_poses() {
         let posed = body.pose(&p);
-        let posed_pts: Vec<Vec3> = pts.iter().map(|(x, _)| forward_point(&c.field, &posed.bones.transforms, *x)).collect();
+        let posed_pts: Vec<Vec3> =
+            pts.iter().map(|(x, _)| forward_point(&c.field, &posed.bones.transforms, *x)).collect();
         let posed_normals: Vec<Vec3> = pts.iter().map(|(_, n)| *n).collect();
-        let frame = canonicalize_points(&c.field, &posed.bones, &posed.vertices, &body.weights, &posed_pts, &posed_normals, &c.options, None);
+        let frame = canonicalize_points(
+            &c.field,
+            &posed.bones,
+            &posed.vertices,
+            &body.weights,
+            &posed_pts,
+            &posed_normals,
+            &c.options,
+            None,
+        );
         for (k, &src) in frame.source.iter().enumerate() {
             total += 1;
             if (frame.points[k] - pts[src].0).length() < 0.002 {
                 ok += 1;
             }
         }
-        assert!(frame.points.len() as f32 > 0.95 * pts.len() as f32, "{} of {} solved", frame.points.len(), pts.len());
+        assert!(
+            frame.points.len() as f32 > 0.95 * pts.len() as f32,
+            "{} of {} solved",
+            frame.points.len(),
+            pts.len()
+        );
     }
     assert!(ok as f32 > 0.95 * total as f32, "{ok} of {total} roots within 2 mm of the truth");
 }
@@ -98,14 +118,29 @@ fn forward_then_inverse_round_trip_of_a_mesh() {
     let canonical = body.mesh(c.rest.clone());
     let skinned = forward_skin_mesh(&c.field, &posed.bones, &canonical);
     // The field-skinned body is close to the body's own LBS (same weights on the surface).
-    let mut d: Vec<f32> = skinned.positions.iter().zip(&posed.vertices).map(|(a, b)| (*a - *b).length()).collect();
+    let mut d: Vec<f32> =
+        skinned.positions.iter().zip(&posed.vertices).map(|(a, b)| (*a - *b).length()).collect();
     d.sort_by(f32::total_cmp);
     assert!(d[d.len() / 2] < 0.005, "median {}", d[d.len() / 2]);
     let sample: Vec<usize> = (0..skinned.positions.len()).step_by(97).collect();
     let pts: Vec<Vec3> = sample.iter().map(|&i| skinned.positions[i]).collect();
     let ns = vec![Vec3::Y; pts.len()];
-    let frame = canonicalize_points(&c.field, &posed.bones, &posed.vertices, &body.weights, &pts, &ns, &c.options, None);
-    let back = frame.source.iter().zip(&frame.points).filter(|(s, x)| (**x - c.rest[sample[**s]]).length() < 0.002).count();
+    let frame = canonicalize_points(
+        &c.field,
+        &posed.bones,
+        &posed.vertices,
+        &body.weights,
+        &pts,
+        &ns,
+        &c.options,
+        None,
+    );
+    let back = frame
+        .source
+        .iter()
+        .zip(&frame.points)
+        .filter(|(s, x)| (**x - c.rest[sample[**s]]).length() < 0.002)
+        .count();
     assert!(back as f32 > 0.95 * pts.len() as f32, "{back} of {}", pts.len());
     assert_eq!(frame.dropped, 0);
 }
@@ -128,7 +163,8 @@ fn cache_round_trip_and_corrupt_cache_rebuilt() {
     let dir = tempfile::tempdir().unwrap();
     let body = open_body_ref();
     let rest = body.shaped_vertices(&[]);
-    let opts = FieldOptions { cells_along_height: 40, smoothing_iterations: 4, ..FieldOptions::default() };
+    let opts =
+        FieldOptions { cells_along_height: 40, smoothing_iterations: 4, ..FieldOptions::default() };
     let (a, w) = cached_field(body, &rest, &opts, Some(dir.path())).unwrap();
     assert!(w.is_none());
     let (b, w) = cached_field(body, &rest, &opts, Some(dir.path())).unwrap();
@@ -163,25 +199,61 @@ fn roots_of_a_squat_and_a_bend_stay_on_the_body() {
     use avatar_core::capture::Capture;
     use avatar_core::mesh::bvh::Bvh;
     use avatar_core::motion::MotionClip;
-    use avatar_core::synth::{generate_capture, Outfit, SynthJob};
-    let frames: Vec<BodyParams> = ["squat", "bend"].iter().map(|n| clip_by_name(n).unwrap()).map(|c| c.frames[c.len() / 2].clone()).collect();
+    use avatar_core::synth::{Outfit, SynthJob, generate_capture};
+    let frames: Vec<BodyParams> = ["squat", "bend"]
+        .iter()
+        .map(|n| clip_by_name(n).unwrap())
+        .map(|c| c.frames[c.len() / 2].clone())
+        .collect();
     let dir = std::env::temp_dir().join(format!("canonical-squat-{}", std::process::id()));
-    let mut job = SynthJob::new(1001, Outfit::LongsleeveTrousers, MotionClip::new("deep", 30.0, frames));
+    let mut job =
+        SynthJob::new(1001, Outfit::LongsleeveTrousers, MotionClip::new("deep", 30.0, frames));
     job.write_ground_truth = false;
     generate_capture(&dir, open_body_ref(), &job).unwrap();
     let capture = Capture::open(&dir).unwrap();
-    let c = Canonicalizer::new(open_body_ref(), &capture.frames[0].params.betas, &FieldOptions::default(), None).unwrap();
+    let c = Canonicalizer::new(
+        open_body_ref(),
+        &capture.frames[0].params.betas,
+        &FieldOptions::default(),
+        None,
+    )
+    .unwrap();
     let rest_surface = Bvh::build(&open_body_ref().mesh(c.rest.clone()));
-    let far_share = |points: &[Vec3]| points.iter().filter(|p| rest_surface.closest_point(**p).is_none_or(|h| h.distance > 0.10)).count() as f32 / points.len().max(1) as f32;
+    let far_share = |points: &[Vec3]| {
+        points
+            .iter()
+            .filter(|p| rest_surface.closest_point(**p).is_none_or(|h| h.distance > 0.10))
+            .count() as f32
+            / points.len().max(1) as f32
+    };
     for frame in &capture.frames {
         let kept = c.frame(frame);
         assert!(kept.points.len() > 1000, "{} points kept", kept.points.len());
         let now = far_share(&kept.points);
-        assert!(now < 0.005, "frame {}: {:.1} % of the canonical points lie more than 10 cm off the body", frame.index, now * 100.0);
+        assert!(
+            now < 0.005,
+            "frame {}: {:.1} % of the canonical points lie more than 10 cm off the body",
+            frame.index,
+            now * 100.0
+        );
         // The old choice on the same frame: the test would fail with it.
         let posed = open_body_ref().pose(&frame.params);
-        let old = canonicalize_points(&c.field, &posed.bones, &posed.vertices, &open_body_ref().weights, &frame.points, &frame.normals, &c.options, None);
-        assert!(far_share(&old.points) > 0.03, "frame {}: the agreement choice kept {:.1} % far points", frame.index, far_share(&old.points) * 100.0);
+        let old = canonicalize_points(
+            &c.field,
+            &posed.bones,
+            &posed.vertices,
+            &open_body_ref().weights,
+            &frame.points,
+            &frame.normals,
+            &c.options,
+            None,
+        );
+        assert!(
+            far_share(&old.points) > 0.03,
+            "frame {}: the agreement choice kept {:.1} % far points",
+            frame.index,
+            far_share(&old.points) * 100.0
+        );
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -2,15 +2,22 @@
 //! check the points lie on the body; every kind of bad input gives a warning or an error that
 //! names the frame and the file.
 
-use avatar_core::body::{open_body_ref, BodyParams};
+use avatar_core::body::{BodyParams, open_body_ref};
 use avatar_core::capture::*;
 use avatar_core::mesh::bvh::Bvh;
-use avatar_core::synth::{orbit, render_depth, PinholeCamera};
+use avatar_core::synth::{PinholeCamera, orbit, render_depth};
 use glam::{Mat4, Vec3};
 use std::path::Path;
 
 fn intrinsics(cam: &PinholeCamera) -> Intrinsics {
-    Intrinsics { fx: cam.fx, fy: cam.fy, cx: cam.cx, cy: cam.cy, width: cam.width, height: cam.height }
+    Intrinsics {
+        fx: cam.fx,
+        fy: cam.fy,
+        cx: cam.cx,
+        cy: cam.cy,
+        width: cam.width,
+        height: cam.height,
+    }
 }
 
 fn pose(i: usize) -> BodyParams {
@@ -38,15 +45,28 @@ fn write_capture(dir: &Path, n: usize, with_scene: bool) -> (CaptureManifest, Ve
             let base = positions.len() as u32;
             // A floor under the feet (kept beyond the near plane) and a wall 1.5 m behind the body.
             positions.extend([
-                Vec3::new(-1.5, feet, -1.2), Vec3::new(1.5, feet, -1.2), Vec3::new(1.5, feet, 1.0), Vec3::new(-1.5, feet, 1.0),
-                Vec3::new(-2.0, -1.0, -1.5), Vec3::new(2.0, -1.0, -1.5), Vec3::new(2.0, 2.0, -1.5), Vec3::new(-2.0, 2.0, -1.5),
+                Vec3::new(-1.5, feet, -1.2),
+                Vec3::new(1.5, feet, -1.2),
+                Vec3::new(1.5, feet, 1.0),
+                Vec3::new(-1.5, feet, 1.0),
+                Vec3::new(-2.0, -1.0, -1.5),
+                Vec3::new(2.0, -1.0, -1.5),
+                Vec3::new(2.0, 2.0, -1.5),
+                Vec3::new(-2.0, 2.0, -1.5),
             ]);
-            faces.extend([[base, base + 2, base + 1], [base, base + 3, base + 2], [base + 4, base + 5, base + 6], [base + 4, base + 6, base + 7]]);
+            faces.extend([
+                [base, base + 2, base + 1],
+                [base, base + 3, base + 2],
+                [base + 4, base + 5, base + 6],
+                [base + 4, base + 6, base + 7],
+            ]);
         }
-        let c2w = orbit(Vec3::new(0.0, -0.2, 0.0), 2.6, 0.3 * i as f32) * Mat4::from_translation(Vec3::new(0.0, 0.0, 0.0));
+        let c2w = orbit(Vec3::new(0.0, -0.2, 0.0), 2.6, 0.3 * i as f32)
+            * Mat4::from_translation(Vec3::new(0.0, 0.0, 0.0));
         let render = render_depth(&cam, c2w, &positions, &faces);
         let name = format!("depth/{i:06}.png");
-        write_depth_png(dir.join(&name), &render.depth, cam.width, cam.height, DEPTH_SCALE_MM).unwrap();
+        write_depth_png(dir.join(&name), &render.depth, cam.width, cam.height, DEPTH_SCALE_MM)
+            .unwrap();
         let mut rec = FrameRecord {
             depth: name,
             mask: None,
@@ -75,7 +95,8 @@ fn back_projected_points_lie_on_the_posed_body() {
         let posed = body.pose(&f.params);
         let mesh = body.mesh(posed.vertices);
         let bvh = Bvh::build(&mesh);
-        let mut d: Vec<f32> = f.points.iter().map(|&p| bvh.closest_point(p).unwrap().distance).collect();
+        let mut d: Vec<f32> =
+            f.points.iter().map(|&p| bvh.closest_point(p).unwrap().distance).collect();
         d.sort_by(f32::total_cmp);
         let median = d[d.len() / 2];
         assert!(f.points.len() > 3000, "{} points", f.points.len());
@@ -91,7 +112,11 @@ fn back_projected_points_lie_on_the_posed_body() {
                 agree += 1;
             }
         }
-        assert!(agree as f32 > 0.85 * f.points.len() as f32, "{agree} of {} normals agree", f.points.len());
+        assert!(
+            agree as f32 > 0.85 * f.points.len() as f32,
+            "{agree} of {} normals agree",
+            f.points.len()
+        );
     }
 }
 
@@ -116,7 +141,11 @@ fn floor_and_wall_are_cropped_away() {
 }
 
 fn warning_for(cap: &Capture, frame: usize) -> String {
-    cap.warnings.iter().find(|w| w.index == frame).map(|w| w.to_string()).unwrap_or_else(|| panic!("no warning for frame {frame}: {:?}", cap.warnings))
+    cap.warnings
+        .iter()
+        .find(|w| w.index == frame)
+        .map(|w| w.to_string())
+        .unwrap_or_else(|| panic!("no warning for frame {frame}: {:?}", cap.warnings))
 }
 
 #[test]
@@ -128,9 +157,17 @@ fn every_bad_frame_is_named_and_good_frames_survive() {
     // 5: NaN in the fitting. 6: no fitting. 7: fitting far from the points (empty crop).
     std::fs::remove_file(d.join(&m.frames[1].depth)).unwrap();
     std::fs::write(d.join(&m.frames[2].depth), b"not a png at all").unwrap();
-    write_depth_png(d.join(&m.frames[3].depth), &vec![2.0; 100 * 80], 100, 80, DEPTH_SCALE_MM).unwrap();
+    write_depth_png(d.join(&m.frames[3].depth), &vec![2.0; 100 * 80], 100, 80, DEPTH_SCALE_MM)
+        .unwrap();
     let img = read_depth_png(d.join(&m.frames[4].depth), DEPTH_SCALE_MM).unwrap();
-    write_depth_png(d.join(&m.frames[4].depth), &img.metres, img.width, img.height, DEPTH_SCALE_MM * 10.0).unwrap();
+    write_depth_png(
+        d.join(&m.frames[4].depth),
+        &img.metres,
+        img.width,
+        img.height,
+        DEPTH_SCALE_MM * 10.0,
+    )
+    .unwrap();
     m.frames[6].pose = None;
     m.frames[7].translation = Some([3.0, 0.0, 0.0]);
     m.save(d).unwrap();
@@ -144,7 +181,10 @@ fn every_bad_frame_is_named_and_good_frames_survive() {
     assert_eq!(cap.frames.iter().map(|f| f.index).collect::<Vec<_>>(), vec![0]);
     assert_eq!(cap.warnings.len(), 7);
     let w = warning_for(&cap, 1);
-    assert!(w.contains("000001.png") && (w.contains("No such file") || w.contains("not found")), "{w}");
+    assert!(
+        w.contains("000001.png") && (w.contains("No such file") || w.contains("not found")),
+        "{w}"
+    );
     let w = warning_for(&cap, 2);
     assert!(w.contains("000002.png") && w.contains("PNG"), "{w}");
     let w = warning_for(&cap, 3);
@@ -167,7 +207,12 @@ fn mostly_zero_depth_and_all_bad_captures() {
     zero[0] = 2.0;
     write_depth_png(dir.path().join(&m.frames[0].depth), &zero, 250, 250, DEPTH_SCALE_MM).unwrap();
     let err = Capture::open(dir.path()).unwrap_err().to_string();
-    assert!(err.contains("capture.json") && err.contains("no usable frame") && err.contains("zero almost everywhere"), "{err}");
+    assert!(
+        err.contains("capture.json")
+            && err.contains("no usable frame")
+            && err.contains("zero almost everywhere"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -175,7 +220,11 @@ fn bad_manifests_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let err = Capture::open(dir.path()).unwrap_err().to_string();
     assert!(err.contains("capture.json"), "{err}");
-    std::fs::write(dir.path().join(MANIFEST_FILE), "{\"format\": \"avatar-studio-capture\", \"version\": 1").unwrap();
+    std::fs::write(
+        dir.path().join(MANIFEST_FILE),
+        "{\"format\": \"avatar-studio-capture\", \"version\": 1",
+    )
+    .unwrap();
     let err = Capture::open(dir.path()).unwrap_err().to_string();
     assert!(err.contains("capture.json") && err.contains("not a valid capture manifest"), "{err}");
     let json = r#"{"format":"avatar-studio-capture","version":1,"intrinsics":{"fx":250,"fy":250,"cx":125,"cy":125,"width":250,"height":250},"depth_scale":1000,"frames":[]}"#;
@@ -190,7 +239,8 @@ fn tum_depth_scale_reads_the_same_points() {
     let (mut m, _) = write_capture(dir.path(), 1, false);
     let a = Capture::open(dir.path()).unwrap();
     let img = read_depth_png(dir.path().join(&m.frames[0].depth), DEPTH_SCALE_MM).unwrap();
-    write_depth_png(dir.path().join(&m.frames[0].depth), &img.metres, 250, 250, DEPTH_SCALE_TUM).unwrap();
+    write_depth_png(dir.path().join(&m.frames[0].depth), &img.metres, 250, 250, DEPTH_SCALE_TUM)
+        .unwrap();
     m.depth_scale = DEPTH_SCALE_TUM;
     m.save(dir.path()).unwrap();
     let b = Capture::open(dir.path()).unwrap();

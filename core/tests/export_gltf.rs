@@ -2,7 +2,7 @@
 //! with the gltf crate (skinning the rest mesh with the exported morph weights and joint
 //! rotations) reproduces the studio's posed mesh of every frame within 2 mm.
 
-use avatar_core::body::{open_body_ref, NUM_JOINTS};
+use avatar_core::body::{NUM_JOINTS, open_body_ref};
 use avatar_core::canonical::FieldOptions;
 use avatar_core::export::*;
 use avatar_core::motion::clip_by_name;
@@ -12,11 +12,22 @@ use std::path::Path;
 use std::process::Command;
 
 fn tiny_export(outfit: Outfit, frames: usize, targets: usize) -> Exported {
-    let avatar = SyntheticAvatar::new(open_body_ref().clone(), 5, outfit, &FieldOptions { cells_along_height: 64, ..FieldOptions::default() }).unwrap();
+    let avatar = SyntheticAvatar::new(
+        open_body_ref().clone(),
+        5,
+        outfit,
+        &FieldOptions { cells_along_height: 64, ..FieldOptions::default() },
+    )
+    .unwrap();
     let clip = clip_by_name("squat").unwrap();
     let step = clip.len() / frames;
-    let clip = avatar_core::motion::MotionClip::new("squat", clip.fps / step as f32, clip.frames.iter().step_by(step).take(frames).cloned().collect());
-    export_glb(&avatar, &clip, &ExportOptions { max_targets: targets, ..ExportOptions::default() }).unwrap()
+    let clip = avatar_core::motion::MotionClip::new(
+        "squat",
+        clip.fps / step as f32,
+        clip.frames.iter().step_by(step).take(frames).cloned().collect(),
+    );
+    export_glb(&avatar, &clip, &ExportOptions { max_targets: targets, ..ExportOptions::default() })
+        .unwrap()
 }
 
 /// Run the Khronos validator (Node) on a GLB; returns (errors, warnings, messages).
@@ -26,10 +37,20 @@ pub fn validate(glb: &Path) -> (u64, u64, String) {
         dir.join("node_modules/gltf-validator").exists(),
         "the glTF validator is not installed: run `npm ci --prefix tests/gltf-validator` (scripts/test.sh does)"
     );
-    let out = Command::new("node").arg(dir.join("validate.mjs")).arg(glb).output().expect("node runs (scripts/test.sh installs nodejs)");
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("validator output: {e}: {}", String::from_utf8_lossy(&out.stderr)));
+    let out = Command::new("node")
+        .arg(dir.join("validate.mjs"))
+        .arg(glb)
+        .output()
+        .expect("node runs (scripts/test.sh installs nodejs)");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!("validator output: {e}: {}", String::from_utf8_lossy(&out.stderr))
+    });
     let issues = &report["issues"];
-    (issues["numErrors"].as_u64().unwrap(), issues["numWarnings"].as_u64().unwrap(), issues["messages"].to_string())
+    (
+        issues["numErrors"].as_u64().unwrap(),
+        issues["numWarnings"].as_u64().unwrap(),
+        issues["messages"].to_string(),
+    )
 }
 
 #[test]
@@ -54,18 +75,29 @@ fn viewer_pose(doc: &gltf::Document, buffers: &[Vec<u8>], f: usize) -> Vec<Vec3>
     let base: Vec<Vec3> = reader.read_positions().unwrap().map(Vec3::from_array).collect();
     let joints: Vec<[u16; 4]> = reader.read_joints(0).unwrap().into_u16().collect();
     let weights: Vec<[f32; 4]> = reader.read_weights(0).unwrap().into_f32().collect();
-    let targets: Vec<Vec<Vec3>> = reader.read_morph_targets().map(|(p, _, _)| p.unwrap().map(Vec3::from_array).collect()).collect();
+    let targets: Vec<Vec<Vec3>> = reader
+        .read_morph_targets()
+        .map(|(p, _, _)| p.unwrap().map(Vec3::from_array).collect())
+        .collect();
     // Animated values at keyframe f.
     let anim = doc.animations().next().unwrap();
     let mut rot = vec![Quat::IDENTITY; NUM_JOINTS];
-    let mut trans: Vec<Vec3> = doc.nodes().take(NUM_JOINTS).map(|n| Vec3::from_array(n.transform().decomposed().0)).collect();
+    let mut trans: Vec<Vec3> = doc
+        .nodes()
+        .take(NUM_JOINTS)
+        .map(|n| Vec3::from_array(n.transform().decomposed().0))
+        .collect();
     let mut morph_w = Vec::new();
     for ch in anim.channels() {
         let r = ch.reader(buf);
         let node = ch.target().node().index();
         match r.read_outputs().unwrap() {
-            gltf::animation::util::ReadOutputs::Rotations(q) => rot[node] = Quat::from_array(q.into_f32().nth(f).unwrap()),
-            gltf::animation::util::ReadOutputs::Translations(t) => trans[node] = Vec3::from_array(t.into_iter().nth(f).unwrap()),
+            gltf::animation::util::ReadOutputs::Rotations(q) => {
+                rot[node] = Quat::from_array(q.into_f32().nth(f).unwrap())
+            }
+            gltf::animation::util::ReadOutputs::Translations(t) => {
+                trans[node] = Vec3::from_array(t.into_iter().nth(f).unwrap())
+            }
             gltf::animation::util::ReadOutputs::MorphTargetWeights(w) => {
                 let all: Vec<f32> = w.into_f32().collect();
                 morph_w = all[f * targets.len()..(f + 1) * targets.len()].to_vec();
@@ -81,7 +113,12 @@ fn viewer_pose(doc: &gltf::Document, buffers: &[Vec<u8>], f: usize) -> Vec<Vec3>
         world[j] = if parent < 0 { local } else { world[parent as usize] * local };
     }
     let skin = doc.skins().next().unwrap();
-    let ibm: Vec<Mat4> = skin.reader(buf).read_inverse_bind_matrices().unwrap().map(|m| Mat4::from_cols_array_2d(&m)).collect();
+    let ibm: Vec<Mat4> = skin
+        .reader(buf)
+        .read_inverse_bind_matrices()
+        .unwrap()
+        .map(|m| Mat4::from_cols_array_2d(&m))
+        .collect();
     let joint_nodes: Vec<usize> = skin.joints().map(|n| n.index()).collect();
     base.iter()
         .enumerate()
@@ -108,7 +145,10 @@ fn round_trip_reproduces_the_posed_mesh_within_2mm() {
     let doc = g.document;
     assert_eq!(doc.nodes().count(), NUM_JOINTS + 1);
     assert_eq!(doc.skins().next().unwrap().joints().count(), NUM_JOINTS);
-    let names: Vec<String> = serde_json::from_str::<serde_json::Value>(doc.meshes().next().unwrap().extras().as_ref().unwrap().get()).unwrap()["targetNames"]
+    let names: Vec<String> = serde_json::from_str::<serde_json::Value>(
+        doc.meshes().next().unwrap().extras().as_ref().unwrap().get(),
+    )
+    .unwrap()["targetNames"]
         .as_array()
         .unwrap()
         .iter()
@@ -120,7 +160,10 @@ fn round_trip_reproduces_the_posed_mesh_within_2mm() {
     let material = doc.meshes().next().unwrap().primitives().next().unwrap().material();
     assert_eq!(material.name(), Some("avatar"));
     let pbr = material.pbr_metallic_roughness();
-    assert_eq!(pbr.base_color_factor(), [DEFAULT_COLOR[0], DEFAULT_COLOR[1], DEFAULT_COLOR[2], 1.0]);
+    assert_eq!(
+        pbr.base_color_factor(),
+        [DEFAULT_COLOR[0], DEFAULT_COLOR[1], DEFAULT_COLOR[2], 1.0]
+    );
     assert_eq!(pbr.metallic_factor(), 0.0);
     let mut worst: f32 = 0.0;
     for f in 0..e.frames {

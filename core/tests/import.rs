@@ -3,12 +3,12 @@
 //! in millimetres are diagnosed in one line and a fit with fewer usable frames than asked is
 //! refused, naming the frames.
 
-use avatar_core::body::{open_body_ref, BodyParams};
-use avatar_core::capture::import::{import_depth, DepthImport, Pinhole};
+use avatar_core::body::{BodyParams, open_body_ref};
+use avatar_core::capture::import::{DepthImport, Pinhole, import_depth};
 use avatar_core::capture::plausibility::require_usable_frames;
 use avatar_core::capture::*;
 use avatar_core::mesh::bvh::Bvh;
-use avatar_core::synth::{orbit, render_depth, PinholeCamera};
+use avatar_core::synth::{PinholeCamera, orbit, render_depth};
 use glam::{Mat4, Quat, Vec3};
 use std::path::Path;
 
@@ -52,11 +52,14 @@ fn amass_input(root: &Path, n: usize, trans_scale: f32) -> DepthImport {
         trans.extend((p.trans * trans_scale).to_array());
     }
     let npz = root.join("fit.npz");
-    avatar_core::io::npz::write_f32_npz(&npz, &[
-        ("poses", vec![n, 72], poses),
-        ("trans", vec![n, 3], trans),
-        ("mocap_framerate", vec![], vec![60.0]),
-    ])
+    avatar_core::io::npz::write_f32_npz(
+        &npz,
+        &[
+            ("poses", vec![n, 72], poses),
+            ("trans", vec![n, 3], trans),
+            ("mocap_framerate", vec![], vec![60.0]),
+        ],
+    )
     .unwrap();
     let cams: Vec<Vec<f32>> = (0..n).map(|i| row_major(camera(i))).collect();
     let cameras = root.join("cameras.json");
@@ -77,8 +80,14 @@ fn assert_on_body(capture: &Capture, max_mm: f32) {
     let body = open_body_ref();
     for f in &capture.frames {
         let bvh = Bvh::build(&body.mesh(body.pose(&f.params).vertices));
-        let worst = f.points.iter().map(|p| bvh.closest_point(*p).unwrap().distance).fold(0.0, f32::max);
-        assert!(worst * 1000.0 < max_mm, "frame {}: a point {:.1} mm off the body", f.index, worst * 1000.0);
+        let worst =
+            f.points.iter().map(|p| bvh.closest_point(*p).unwrap().distance).fold(0.0, f32::max);
+        assert!(
+            worst * 1000.0 < max_mm,
+            "frame {}: a point {:.1} mm off the body",
+            f.index,
+            worst * 1000.0
+        );
         assert!(f.points.len() > 1000, "frame {}: {} points", f.index, f.points.len());
     }
 }
@@ -120,7 +129,10 @@ fn fittings_of_the_users_own_body_model_name_it_in_the_capture() {
     assert_eq!(report.usable, 2, "{:?}", report.warnings);
     let capture = Capture::open(&out).unwrap();
     let absolute = std::fs::canonicalize(&model).unwrap();
-    assert_eq!(capture.manifest.body_model, avatar_core::capture::manifest::BodyModelRef::Smpl(absolute.clone()));
+    assert_eq!(
+        capture.manifest.body_model,
+        avatar_core::capture::manifest::BodyModelRef::Smpl(absolute.clone())
+    );
     assert_eq!(capture.body_file.as_deref(), Some(absolute.as_path()));
     assert_on_body(&capture, 3.0);
     // A missing model file is named, and nothing is written.
@@ -144,10 +156,18 @@ fn json_pose_files_in_camera_coordinates_and_an_intrinsics_file() {
         let j0 = open_body_ref().rest_joints(&[])[0];
         p.trans = Vec3::new(0.0, 0.0, 2.5) - j0;
         render(&depth.join(format!("{i}.png")), &p, Mat4::IDENTITY, DEPTH_SCALE_MM);
-        std::fs::write(fits.join(format!("{i}.json")), serde_json::json!({"pose": p.flat_pose(), "trans": p.trans.to_array()}).to_string()).unwrap();
+        std::fs::write(
+            fits.join(format!("{i}.json")),
+            serde_json::json!({"pose": p.flat_pose(), "trans": p.trans.to_array()}).to_string(),
+        )
+        .unwrap();
     }
     let intr = root.path().join("intrinsics.json");
-    std::fs::write(&intr, r#"{"fx": 250, "fy": 250, "cx": 125, "cy": 125, "width": 250, "height": 250}"#).unwrap();
+    std::fs::write(
+        &intr,
+        r#"{"fx": 250, "fy": 250, "cx": 125, "cy": 125, "width": 250, "height": 250}"#,
+    )
+    .unwrap();
     let job = DepthImport {
         depth_dir: depth,
         fittings: fits,
@@ -181,7 +201,8 @@ fn bad_inputs_are_named() {
     assert!(e.contains("4 depth images") && e.contains("3 fitted frames"), "{e}");
     // An 8-bit image among them: that frame is a warning naming the input file.
     write_mask_png(job.depth_dir.join("frame_11.png"), &vec![true; 250 * 250], 250, 250).unwrap();
-    std::fs::rename(job.depth_dir.join("frame_11.png"), job.depth_dir.join("frame_10.png")).unwrap();
+    std::fs::rename(job.depth_dir.join("frame_11.png"), job.depth_dir.join("frame_10.png"))
+        .unwrap();
     let r = import_depth(&job, &root.path().join("b")).unwrap();
     assert_eq!(r.usable, 2);
     let w = r.warnings[0].to_string();
@@ -209,19 +230,35 @@ fn millimetre_translations_are_diagnosed_and_too_few_frames_refused() {
     // or JSON fitting with such translations is refused when read, naming the file and frame.)
     let far = root.path().join("far");
     std::fs::create_dir_all(far.join("depth")).unwrap();
-    let mut manifest = CaptureManifest::new(Intrinsics { fx: 250.0, fy: 250.0, cx: 125.0, cy: 125.0, width: 250, height: 250 }, DEPTH_SCALE_MM);
+    let mut manifest = CaptureManifest::new(
+        Intrinsics { fx: 250.0, fy: 250.0, cx: 125.0, cy: 125.0, width: 250, height: 250 },
+        DEPTH_SCALE_MM,
+    );
     for i in 0..2 {
         let name = format!("depth/{i}.png");
         render(&far.join(&name), &pose(i), camera(i), DEPTH_SCALE_MM);
-        manifest.frames.push(FrameRecord { depth: name, mask: None, pose: Some(pose(i).flat_pose()), shape: vec![], translation: Some([0.0, 0.0, 1450.0]), camera_to_world: None });
+        manifest.frames.push(FrameRecord {
+            depth: name,
+            mask: None,
+            pose: Some(pose(i).flat_pose()),
+            shape: vec![],
+            translation: Some([0.0, 0.0, 1450.0]),
+            camera_to_world: None,
+        });
     }
     manifest.save(&far).unwrap();
     let e = Capture::open(&far).unwrap_err().to_string();
-    assert!(e.contains("no usable frame") && e.contains("translations look like millimetres: 1450 m"), "{e}");
+    assert!(
+        e.contains("no usable frame") && e.contains("translations look like millimetres: 1450 m"),
+        "{e}"
+    );
 
     // The same capture where one frame is at the origin (0 mm = 0 m): that frame is usable.
     let dir = root.path().join("mm");
-    let mut manifest = CaptureManifest::new(Intrinsics { fx: 250.0, fy: 250.0, cx: 125.0, cy: 125.0, width: 250, height: 250 }, DEPTH_SCALE_MM);
+    let mut manifest = CaptureManifest::new(
+        Intrinsics { fx: 250.0, fy: 250.0, cx: 125.0, cy: 125.0, width: 250, height: 250 },
+        DEPTH_SCALE_MM,
+    );
     std::fs::create_dir_all(dir.join("depth")).unwrap();
     for i in 0..4 {
         let mut p = pose(i);
@@ -230,7 +267,14 @@ fn millimetre_translations_are_diagnosed_and_too_few_frames_refused() {
         }
         let name = format!("depth/{i}.png");
         render(&dir.join(&name), &p, camera(i), DEPTH_SCALE_MM);
-        let mut rec = FrameRecord { depth: name, mask: None, pose: Some(p.flat_pose()), shape: vec![], translation: Some((p.trans * 1000.0).to_array()), camera_to_world: None };
+        let mut rec = FrameRecord {
+            depth: name,
+            mask: None,
+            pose: Some(p.flat_pose()),
+            shape: vec![],
+            translation: Some((p.trans * 1000.0).to_array()),
+            camera_to_world: None,
+        };
         rec.set_camera_to_world(camera(i));
         manifest.frames.push(rec);
     }
@@ -240,7 +284,14 @@ fn millimetre_translations_are_diagnosed_and_too_few_frames_refused() {
     let d = capture.diagnose().expect("3 of 4 frames miss the body");
     assert!(d.starts_with("translations look like millimetres:"), "{d}");
     let e = require_usable_frames(&capture, 8, &[2], &[]).unwrap_err().to_string();
-    for want in ["capture.json", "only 1 usable frame (frame 2) of the 4 asked", "millimetres", "frame 0 (", "frame 3 (", "--frames 1"] {
+    for want in [
+        "capture.json",
+        "only 1 usable frame (frame 2) of the 4 asked",
+        "millimetres",
+        "frame 0 (",
+        "frame 3 (",
+        "--frames 1",
+    ] {
         assert!(e.contains(want), "missing {want:?} in {e}");
     }
     // Asking for no more than the usable frames is allowed.

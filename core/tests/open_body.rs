@@ -1,7 +1,7 @@
 //! The embedded open body: T-pose layout, proportions, symmetry, weights, shape directions.
 
 use avatar_core::body::skeleton::LEFT_RIGHT_PAIRS;
-use avatar_core::body::{open_body_lowpoly_ref, open_body_ref, BodyModel, BodyParams, NUM_JOINTS};
+use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, open_body_lowpoly_ref, open_body_ref};
 use glam::Vec3;
 
 fn height(v: &[Vec3]) -> f32 {
@@ -17,7 +17,11 @@ fn check_layout(model: &BodyModel) {
     // Left/right symmetry of the joints (x mirrored) within 1 mm.
     for (l, r) in LEFT_RIGHT_PAIRS {
         let mirrored = rest[r] * Vec3::new(-1.0, 1.0, 1.0);
-        assert!((rest[l] - mirrored).length() < 1e-3, "joints {l}/{r} asymmetric by {}", (rest[l] - mirrored).length());
+        assert!(
+            (rest[l] - mirrored).length() < 1e-3,
+            "joints {l}/{r} asymmetric by {}",
+            (rest[l] - mirrored).length()
+        );
         assert!(rest[l].x > 0.0, "left joint {l} must be on +x");
     }
     // Spine joints on the mid-plane.
@@ -32,7 +36,12 @@ fn check_layout(model: &BodyModel) {
     let span = (rest[22] - rest[23]).length();
     assert!((1.3..1.8).contains(&span), "hand-to-hand span {span}");
     // Head above neck above pelvis above knees above ankles.
-    assert!(rest[15].y > rest[12].y && rest[12].y > rest[0].y && rest[0].y > rest[4].y && rest[4].y > rest[7].y);
+    assert!(
+        rest[15].y > rest[12].y
+            && rest[12].y > rest[0].y
+            && rest[0].y > rest[4].y
+            && rest[4].y > rest[7].y
+    );
     // Weights: rows sum to 1, every joint drives some vertex.
     let mut used = [false; NUM_JOINTS];
     for w in &model.weights {

@@ -3,13 +3,13 @@
 //! scan and cover it; scans in the wrong units or that the fitting does not describe are refused.
 //! (The avatar fitted from such a capture against the scan: app/tests/scan_avatar.rs.)
 
-use avatar_core::body::{open_body_ref, BodyParams};
-use avatar_core::capture::scan::{import_scan, load_scan, ScanViews};
+use avatar_core::body::{BodyParams, open_body_ref};
 use avatar_core::capture::Capture;
+use avatar_core::capture::scan::{ScanViews, import_scan, load_scan};
 use avatar_core::eval::sampling::PointIndex;
-use avatar_core::mesh::bvh::Bvh;
 use avatar_core::mesh::TriMesh;
-use avatar_core::synth::{canonical_surface, pose_surface, ClothedTemplate, Outfit, PoseFeatures};
+use avatar_core::mesh::bvh::Bvh;
+use avatar_core::synth::{ClothedTemplate, Outfit, PoseFeatures, canonical_surface, pose_surface};
 use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -70,9 +70,12 @@ fn quads_objects_and_missing_normals_load() {
     let m = load_scan(write(dir.path(), "cube.obj", cube)).unwrap();
     assert_eq!((m.positions.len(), m.faces.len()), (11, 13));
     assert!((m.surface_area() - 6.5).abs() < 1e-5, "{}", m.surface_area());
-    let e = load_scan(write(dir.path(), "points.obj", "v 0 0 0\nv 1 0 0\n")).unwrap_err().to_string();
+    let e =
+        load_scan(write(dir.path(), "points.obj", "v 0 0 0\nv 1 0 0\n")).unwrap_err().to_string();
     assert!(e.contains("points.obj") && e.contains("no faces"), "{e}");
-    let e = load_scan(write(dir.path(), "bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")).unwrap_err().to_string();
+    let e = load_scan(write(dir.path(), "bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("bad.obj"), "{e}");
     let e = load_scan(dir.path().join("missing.obj")).unwrap_err().to_string();
     assert!(e.contains("missing.obj"), "{e}");
@@ -85,7 +88,14 @@ fn a_scan_becomes_a_capture_whose_depth_lies_on_the_scan() {
     let scan = write(dir.path(), "scan.obj", &obj_with_normals_and_objects(&mesh, 1.0));
     let fitting = write(dir.path(), "pose.json", &serde_json::to_string(&scan_pose()).unwrap());
     let out = dir.path().join("capture");
-    let report = import_scan(&scan, &fitting, &out, open_body_ref(), &ScanViews { views: 6, resolution: 160 }).unwrap();
+    let report = import_scan(
+        &scan,
+        &fitting,
+        &out,
+        open_body_ref(),
+        &ScanViews { views: 6, resolution: 160 },
+    )
+    .unwrap();
     assert_eq!((report.frames, report.faces), (6, mesh.faces.len()));
     let capture = Capture::open(&out).unwrap();
     assert_eq!(capture.frames.len(), 6, "{:?}", capture.warnings);
@@ -94,7 +104,8 @@ fn a_scan_becomes_a_capture_whose_depth_lies_on_the_scan() {
     let mut all = Vec::new();
     for f in &capture.frames {
         assert_eq!(f.params, scan_pose());
-        let worst = f.points.iter().map(|p| bvh.closest_point(*p).unwrap().distance).fold(0.0, f32::max);
+        let worst =
+            f.points.iter().map(|p| bvh.closest_point(*p).unwrap().distance).fold(0.0, f32::max);
         assert!(worst < 2e-4, "frame {}: a point {:.3} mm off the scan", f.index, worst * 1000.0);
         all.extend(f.points.iter().copied());
     }
@@ -111,15 +122,23 @@ fn scans_in_millimetres_or_elsewhere_are_refused() {
     let mesh = clothed_scan();
     let fitting = write(dir.path(), "pose.json", &serde_json::to_string(&scan_pose()).unwrap());
     let mm = write(dir.path(), "mm.obj", &obj_with_normals_and_objects(&mesh, 1000.0));
-    let e = import_scan(&mm, &fitting, &dir.path().join("a"), open_body_ref(), &ScanViews::default()).unwrap_err().to_string();
+    let e =
+        import_scan(&mm, &fitting, &dir.path().join("a"), open_body_ref(), &ScanViews::default())
+            .unwrap_err()
+            .to_string();
     assert!(e.contains("mm.obj") && e.contains("millimetres"), "{e}");
     let mut other = scan_pose();
     other.trans.x += 1.5;
     let elsewhere = write(dir.path(), "elsewhere.json", &serde_json::to_string(&other).unwrap());
     let ok = write(dir.path(), "scan.obj", &obj_with_normals_and_objects(&mesh, 1.0));
-    let e = import_scan(&ok, &elsewhere, &dir.path().join("b"), open_body_ref(), &ScanViews::default()).unwrap_err().to_string();
+    let e =
+        import_scan(&ok, &elsewhere, &dir.path().join("b"), open_body_ref(), &ScanViews::default())
+            .unwrap_err()
+            .to_string();
     assert!(e.contains("scan.obj") && e.contains("fitting"), "{e}");
     // The output may not be the scan itself.
-    let e = import_scan(&ok, &fitting, &ok, open_body_ref(), &ScanViews::default()).unwrap_err().to_string();
+    let e = import_scan(&ok, &fitting, &ok, open_body_ref(), &ScanViews::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("overwrite"), "{e}");
 }

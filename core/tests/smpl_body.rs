@@ -3,12 +3,12 @@
 //! in capture.json; opening and canonicalizing use that body and its coefficients; a missing or
 //! broken model file, and coefficients the model does not have, are errors naming the files.
 
-use avatar_core::body::{open_body_lowpoly_ref, BodyModel};
+use avatar_core::body::{BodyModel, open_body_lowpoly_ref};
 use avatar_core::canonical::{Canonicalizer, FieldOptions};
 use avatar_core::capture::{BodyModelRef, Capture, CaptureManifest, CaptureOptions};
 use avatar_core::mesh::bvh::Bvh;
 use avatar_core::motion::clip_by_name;
-use avatar_core::synth::{generate_smpl_capture, smpl_stand_in, GroundTruth, Outfit, SynthJob};
+use avatar_core::synth::{GroundTruth, Outfit, SynthJob, generate_smpl_capture, smpl_stand_in};
 use std::path::Path;
 
 fn write_capture(dir: &Path) {
@@ -40,19 +40,42 @@ fn a_capture_fitted_with_the_users_smpl_model_opens_and_canonicalizes_with_that_
 
     // Canonical points land on the ground-truth canonical clothing (the stand-in's shape): 0.2-0.3 mm median.
     let gt = GroundTruth::load(dir.path()).unwrap();
-    let canon = Canonicalizer::new(&capture.body, &betas, &FieldOptions { cells_along_height: 80, ..FieldOptions::default() }, None).unwrap();
+    let canon = Canonicalizer::new(
+        &capture.body,
+        &betas,
+        &FieldOptions { cells_along_height: 80, ..FieldOptions::default() },
+        None,
+    )
+    .unwrap();
     for (i, f) in capture.frames.iter().enumerate() {
         let c = canon.frame(f);
-        assert!(c.points.len() > f.points.len() * 8 / 10, "frame {i}: {} of {} points kept", c.points.len(), f.points.len());
+        assert!(
+            c.points.len() > f.points.len() * 8 / 10,
+            "frame {i}: {} of {} points kept",
+            c.points.len(),
+            f.points.len()
+        );
         let bvh = Bvh::build(&gt.canonical_mesh(i));
         let d = median(c.points.iter().map(|&p| bvh.closest_point(p).unwrap().distance).collect());
-        assert!(d < 0.002, "frame {i}: median {:.1} mm from the true canonical surface", d * 1000.0);
+        assert!(
+            d < 0.002,
+            "frame {i}: median {:.1} mm from the true canonical surface",
+            d * 1000.0
+        );
     }
     // Read as the open body's seven directions, the coefficients give another person: the
     // heights of the two rest bodies differ by decimetres (1.68 m vs 2.18 m for this subject).
-    let height = |v: &[glam::Vec3]| v.iter().map(|p| p.y).fold(f32::MIN, f32::max) - v.iter().map(|p| p.y).fold(f32::MAX, f32::min);
+    let height = |v: &[glam::Vec3]| {
+        v.iter().map(|p| p.y).fold(f32::MIN, f32::max)
+            - v.iter().map(|p| p.y).fold(f32::MAX, f32::min)
+    };
     let misread = open_body_lowpoly_ref().shaped_vertices(&betas);
-    assert!((height(&canon.rest) - height(&misread)).abs() > 0.1, "{} vs {}", height(&canon.rest), height(&misread));
+    assert!(
+        (height(&canon.rest) - height(&misread)).abs() > 0.1,
+        "{} vs {}",
+        height(&canon.rest),
+        height(&misread)
+    );
 }
 
 #[test]
@@ -65,15 +88,24 @@ fn missing_or_broken_models_and_foreign_coefficients_are_named() {
     // The open body (7 directions) cannot take the stand-in's 10 coefficients.
     let open_npz = dir.path().join("open_body_smpl_layout.npz");
     open_body_lowpoly_ref().save_npz(&open_npz).unwrap();
-    let options = CaptureOptions { body_model: Some(open_npz.clone()), ..CaptureOptions::default() };
+    let options =
+        CaptureOptions { body_model: Some(open_npz.clone()), ..CaptureOptions::default() };
     let err = Capture::open_with(dir.path(), &options).unwrap_err().to_string();
-    assert!(err.contains(&manifest_path.display().to_string()) && err.contains("10 shape coefficients") && err.contains("has 7"), "{err}");
+    assert!(
+        err.contains(&manifest_path.display().to_string())
+            && err.contains("10 shape coefficients")
+            && err.contains("has 7"),
+        "{err}"
+    );
     assert!(err.contains("open_body_smpl_layout.npz"), "{err}");
     let mut m = CaptureManifest::load(dir.path()).unwrap();
     m.body_model = BodyModelRef::OpenBody;
     m.save(dir.path()).unwrap();
     let err = Capture::open(dir.path()).unwrap_err().to_string();
-    assert!(err.contains("capture.json") && err.contains("open body") && err.contains("\"smpl\""), "{err}");
+    assert!(
+        err.contains("capture.json") && err.contains("open body") && err.contains("\"smpl\""),
+        "{err}"
+    );
 
     // --body-model overrides the manifest: the stand-in again opens it.
     let options = CaptureOptions { body_model: Some(model.clone()), ..CaptureOptions::default() };
@@ -83,7 +115,10 @@ fn missing_or_broken_models_and_foreign_coefficients_are_named() {
     m.body_model = BodyModelRef::Smpl("gone.npz".into());
     m.save(dir.path()).unwrap();
     let err = Capture::open(dir.path()).unwrap_err().to_string();
-    assert!(err.contains("gone.npz") && err.contains("capture.json") && err.contains("SMPL body model"), "{err}");
+    assert!(
+        err.contains("gone.npz") && err.contains("capture.json") && err.contains("SMPL body model"),
+        "{err}"
+    );
     std::fs::write(&model, b"not a zip").unwrap();
     let options = CaptureOptions { body_model: Some(model.clone()), ..CaptureOptions::default() };
     let err = Capture::open_with(dir.path(), &options).unwrap_err().to_string();

@@ -1,10 +1,10 @@
 //! Synthetic captures: round trip through the capture loader, determinism, measurable
 //! pose-dependent clothing, ground-truth files.
 
-use avatar_core::body::{open_body_ref, skinning::unskin_point, BodyParams};
+use avatar_core::body::{BodyParams, open_body_ref, skinning::unskin_point};
 use avatar_core::capture::Capture;
 use avatar_core::mesh::bvh::Bvh;
-use avatar_core::motion::{clip_by_name, PoseBuilder, Side};
+use avatar_core::motion::{PoseBuilder, Side, clip_by_name};
 use avatar_core::synth::*;
 use std::path::Path;
 
@@ -25,15 +25,25 @@ fn depth_points_lie_on_the_ground_truth_surface() {
         assert_eq!(gt.frames.len(), 3);
         for f in &cap.frames {
             let bvh = Bvh::build(&gt.posed_mesh(f.index));
-            let mut d: Vec<f32> = f.points.iter().map(|&p| bvh.closest_point(p).unwrap().distance).collect();
+            let mut d: Vec<f32> =
+                f.points.iter().map(|&p| bvh.closest_point(p).unwrap().distance).collect();
             d.sort_by(f32::total_cmp);
             let median = d[d.len() / 2];
             let p95 = d[d.len() * 95 / 100];
             assert!(median < 0.002, "{}: frame {} median {median} m", outfit.name(), f.index);
             assert!(p95 < 0.01, "{}: frame {} p95 {p95} m", outfit.name(), f.index);
             // The crop keeps the person: nearly every rendered pixel survives.
-            let rendered = image::open(&f.depth_file).unwrap().to_luma16().pixels().filter(|p| p.0[0] > 0).count();
-            assert!(f.points.len() as f32 > 0.97 * rendered as f32, "{} of {rendered} points kept", f.points.len());
+            let rendered = image::open(&f.depth_file)
+                .unwrap()
+                .to_luma16()
+                .pixels()
+                .filter(|p| p.0[0] > 0)
+                .count();
+            assert!(
+                f.points.len() as f32 > 0.97 * rendered as f32,
+                "{} of {rendered} points kept",
+                f.points.len()
+            );
         }
     }
 }
@@ -44,9 +54,17 @@ fn the_person_turns_45_degrees_a_frame() {
     let params = job(Outfit::TshirtShorts, 4).frame_params(body);
     for (i, p) in params.iter().enumerate() {
         let fwd = glam::Quat::from_scaled_axis(p.pose[0]) * glam::Vec3::Z;
-        let base = glam::Quat::from_scaled_axis(job(Outfit::TshirtShorts, 4).clip.frames[i * job(Outfit::TshirtShorts, 4).clip.len() / 4].pose[0]) * glam::Vec3::Z;
+        let base = glam::Quat::from_scaled_axis(
+            job(Outfit::TshirtShorts, 4).clip.frames
+                [i * job(Outfit::TshirtShorts, 4).clip.len() / 4]
+                .pose[0],
+        ) * glam::Vec3::Z;
         let turn = (base.z.atan2(base.x) - fwd.z.atan2(fwd.x)).to_degrees().rem_euclid(360.0);
-        assert!((turn - (45.0 * i as f32).rem_euclid(360.0)).abs() < 0.5 || (turn - 360.0).abs() < 0.5 && i % 8 == 0, "frame {i}: {turn}");
+        assert!(
+            (turn - (45.0 * i as f32).rem_euclid(360.0)).abs() < 0.5
+                || (turn - 360.0).abs() < 0.5 && i % 8 == 0,
+            "frame {i}: {turn}"
+        );
     }
 }
 
@@ -85,8 +103,14 @@ fn generation_is_deterministic_byte_for_byte() {
     let c = tempfile::tempdir().unwrap();
     generate_capture(c.path(), open_body_ref(), &j).unwrap();
     let fc = files(c.path());
-    assert_ne!(fa.iter().find(|f| f.0.ends_with("000000.png")), fc.iter().find(|f| f.0.ends_with("000000.png")));
-    assert_eq!(fa.iter().find(|f| f.0.ends_with("frames.npz")), fc.iter().find(|f| f.0.ends_with("frames.npz")));
+    assert_ne!(
+        fa.iter().find(|f| f.0.ends_with("000000.png")),
+        fc.iter().find(|f| f.0.ends_with("000000.png"))
+    );
+    assert_eq!(
+        fa.iter().find(|f| f.0.ends_with("frames.npz")),
+        fc.iter().find(|f| f.0.ends_with("frames.npz"))
+    );
 }
 
 /// Largest and mean displacement (metres) of the clothed vertices between the canonical
@@ -96,15 +120,27 @@ fn pose_dependence(outfit: Outfit, a: &BodyParams, b: &BodyParams) -> (f32, f32)
     let t = ClothedTemplate::build(body, &[], outfit);
     let ca = canonical_surface(&t, &PoseFeatures::of(&body.pose(a).bones), 0);
     let cb = canonical_surface(&t, &PoseFeatures::of(&body.pose(b).bones), 0);
-    let d: Vec<f32> = ca.iter().zip(&cb).zip(&t.cloth).filter(|(_, c)| **c > 0.5).map(|((p, q), _)| (*p - *q).length()).collect();
+    let d: Vec<f32> = ca
+        .iter()
+        .zip(&cb)
+        .zip(&t.cloth)
+        .filter(|(_, c)| **c > 0.5)
+        .map(|((p, q), _)| (*p - *q).length())
+        .collect();
     (d.iter().copied().fold(0.0, f32::max), d.iter().sum::<f32>() / d.len() as f32)
 }
 
 pub fn two_poses() -> (BodyParams, BodyParams) {
     let a = PoseBuilder::relaxed().build();
     let mut b = PoseBuilder::tpose();
-    b.shoulder(Side::Left, 70.0, 0.0, 0.0).shoulder(Side::Right, 70.0, 0.0, 0.0).elbow(Side::Left, 100.0).elbow(Side::Right, 100.0);
-    b.hip(Side::Left, 45.0, 0.0, 0.0).hip(Side::Right, -10.0, 0.0, 0.0).knee(Side::Left, 90.0).knee(Side::Right, 20.0);
+    b.shoulder(Side::Left, 70.0, 0.0, 0.0)
+        .shoulder(Side::Right, 70.0, 0.0, 0.0)
+        .elbow(Side::Left, 100.0)
+        .elbow(Side::Right, 100.0);
+    b.hip(Side::Left, 45.0, 0.0, 0.0)
+        .hip(Side::Right, -10.0, 0.0, 0.0)
+        .knee(Side::Left, 90.0)
+        .knee(Side::Right, 20.0);
     (a, b.build())
 }
 
@@ -160,5 +196,8 @@ fn ground_truth_canonical_is_the_unposed_posed_mesh() {
 #[test]
 fn unknown_outfit_lists_the_valid_ones() {
     let err = Outfit::from_name("kimono").unwrap_err().to_string();
-    assert!(err.contains("kimono") && err.contains("blazer_tails") && err.contains("dress"), "{err}");
+    assert!(
+        err.contains("kimono") && err.contains("blazer_tails") && err.contains("dress"),
+        "{err}"
+    );
 }

@@ -10,15 +10,20 @@ use glam::Vec3;
 
 fn main() -> avatar_core::error::Result<()> {
     let args: Vec<String> = std::env::args().collect();
-    let (out, subject, outfit, capture) = (&args[1], args[2].parse::<u64>().unwrap(), &args[3], Capture::open(&args[4])?);
+    let (out, subject, outfit, capture) =
+        (&args[1], args[2].parse::<u64>().unwrap(), &args[3], Capture::open(&args[4])?);
     let betas = capture.frames[0].params.betas.clone();
     let template = ClothedTemplate::build(&capture.body, &betas, Outfit::from_name(outfit)?);
     // POSE=sheet: the truth at the contact sheets' pose (the kick at 45 %) instead.
     let pose = match std::env::var("POSE").as_deref() {
-        Ok("sheet") => avatar_core::body::BodyParams { betas: betas.clone(), ..avatar_core::eval::dataset::sheet_pose()? },
+        Ok("sheet") => avatar_core::body::BodyParams {
+            betas: betas.clone(),
+            ..avatar_core::eval::dataset::sheet_pose()?
+        },
         _ => avatar_core::body::BodyParams { betas: betas.clone(), ..Default::default() },
     };
-    let truth = avatar_core::eval::runner::ground_truth_mesh(&capture.body, &template, &pose, subject);
+    let truth =
+        avatar_core::eval::runner::ground_truth_mesh(&capture.body, &template, &pose, subject);
     let truth_bvh = avatar_core::mesh::bvh::Bvh::build(&truth);
     let mut meshes = vec![truth];
     for p in &args[5..] {
@@ -40,9 +45,17 @@ fn main() -> avatar_core::error::Result<()> {
                 }
             }
         }
-        println!("{p}: {:.1} % of the area farther than 2 cm from the truth ({:.0} % of it facing outward)", far_area / area * 100.0, outward / far_area * 100.0);
+        println!(
+            "{p}: {:.1} % of the area farther than 2 cm from the truth ({:.0} % of it facing outward)",
+            far_area / area * 100.0,
+            outward / far_area * 100.0
+        );
         meshes.push(mesh.clone());
         meshes.push(avatar_core::mesh::TriMesh::new(mesh.positions.clone(), far));
     }
-    write_view_sheet(out.as_ref(), &meshes, &[Vec3::Z, Vec3::X, Vec3::NEG_Z, Vec3::new(0.0, -1.0, 0.35)])
+    write_view_sheet(
+        out.as_ref(),
+        &meshes,
+        &[Vec3::Z, Vec3::X, Vec3::NEG_Z, Vec3::new(0.0, -1.0, 0.35)],
+    )
 }

@@ -3,30 +3,36 @@
 //! Prints seconds per step and the final loss; with `cpu` it is the same fit as `avatar-studio
 //! fit`, so the two devices can be compared side by side.
 use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::compute::{select, Compute};
+use avatar_neural::compute::{Compute, select};
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaAvatar, MetaModel};
 use std::time::Instant;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let device = Compute::parse(args.get(1).map_or("cpu", |s| s.as_str())).unwrap_or_else(|e| panic!("{e}"));
+    let device =
+        Compute::parse(args.get(1).map_or("cpu", |s| s.as_str())).unwrap_or_else(|e| panic!("{e}"));
     let steps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(20);
     let paper = args.get(3).is_some_and(|s| s == "paper");
     select(device);
     let demo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
     let capture = CapturePoints::open(&demo, 8).expect("the demo capture opens");
     let model = MetaModel::shipped();
-    let init = if paper { Init::Scratch { config: HyperConfig::paper(), seed: 0 } } else { Init::MetaLearned(&model) };
+    let init = if paper {
+        Init::Scratch { config: HyperConfig::paper(), seed: 0 }
+    } else {
+        Init::MetaLearned(&model)
+    };
     let options = HyperFitOptions { steps, ..HyperFitOptions::default() };
     let mut losses = Vec::new();
     let mut first = None;
     let t = Instant::now();
-    let (avatar, _) = MetaAvatar::fit_points(&capture, &init, &options, None, &mut |step, loss, _| {
-        if step == 0 {
-            first = Some(t.elapsed().as_secs_f64());
-        }
-        losses.push(loss);
-    });
+    let (avatar, _) =
+        MetaAvatar::fit_points(&capture, &init, &options, None, &mut |step, loss, _| {
+            if step == 0 {
+                first = Some(t.elapsed().as_secs_f64());
+            }
+            losses.push(loss);
+        });
     let total = t.elapsed().as_secs_f64();
     let first = first.unwrap_or(total);
     println!(
@@ -38,6 +44,14 @@ fn main() {
         losses.last().copied().unwrap_or(f32::NAN),
         avatar.num_params()
     );
-    let mesh = avatar.canonical_mesh_at(&avatar_core::body::BodyParams { betas: avatar.header.betas.clone(), ..Default::default() }, 64).expect("meshing");
+    let mesh = avatar
+        .canonical_mesh_at(
+            &avatar_core::body::BodyParams {
+                betas: avatar.header.betas.clone(),
+                ..Default::default()
+            },
+            64,
+        )
+        .expect("meshing");
     println!("canonical mesh at 64: {} vertices", mesh.positions.len());
 }

@@ -7,7 +7,10 @@ use avatar_core::synth::contact_sheet::write_mesh_sheet;
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let (avatar, out) = (args.next().expect("usage: novel_poses NAME.avatar OUT.png"), args.next().expect("usage: novel_poses NAME.avatar OUT.png"));
+    let (avatar, out) = (
+        args.next().expect("usage: novel_poses NAME.avatar OUT.png"),
+        args.next().expect("usage: novel_poses NAME.avatar OUT.png"),
+    );
     let avatar = avatar_neural::MetaAvatar::load(&avatar).expect("a meta avatar");
     let poses: Vec<BodyParams> = [("kick", 0.45), ("lunge", 0.5), ("twist", 0.3), ("twist", 0.7)]
         .iter()
@@ -16,7 +19,8 @@ fn main() {
             clip.frames[((clip.len() - 1) as f32 * at) as usize].clone()
         })
         .collect();
-    let canonical: Vec<_> = poses.iter().map(|p| avatar.canonical_mesh_at(p, 128).expect("canonical mesh")).collect();
+    let canonical: Vec<_> =
+        poses.iter().map(|p| avatar.canonical_mesh_at(p, 128).expect("canonical mesh")).collect();
     let posed: Vec<_> = poses.iter().map(|p| avatar.posed_mesh(p).expect("posed mesh")).collect();
     write_mesh_sheet(std::path::Path::new(&out), &[canonical, posed]).expect("sheet written");
     println!("wrote {out}");

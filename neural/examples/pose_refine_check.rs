@@ -35,13 +35,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let tmp = tempfile::tempdir()?;
     let dir = tmp.path().join("capture");
     copy_dir(&src, &dir)?;
-    CaptureConditions { fit_error: error, ..CaptureConditions::clean() }.perturb_fittings(&dir, 1)?;
+    CaptureConditions { fit_error: error, ..CaptureConditions::clean() }
+        .perturb_fittings(&dir, 1)?;
     let (exact, perturbed) = (CaptureManifest::load(&src)?, CaptureManifest::load(&dir)?);
     let capture = CapturePoints::open(&dir, frames)?;
     // Each fitted frame's exact fitting: the manifest record its perturbed fitting came from.
     let mut truth = Vec::new();
     for f in &capture.frames {
-        let i = (0..perturbed.frames.len()).find(|&i| perturbed.frames[i].params().is_ok_and(|p| p.pose == f.params.pose && p.trans == f.params.trans)).expect("every fitted frame is in the manifest");
+        let i = (0..perturbed.frames.len())
+            .find(|&i| {
+                perturbed.frames[i]
+                    .params()
+                    .is_ok_and(|p| p.pose == f.params.pose && p.trans == f.params.trans)
+            })
+            .expect("every fitted frame is in the manifest");
         truth.push(exact.frames[i].params()?);
     }
     let model = MetaModel::shipped();
@@ -62,22 +69,53 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // The SDF of an avatar fitted on the exact fittings, frozen: how far refinement gets
         // when the surface is right.
         let exact_points = CapturePoints::open(&src, frames)?;
-        let off = HyperFitOptions { steps, refine_poses: avatar_neural::pose_refine::PoseRefineOptions::off(), ..HyperFitOptions::default() };
-        let (oracle, _) = MetaAvatar::fit_points(&exact_points, &Init::MetaLearned(&model), &off, None, &mut |_, _, _| {});
-        let mut refiner = avatar_neural::pose_refine::PoseRefiner::new(&capture, options.refine_poses);
+        let off = HyperFitOptions {
+            steps,
+            refine_poses: avatar_neural::pose_refine::PoseRefineOptions::off(),
+            ..HyperFitOptions::default()
+        };
+        let (oracle, _) = MetaAvatar::fit_points(
+            &exact_points,
+            &Init::MetaLearned(&model),
+            &off,
+            None,
+            &mut |_, _, _| {},
+        );
+        let mut refiner =
+            avatar_neural::pose_refine::PoseRefiner::new(&capture, options.refine_poses);
         let mut samples = capture.pose_samples(oracle.header.config.encoding);
         for _ in 0..6 {
-            let r = avatar_neural::pose_refine::refine_round(&mut refiner, &oracle.model, &mut samples, oracle.header.config.encoding);
+            let r = avatar_neural::pose_refine::refine_round(
+                &mut refiner,
+                &oracle.model,
+                &mut samples,
+                oracle.header.config.encoding,
+            );
             println!("oracle round {r:?}");
         }
         let refined = refiner.refined();
         let n = refined.len() as f32;
-        let (b, a) = (0..refined.len()).fold((0.0, 0.0), |(b, a), i| (b + pose_error(&capture.frames[i].params, &truth[i]).0, a + pose_error(&refined[i], &truth[i]).0));
-        println!("oracle SDF: joint-angle error {:.2} -> {:.2} deg", b.to_degrees() / n, a.to_degrees() / n);
+        let (b, a) = (0..refined.len()).fold((0.0, 0.0), |(b, a), i| {
+            (
+                b + pose_error(&capture.frames[i].params, &truth[i]).0,
+                a + pose_error(&refined[i], &truth[i]).0,
+            )
+        });
+        println!(
+            "oracle SDF: joint-angle error {:.2} -> {:.2} deg",
+            b.to_degrees() / n,
+            a.to_degrees() / n
+        );
         return Ok(());
     }
     let t = std::time::Instant::now();
-    let (avatar, _) = MetaAvatar::fit_points(&capture, &Init::MetaLearned(&model), &options, None, &mut |_, _, _| {});
+    let (avatar, _) = MetaAvatar::fit_points(
+        &capture,
+        &Init::MetaLearned(&model),
+        &options,
+        None,
+        &mut |_, _, _| {},
+    );
     let seconds = t.elapsed().as_secs_f64();
     let poses = avatar.header.refined_poses.as_ref().expect("refinement is on by default");
     let mean = |pick: &dyn Fn(usize) -> (f32, f32)| {
@@ -87,31 +125,67 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let before = mean(&|i| pose_error(&poses[i].given, &truth[i]));
     let after = mean(&|i| pose_error(&poses[i].refined, &truth[i]));
-    println!("{}: {} frames, {steps} steps, fittings off by {} deg / {} cm RMS", src.display(), poses.len(), error.joint_deg, error.trans_m * 100.0);
-    println!("mean joint-angle error {:.2} -> {:.2} deg, translation error {:.2} -> {:.2} cm ({seconds:.0} s fit)", before.0, after.0, before.1, after.1);
+    println!(
+        "{}: {} frames, {steps} steps, fittings off by {} deg / {} cm RMS",
+        src.display(),
+        poses.len(),
+        error.joint_deg,
+        error.trans_m * 100.0
+    );
+    println!(
+        "mean joint-angle error {:.2} -> {:.2} deg, translation error {:.2} -> {:.2} cm ({seconds:.0} s fit)",
+        before.0, after.0, before.1, after.1
+    );
     let mut per_joint = [(0f32, 0f32); 24];
     for (i, p) in poses.iter().enumerate() {
         for j in 0..24 {
-            per_joint[j].0 += avatar_core::body::pose_jacobian::rotation_angle_between(p.given.pose[j], truth[i].pose[j]).to_degrees() / poses.len() as f32;
-            per_joint[j].1 += avatar_core::body::pose_jacobian::rotation_angle_between(p.refined.pose[j], truth[i].pose[j]).to_degrees() / poses.len() as f32;
+            per_joint[j].0 += avatar_core::body::pose_jacobian::rotation_angle_between(
+                p.given.pose[j],
+                truth[i].pose[j],
+            )
+            .to_degrees()
+                / poses.len() as f32;
+            per_joint[j].1 += avatar_core::body::pose_jacobian::rotation_angle_between(
+                p.refined.pose[j],
+                truth[i].pose[j],
+            )
+            .to_degrees()
+                / poses.len() as f32;
         }
     }
     // Posed joint positions (the body's skeleton at each fitting): what the depth sees.
     let joints = capture.rest_joints();
-    let posed = |p: &avatar_core::body::BodyParams| avatar_core::body::forward_kinematics(&joints, &p.rotations(), p.trans).posed_joints();
+    let posed = |p: &avatar_core::body::BodyParams| {
+        avatar_core::body::forward_kinematics(&joints, &p.rotations(), p.trans).posed_joints()
+    };
     let (mut jb, mut ja) = (0f32, 0f32);
     for (i, p) in poses.iter().enumerate() {
         let t = posed(&truth[i]);
         let n = (poses.len() * 24) as f32;
-        jb += posed(&p.given).iter().zip(&t).map(|(a, b)| (*a - *b).length()).sum::<f32>() * 100.0 / n;
-        ja += posed(&p.refined).iter().zip(&t).map(|(a, b)| (*a - *b).length()).sum::<f32>() * 100.0 / n;
+        jb += posed(&p.given).iter().zip(&t).map(|(a, b)| (*a - *b).length()).sum::<f32>() * 100.0
+            / n;
+        ja += posed(&p.refined).iter().zip(&t).map(|(a, b)| (*a - *b).length()).sum::<f32>()
+            * 100.0
+            / n;
     }
     println!("mean posed joint position error {jb:.2} -> {ja:.2} cm");
     let names = avatar_core::body::JOINT_NAMES;
-    println!("  per joint (deg): {}", (0..24).map(|j| format!("{} {:.1}->{:.1}", names[j], per_joint[j].0, per_joint[j].1)).collect::<Vec<_>>().join(", "));
+    println!(
+        "  per joint (deg): {}",
+        (0..24)
+            .map(|j| format!("{} {:.1}->{:.1}", names[j], per_joint[j].0, per_joint[j].1))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     for (i, p) in poses.iter().enumerate() {
         let (b, a) = (pose_error(&p.given, &truth[i]), pose_error(&p.refined, &truth[i]));
-        println!("  frame {i}: {:.2} -> {:.2} deg, {:.2} -> {:.2} cm", b.0.to_degrees(), a.0.to_degrees(), b.1 * 100.0, a.1 * 100.0);
+        println!(
+            "  frame {i}: {:.2} -> {:.2} deg, {:.2} -> {:.2} cm",
+            b.0.to_degrees(),
+            a.0.to_degrees(),
+            b.1 * 100.0,
+            a.1 * 100.0
+        );
     }
     Ok(())
 }

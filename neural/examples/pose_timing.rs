@@ -1,5 +1,5 @@
 //! Where the time of one posed mesh goes: `cargo run -p avatar-neural --example pose_timing -- NAME.avatar`.
-use avatar_core::mesh::extract::{extract, ExtractOptions};
+use avatar_core::mesh::extract::{ExtractOptions, extract};
 use glam::Vec3;
 use std::time::Instant;
 
@@ -21,16 +21,34 @@ fn main() {
             let mut o = ExtractOptions::new(lo, hi, res);
             o.margin = margin;
             let e = extract(|p: &[Vec3]| sdf.sdf(p), &o).unwrap();
-            println!("  margin {margin}: {} evaluations, {} vertices, {} faces, {:.2} s", e.stats.evaluations(), e.mesh.positions.len(), e.mesh.faces.len(), t.elapsed().as_secs_f64());
+            println!(
+                "  margin {margin}: {} evaluations, {} vertices, {} faces, {:.2} s",
+                e.stats.evaluations(),
+                e.mesh.positions.len(),
+                e.mesh.faces.len(),
+                t.elapsed().as_secs_f64()
+            );
         }
         let e = extract(|p: &[Vec3]| sdf.sdf(p), &ExtractOptions::new(lo, hi, res)).unwrap();
         let ex = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let mut smoothed = e.mesh.clone();
-        avatar_core::mesh::smooth::taubin(&mut smoothed, avatar_neural::avatar::header::MESH_SMOOTHING);
-        println!("  smoothing ({} Taubin iterations): {:.3} s", avatar_neural::avatar::header::MESH_SMOOTHING, t.elapsed().as_secs_f64());
+        avatar_core::mesh::smooth::taubin(
+            &mut smoothed,
+            avatar_neural::avatar::header::MESH_SMOOTHING,
+        );
+        println!(
+            "  smoothing ({} Taubin iterations): {:.3} s",
+            avatar_neural::avatar::header::MESH_SMOOTHING,
+            t.elapsed().as_secs_f64()
+        );
         let t = Instant::now();
         let _ = avatar.posed_mesh(&params).unwrap();
-        println!("res {res}: predict {predict:.3} s, extract {ex:.2} s ({} evaluations, {} vertices), full posed_mesh {:.2} s", e.stats.evaluations(), e.mesh.positions.len(), t.elapsed().as_secs_f64());
+        println!(
+            "res {res}: predict {predict:.3} s, extract {ex:.2} s ({} evaluations, {} vertices), full posed_mesh {:.2} s",
+            e.stats.evaluations(),
+            e.mesh.positions.len(),
+            t.elapsed().as_secs_f64()
+        );
     }
 }

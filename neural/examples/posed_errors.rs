@@ -12,17 +12,23 @@
 //! the rest pose's canonical surface at every pose (what the pose-conditioned SDF adds).
 //! RESOLUTION=N meshes the avatar on N cells.
 use avatar_core::capture::Capture;
-use avatar_core::eval::metrics::{evaluate_frame, MetricOptions, Regions};
+use avatar_core::eval::metrics::{MetricOptions, Regions, evaluate_frame};
 use avatar_core::eval::runner::{ground_truth_mesh, query};
-use avatar_core::motion::library_clip;
-use avatar_core::mesh::bvh::Bvh;
 use avatar_core::mesh::TriMesh;
+use avatar_core::mesh::bvh::Bvh;
+use avatar_core::motion::library_clip;
 use avatar_core::synth::contact_sheet::write_view_sheet;
 use avatar_core::synth::{ClothedTemplate, Outfit};
 use glam::Vec3;
 
 /// Body parts by the ground truth's dominant joint (`JOINT_NAMES`), for `REGIONS` and `OFFSETS`.
-const PARTS: [(&str, &[usize]); 5] = [("torso", &[0, 3, 6, 9, 13, 14]), ("upper arm", &[16, 17]), ("forearm", &[18, 19]), ("thigh", &[1, 2]), ("shin", &[4, 5])];
+const PARTS: [(&str, &[usize]); 5] = [
+    ("torso", &[0, 3, 6, 9, 13, 14]),
+    ("upper arm", &[16, 17]),
+    ("forearm", &[18, 19]),
+    ("thigh", &[1, 2]),
+    ("shin", &[4, 5]),
+];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -51,22 +57,39 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let rest = query(&Default::default(), &betas);
         let mesh = avatar.canonical_mesh(&rest)?;
         let weights = avatar.mesh_skinning_weights(&mesh);
-        let body = avatar_core::mesh::signed_distance::SignedDistance::new(&capture.body.mesh(capture.body.shaped_vertices(&betas)));
+        let body = avatar_core::mesh::signed_distance::SignedDistance::new(
+            &capture.body.mesh(capture.body.shaped_vertices(&betas)),
+        );
         let crotch = capture.body.pose(&rest).bones.rest_joints[1].y;
         for (lo, hi) in [(0.0, 0.1), (0.1, 0.2), (0.2, 0.3), (0.3, 0.6)] {
-            let picked: Vec<usize> = (0..mesh.positions.len()).filter(|&v| {
-                let p = mesh.positions[v];
-                let below = crotch - p.y;
-                below >= lo && below < hi && body.at(p).is_some_and(|d| d > 0.05)
-            }).collect();
-            let mean = |j: usize| picked.iter().map(|&v| weights[v][j]).sum::<f32>() / picked.len().max(1) as f32;
-            println!("{lo:.1}-{hi:.1} m below the hips, {} loose vertices: pelvis {:.2} hips {:.2} {:.2} knees {:.2} {:.2} spine {:.2}", picked.len(), mean(0), mean(1), mean(2), mean(4), mean(5), mean(3));
+            let picked: Vec<usize> = (0..mesh.positions.len())
+                .filter(|&v| {
+                    let p = mesh.positions[v];
+                    let below = crotch - p.y;
+                    below >= lo && below < hi && body.at(p).is_some_and(|d| d > 0.05)
+                })
+                .collect();
+            let mean = |j: usize| {
+                picked.iter().map(|&v| weights[v][j]).sum::<f32>() / picked.len().max(1) as f32
+            };
+            println!(
+                "{lo:.1}-{hi:.1} m below the hips, {} loose vertices: pelvis {:.2} hips {:.2} {:.2} knees {:.2} {:.2} spine {:.2}",
+                picked.len(),
+                mean(0),
+                mean(1),
+                mean(2),
+                mean(4),
+                mean(5),
+                mean(3)
+            );
         }
     }
     if std::env::var("OFFSETS").is_ok() {
         use avatar_core::avatar::AvatarSource;
         let mesh = avatar.canonical_mesh(&query(&Default::default(), &betas))?;
-        let body = avatar_core::mesh::signed_distance::SignedDistance::new(&capture.body.mesh(capture.body.shaped_vertices(&betas)));
+        let body = avatar_core::mesh::signed_distance::SignedDistance::new(
+            &capture.body.mesh(capture.body.shaped_vertices(&betas)),
+        );
         for (label, joints) in PARTS {
             let mut d: Vec<f32> = (0..template.body_vertices.min(mesh.positions.len()))
                 .filter(|&v| joints.contains(&(template.vertex_joint[v] as usize)))
@@ -74,7 +97,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .collect();
             d.sort_by(f32::total_cmp);
             let q = |f: f32| d[((d.len() - 1) as f32 * f) as usize];
-            println!("{label}: offsets (mm) p5 {:.1} p25 {:.1} median {:.1} p75 {:.1} p95 {:.1}", q(0.05), q(0.25), q(0.5), q(0.75), q(0.95));
+            println!(
+                "{label}: offsets (mm) p5 {:.1} p25 {:.1} median {:.1} p75 {:.1} p95 {:.1}",
+                q(0.05),
+                q(0.25),
+                q(0.5),
+                q(0.75),
+                q(0.95)
+            );
         }
     }
     let mut all = Vec::new();
@@ -88,27 +118,42 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         } else if name == "zero" {
             vec![(0, avatar_core::body::BodyParams { betas: betas.clone(), ..Default::default() })]
         } else {
-            library_clip(name)?.frames.iter().enumerate().step_by(every.max(1)).map(|(i, frame)| (i, query(frame, &betas))).collect()
+            library_clip(name)?
+                .frames
+                .iter()
+                .enumerate()
+                .step_by(every.max(1))
+                .map(|(i, frame)| (i, query(frame, &betas)))
+                .collect()
         };
         let mut rows = Vec::new();
         for (i, pose) in poses {
             let truth = ground_truth_mesh(&capture.body, &template, &pose, subject);
             let predicted = avatar.posed_mesh(&pose)?;
             if std::env::var("REGIONS").is_ok() {
-                use avatar_core::eval::metrics::{vertex_scores, Prepared};
+                use avatar_core::eval::metrics::{Prepared, vertex_scores};
                 let gt = Prepared::new(&truth, "truth")?;
                 let naked = capture.body.mesh(capture.body.pose(&pose).vertices);
                 let scores: Vec<Vec<f32>> = [&predicted, &naked]
                     .iter()
-                    .map(|m| Prepared::new(m, "mesh").map(|p| vertex_scores(&truth.positions, &gt.normals, &p).normal_error))
+                    .map(|m| {
+                        Prepared::new(m, "mesh")
+                            .map(|p| vertex_scores(&truth.positions, &gt.normals, &p).normal_error)
+                    })
                     .collect::<Result<_, _>>()?;
-                let scored: (&str, &[usize]) = ("scored", &avatar_core::body::skeleton::CLOTHED_JOINTS);
+                let scored: (&str, &[usize]) =
+                    ("scored", &avatar_core::body::skeleton::CLOTHED_JOINTS);
                 let line: Vec<String> = PARTS
                     .iter()
                     .chain([&scored])
                     .map(|(label, joints)| {
-                        let picked: Vec<usize> = (0..truth.positions.len()).filter(|&v| joints.contains(&(template.vertex_joint[v] as usize))).collect();
-                        let nc = |e: &[f32]| 1.0 - picked.iter().map(|&v| e[v]).sum::<f32>() / picked.len().max(1) as f32;
+                        let picked: Vec<usize> = (0..truth.positions.len())
+                            .filter(|&v| joints.contains(&(template.vertex_joint[v] as usize)))
+                            .collect();
+                        let nc = |e: &[f32]| {
+                            1.0 - picked.iter().map(|&v| e[v]).sum::<f32>()
+                                / picked.len().max(1) as f32
+                        };
                         format!("{label} {:.3}/{:.3}", nc(&scores[0]), nc(&scores[1]))
                     })
                     .collect();
@@ -120,11 +165,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let metrics = evaluate_frame(&predicted, &truth, &regions, &options, i as u64)?;
             if worst.as_ref().is_none_or(|w| metrics.surface.spurious > w.0) {
                 let far = far_faces(&predicted, &truth);
-                worst = Some((metrics.surface.spurious, vec![truth, predicted, far], format!("{name} frame {i}")));
+                worst = Some((
+                    metrics.surface.spurious,
+                    vec![truth, predicted, far],
+                    format!("{name} frame {i}"),
+                ));
             }
             rows.push(metrics);
         }
-        let mean = |f: &dyn Fn(&avatar_core::eval::metrics::FrameMetrics) -> f32| rows.iter().map(f).sum::<f32>() / rows.len() as f32;
+        let mean = |f: &dyn Fn(&avatar_core::eval::metrics::FrameMetrics) -> f32| {
+            rows.iter().map(f).sum::<f32>() / rows.len() as f32
+        };
         println!(
             "{name:>14}: {} frames, Chamfer-L2 {:.3} cm, NC {:.3}, spurious {:.1} %, missing {:.1} %",
             rows.len(),
@@ -170,9 +221,24 @@ fn pieces_report(mesh: &TriMesh, truth: &TriMesh) -> String {
     let total: f32 = area.iter().sum();
     let mut order: Vec<usize> = (0..count).collect();
     order.sort_by(|&a, &b| area[b].total_cmp(&area[a]));
-    let pieces: Vec<String> = order.iter().take(8).map(|&c| format!("{:.0} cm2 {:.1} % (far {:.1} %)", area[c] * 1e4, 100.0 * area[c] / total, 100.0 * far[c] / total)).collect();
+    let pieces: Vec<String> = order
+        .iter()
+        .take(8)
+        .map(|&c| {
+            format!(
+                "{:.0} cm2 {:.1} % (far {:.1} %)",
+                area[c] * 1e4,
+                100.0 * area[c] / total,
+                100.0 * far[c] / total
+            )
+        })
+        .collect();
     let far_outside: f32 = order.iter().skip(1).map(|&c| far[c]).sum::<f32>() / total;
-    format!("{count} pieces: {}; far outside the largest {:.1} %", pieces.join(", "), 100.0 * far_outside)
+    format!(
+        "{count} pieces: {}; far outside the largest {:.1} %",
+        pieces.join(", "),
+        100.0 * far_outside
+    )
 }
 
 /// The faces of `mesh` whose centre lies farther than 2 cm from `truth`.

@@ -13,14 +13,20 @@ fn main() {
         let sdf = avatar.sdf_at(params);
         let predict = t.elapsed().as_secs_f64();
         let start = sdf.sdf(&rest.positions).iter().map(|f| f.abs()).fold(0f32, f32::max);
-        let mut line = format!("predict {:.1} ms, start max |f| {:.1} mm;", predict * 1e3, start * 1e3);
+        let mut line =
+            format!("predict {:.1} ms, start max |f| {:.1} mm;", predict * 1e3, start * 1e3);
         for steps in 1..=4 {
             let t = Instant::now();
             let p = sdf.project(&rest.positions, steps);
             let dt = t.elapsed().as_secs_f64();
             let mut f: Vec<f32> = sdf.sdf(&p).iter().map(|f| f.abs()).collect();
             f.sort_by(f32::total_cmp);
-            line += &format!(" {steps} steps {:.0} ms (p99 {:.3} mm, max {:.3} mm)", dt * 1e3, f[f.len() * 99 / 100] * 1e3, f[f.len() - 1] * 1e3);
+            line += &format!(
+                " {steps} steps {:.0} ms (p99 {:.3} mm, max {:.3} mm)",
+                dt * 1e3,
+                f[f.len() * 99 / 100] * 1e3,
+                f[f.len() - 1] * 1e3
+            );
         }
         println!("{line}");
     }

@@ -19,12 +19,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|(r, c)| {
             let u = (c as f32 - w as f32 / 2.0) * px;
             let v = (h as f32 / 2.0 - r as f32) * px;
-            if axis == "x" { centre + Vec3::new(offset, v, u) } else { centre + Vec3::new(u, v, offset) }
+            if axis == "x" {
+                centre + Vec3::new(offset, v, u)
+            } else {
+                centre + Vec3::new(u, v, offset)
+            }
         })
         .collect();
     let f = sdf.sdf(&points);
-    let img: Vec<u8> = f.iter().map(|&d| if d.abs() < 0.003 { 0 } else if d < 0.0 { 90 } else { (255.0 - (d * 400.0).min(60.0)) as u8 }).collect();
-    let buf: image::GrayImage = image::ImageBuffer::from_raw(w as u32, h as u32, img).expect("sized above");
+    let img: Vec<u8> = f
+        .iter()
+        .map(|&d| {
+            if d.abs() < 0.003 {
+                0
+            } else if d < 0.0 {
+                90
+            } else {
+                (255.0 - (d * 400.0).min(60.0)) as u8
+            }
+        })
+        .collect();
+    let buf: image::GrayImage =
+        image::ImageBuffer::from_raw(w as u32, h as u32, img).expect("sized above");
     buf.save(&args[2])?;
     Ok(())
 }

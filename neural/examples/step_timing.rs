@@ -13,15 +13,39 @@ fn main() {
     let model = MetaModel::shipped();
     let new = HyperFitOptions { steps, ..HyperFitOptions::default() };
     let configs = [
-        ("4 poses x 1000, encoder 1e-4, normal term (previous)", HyperFitOptions { poses_per_step: 4, surface_per_pose: 1000, off_per_pose: 1000, lr_encoder: 1e-4, weights: IgrWeights::default(), ..new.clone() }),
-        ("4 poses x 1000, encoder frozen, no normal term", HyperFitOptions { poses_per_step: 4, surface_per_pose: 1000, off_per_pose: 1000, ..new.clone() }),
+        (
+            "4 poses x 1000, encoder 1e-4, normal term (previous)",
+            HyperFitOptions {
+                poses_per_step: 4,
+                surface_per_pose: 1000,
+                off_per_pose: 1000,
+                lr_encoder: 1e-4,
+                weights: IgrWeights::default(),
+                ..new.clone()
+            },
+        ),
+        (
+            "4 poses x 1000, encoder frozen, no normal term",
+            HyperFitOptions {
+                poses_per_step: 4,
+                surface_per_pose: 1000,
+                off_per_pose: 1000,
+                ..new.clone()
+            },
+        ),
         ("8 poses x 500, encoder frozen, no normal term (defaults)", new.clone()),
     ];
     let mut ms = vec![Vec::new(); configs.len()];
     for _round in 0..2 {
         for (k, (_, options)) in configs.iter().enumerate() {
             let t = Instant::now();
-            let _ = MetaAvatar::fit_points(&capture, &Init::MetaLearned(&model), options, None, &mut |_, _, _| {});
+            let _ = MetaAvatar::fit_points(
+                &capture,
+                &Init::MetaLearned(&model),
+                options,
+                None,
+                &mut |_, _, _| {},
+            );
             ms[k].push(t.elapsed().as_secs_f64() * 1e3 / steps as f64);
         }
     }

@@ -3,14 +3,15 @@
 //! compact 40` (or `paper 5`; `RAYON_NUM_THREADS=1` for one core). CPU time (all threads) is
 //! steadier than wall time on a shared machine.
 use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
+use avatar_neural::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use avatar_neural::{HyperConfig, MetaModel};
 use std::time::Instant;
 
 fn cpu_seconds() -> f64 {
     let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
     let fields: Vec<&str> = stat.rsplit(')').next().unwrap_or("").split_whitespace().collect();
-    let ticks: f64 = fields.get(11).and_then(|u| u.parse().ok()).unwrap_or(0.0) + fields.get(12).and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    let ticks: f64 = fields.get(11).and_then(|u| u.parse().ok()).unwrap_or(0.0)
+        + fields.get(12).and_then(|s| s.parse().ok()).unwrap_or(0.0);
     ticks / 100.0
 }
 
@@ -33,9 +34,25 @@ fn main() {
     let options = HyperFitOptions { steps, ..HyperFitOptions::default() };
     let (t, c) = (Instant::now(), cpu_seconds());
     let mut stamps = Vec::new();
-    fit_hyper(model, &samples, &options, &mut HyperOptimisers::default(), &device, Some(&prior), None, &mut |_, _, _| stamps.push((t.elapsed().as_secs_f64(), cpu_seconds())));
+    fit_hyper(
+        model,
+        &samples,
+        &options,
+        &mut HyperOptimisers::default(),
+        &device,
+        Some(&prior),
+        None,
+        &mut |_, _, _| stamps.push((t.elapsed().as_secs_f64(), cpu_seconds())),
+    );
     let n = (stamps.len() - 1) as f64;
     let (w0, c0) = stamps[0];
     let (w1, c1) = stamps[stamps.len() - 1];
-    println!("{preset}: {:.1} ms wall, {:.1} ms CPU a step ({} steps after the first; total {:.1} s wall, {:.1} s CPU)", (w1 - w0) * 1e3 / n, (c1 - c0) * 1e3 / n, n, t.elapsed().as_secs_f64(), cpu_seconds() - c);
+    println!(
+        "{preset}: {:.1} ms wall, {:.1} ms CPU a step ({} steps after the first; total {:.1} s wall, {:.1} s CPU)",
+        (w1 - w0) * 1e3 / n,
+        (c1 - c0) * 1e3 / n,
+        n,
+        t.elapsed().as_secs_f64(),
+        cpu_seconds() - c
+    );
 }

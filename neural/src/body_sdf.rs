@@ -3,8 +3,8 @@
 //! an SDF learned from the misaligned points.
 
 use crate::capture_points::CapturePoints;
-use avatar_core::mesh::bvh::Bvh;
 use avatar_core::mesh::TriMesh;
+use avatar_core::mesh::bvh::Bvh;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -18,7 +18,12 @@ pub struct BodySdf {
 
 impl BodySdf {
     pub fn new(capture: &CapturePoints) -> BodySdf {
-        let parts = capture.body.weights.iter().map(|w| (0..w.len()).max_by(|&a, &b| w[a].total_cmp(&w[b])).unwrap_or(0)).collect();
+        let parts = capture
+            .body
+            .weights
+            .iter()
+            .map(|w| (0..w.len()).max_by(|&a, &b| w[a].total_cmp(&w[b])).unwrap_or(0))
+            .collect();
         Self::of_mesh(capture.body.mesh(capture.rest.clone()), parts)
     }
 
@@ -44,14 +49,22 @@ impl BodySdf {
             .map(|&p| {
                 let Some(h) = self.bvh.closest_point(p) else { return (f32::NAN, Vec3::ZERO, 0) };
                 let [a, b, c] = self.mesh.faces[h.face as usize].map(|i| i as usize);
-                let n = interpolate(h.point, [self.mesh.positions[a], self.mesh.positions[b], self.mesh.positions[c]], [self.vertex_normals[a], self.vertex_normals[b], self.vertex_normals[c]]);
+                let n = interpolate(
+                    h.point,
+                    [self.mesh.positions[a], self.mesh.positions[b], self.mesh.positions[c]],
+                    [self.vertex_normals[a], self.vertex_normals[b], self.vertex_normals[c]],
+                );
                 let d = p - h.point;
                 let sign = if d.dot(n) >= 0.0 { 1.0 } else { -1.0 };
                 let g = if h.distance > 1e-6 { d / h.distance * sign } else { n };
                 (sign * h.distance, g, self.parts.get(a).copied().unwrap_or(0))
             })
             .collect();
-        (rows.iter().map(|r| r.0).collect(), rows.iter().map(|r| r.1).collect(), rows.iter().map(|r| r.2).collect())
+        (
+            rows.iter().map(|r| r.0).collect(),
+            rows.iter().map(|r| r.1).collect(),
+            rows.iter().map(|r| r.2).collect(),
+        )
     }
 
     /// The signed distance less the clothing's offset over these points: per body part (the
@@ -61,7 +74,13 @@ impl BodySdf {
     /// the offset every point would pull inward.
     pub fn beyond_clothing(&self, points: &[Vec3], band: f32) -> (Vec<f32>, Vec<Vec3>) {
         let (mut d, g, parts) = self.eval_parts(points);
-        let near = |part: Option<usize>| -> Vec<f32> { d.iter().zip(&parts).filter(|(v, p)| (-0.01..band).contains(*v) && part.is_none_or(|q| q == **p)).map(|(v, _)| *v).collect() };
+        let near = |part: Option<usize>| -> Vec<f32> {
+            d.iter()
+                .zip(&parts)
+                .filter(|(v, p)| (-0.01..band).contains(*v) && part.is_none_or(|q| q == **p))
+                .map(|(v, _)| *v)
+                .collect()
+        };
         let global = median(near(None)).unwrap_or(0.0);
         let mut offsets = vec![global; avatar_core::body::NUM_JOINTS];
         for (j, o) in offsets.iter_mut().enumerate() {
@@ -71,7 +90,9 @@ impl BodySdf {
                 *o = median(v).unwrap_or(global);
             }
         }
-        d.iter_mut().zip(&parts).for_each(|(v, &p)| *v -= offsets.get(p).copied().unwrap_or(global));
+        d.iter_mut()
+            .zip(&parts)
+            .for_each(|(v, &p)| *v -= offsets.get(p).copied().unwrap_or(global));
         (d, g)
     }
 }

@@ -4,11 +4,14 @@
 //! off-surface sign prior from the canonical body's SDF.
 
 use crate::encoder::PoseEncoding;
+use crate::error::{Error, Result};
 use crate::pose_sample::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS};
-use avatar_core::canonical::{default_cache_dir, shell_samples, Canonicalizer, FieldOptions, Normalisation, ShellOptions, SkinningField};
-use avatar_core::capture::{free_space_samples, Capture, CaptureOptions, FreeSpaceOptions};
-use crate::error::{Error, Result};
+use avatar_core::canonical::{
+    Canonicalizer, FieldOptions, Normalisation, ShellOptions, SkinningField, default_cache_dir,
+    shell_samples,
+};
+use avatar_core::capture::{Capture, CaptureOptions, FreeSpaceOptions, free_space_samples};
 use avatar_core::mesh::signed_distance::SignedDistance;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -58,13 +61,28 @@ impl FramePoints {
 /// (metres) with their `normals`, clear of the rest body (`body`: its signed distance) and of
 /// all frames' points.
 /// Seeded per frame.
-pub fn shell_samples_of(body: &SignedDistance, points: &[Vec<Vec3>], normals: &[&[Vec3]], options: &ShellOptions) -> Vec<Vec<Vec3>> {
-    let Ok(observed) = avatar_core::mesh::point_index::PointIndex::new(&points.concat()) else { return vec![Vec::new(); points.len()] };
+pub fn shell_samples_of(
+    body: &SignedDistance,
+    points: &[Vec<Vec3>],
+    normals: &[&[Vec3]],
+    options: &ShellOptions,
+) -> Vec<Vec<Vec3>> {
+    let Ok(observed) = avatar_core::mesh::point_index::PointIndex::new(&points.concat()) else {
+        return vec![Vec::new(); points.len()];
+    };
     points
         .iter()
         .zip(normals)
         .enumerate()
-        .map(|(k, (p, n))| shell_samples(p, n, body, &observed, &ShellOptions { seed: options.seed ^ k as u64, ..*options }))
+        .map(|(k, (p, n))| {
+            shell_samples(
+                p,
+                n,
+                body,
+                &observed,
+                &ShellOptions { seed: options.seed ^ k as u64, ..*options },
+            )
+        })
         .collect()
 }
 
@@ -108,15 +126,31 @@ impl CapturePoints {
 
     /// Like [`CapturePoints::open`], for a range of frame counts, with `body_model` (an SMPL
     /// npz) replacing the body model the capture names (`fit --body-model`).
-    pub fn open_with(dir: &Path, count: FrameCount, body_model: Option<&Path>) -> Result<CapturePoints> {
-        let (frames, at_least) = (count.at_most.max(1), count.at_least.clamp(1, count.at_most.max(1)));
-        let capture = Capture::open_with(dir, &CaptureOptions { body_model: body_model.map(Path::to_path_buf), ..CaptureOptions::default() })?;
+    pub fn open_with(
+        dir: &Path,
+        count: FrameCount,
+        body_model: Option<&Path>,
+    ) -> Result<CapturePoints> {
+        let (frames, at_least) =
+            (count.at_most.max(1), count.at_least.clamp(1, count.at_most.max(1)));
+        let capture = Capture::open_with(
+            dir,
+            &CaptureOptions {
+                body_model: body_model.map(Path::to_path_buf),
+                ..CaptureOptions::default()
+            },
+        )?;
         let mut warnings: Vec<String> = capture.warnings.iter().map(|w| w.to_string()).collect();
         // Most frames without depth near the body: the one-line reason (units, camera, axes).
         warnings.extend(capture.diagnose());
         // Too few usable frames is refused here already, before the skinning field is built.
         let opened: Vec<usize> = capture.frames.iter().map(|f| f.index).take(frames).collect();
-        avatar_core::capture::plausibility::require_usable_frames(&capture, at_least, &opened, &[])?;
+        avatar_core::capture::plausibility::require_usable_frames(
+            &capture,
+            at_least,
+            &opened,
+            &[],
+        )?;
         let betas = capture.frames[0].params.betas.clone();
         let field_options = FieldOptions::default();
         let cache = default_cache_dir();
@@ -134,20 +168,44 @@ impl CapturePoints {
             let c = canon.frame(f);
             dropped += c.dropped + c.unsolved;
             if c.points.len() < MIN_FRAME_POINTS {
-                warnings.push(format!("{}: frame {}: only {} canonical points survived; skipped", dir.display(), f.index, c.points.len()));
-                skipped.push((f.index, format!("only {} canonical points survived", c.points.len())));
+                warnings.push(format!(
+                    "{}: frame {}: only {} canonical points survived; skipped",
+                    dir.display(),
+                    f.index,
+                    c.points.len()
+                ));
+                skipped
+                    .push((f.index, format!("only {} canonical points survived", c.points.len())));
                 continue;
             }
             used.push(f.index);
-            let free = free_space_samples(&f.points, f.camera_center(), &FreeSpaceOptions { seed: FreeSpaceOptions::default().seed ^ f.index as u64, ..FreeSpaceOptions::default() });
+            let free = free_space_samples(
+                &f.points,
+                f.camera_center(),
+                &FreeSpaceOptions {
+                    seed: FreeSpaceOptions::default().seed ^ f.index as u64,
+                    ..FreeSpaceOptions::default()
+                },
+            );
             let free_space = canon.free_space(f, &free).iter().map(|p| norm.to_unit(*p)).collect();
-            out.push(FramePoints { params: f.params.clone(), points: c.points.iter().map(|p| norm.to_unit(*p)).collect(), normals: c.normals, free_space, shells: Vec::new() });
+            out.push(FramePoints {
+                params: f.params.clone(),
+                points: c.points.iter().map(|p| norm.to_unit(*p)).collect(),
+                normals: c.normals,
+                free_space,
+                shells: Vec::new(),
+            });
         }
         // Fewer usable frames than asked (and than the capture has) is an error naming them.
-        avatar_core::capture::plausibility::require_usable_frames(&capture, at_least, &used, &skipped)?;
+        avatar_core::capture::plausibility::require_usable_frames(
+            &capture, at_least, &used, &skipped,
+        )?;
         let total: usize = out.iter().map(|f| f.points.len()).sum();
         if total < 100 {
-            return Err(Error::invalid(format!("{}: only {total} canonical points survived; cannot fit an avatar", dir.display())));
+            return Err(Error::invalid(format!(
+                "{}: only {total} canonical points survived; cannot fit an avatar",
+                dir.display()
+            )));
         }
         let mut capture = CapturePoints {
             body: capture.body.as_ref().clone(),
@@ -175,7 +233,13 @@ impl CapturePoints {
             self.frames.iter().map(|f| prior(&f.free_space)).collect()
         };
         for (frame, signs) in self.frames.iter_mut().zip(signs) {
-            let kept = frame.free_space.iter().zip(&signs).filter(|(_, s)| **s >= 0.0).map(|(p, _)| *p).collect();
+            let kept = frame
+                .free_space
+                .iter()
+                .zip(&signs)
+                .filter(|(_, s)| **s >= 0.0)
+                .map(|(p, _)| *p)
+                .collect();
             frame.free_space = kept;
         }
     }
@@ -184,7 +248,11 @@ impl CapturePoints {
     /// a skirt is fitted as a solid bell whose inner wall lies centimetres inside the cloth.
     fn add_shell_samples(&mut self, options: &ShellOptions) {
         let norm = self.normalisation;
-        let metric: Vec<Vec<Vec3>> = self.frames.iter().map(|f| f.points.iter().map(|p| norm.from_unit(*p)).collect()).collect();
+        let metric: Vec<Vec<Vec3>> = self
+            .frames
+            .iter()
+            .map(|f| f.points.iter().map(|p| norm.from_unit(*p)).collect())
+            .collect();
         let normals: Vec<&[Vec3]> = self.frames.iter().map(|f| f.normals.as_slice()).collect();
         let shells = shell_samples_of(&self.rest_sdf, &metric, &normals, options);
         for (frame, samples) in self.frames.iter_mut().zip(shells) {
@@ -202,7 +270,12 @@ impl CapturePoints {
         let joints = self.rest_joints();
         self.frames
             .iter()
-            .map(|f| PoseSample { pose_input: encoding.input(&f.params, &joints, &self.normalisation), points: f.points.clone(), normals: f.normals.clone(), free_space: f.outside() })
+            .map(|f| PoseSample {
+                pose_input: encoding.input(&f.params, &joints, &self.normalisation),
+                points: f.points.clone(),
+                normals: f.normals.clone(),
+                free_space: f.outside(),
+            })
             .collect()
     }
 

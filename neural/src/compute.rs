@@ -89,7 +89,12 @@ mod tests {
     #[test]
     fn device_names_parse_and_a_cpu_build_refuses_gpu_with_the_reason() {
         assert_eq!(Compute::parse("cpu").unwrap(), Compute::Cpu);
-        assert!(Compute::parse("tpu").unwrap_err().to_string().contains("expected cpu, gpu or cpu-burn"));
+        assert!(
+            Compute::parse("tpu")
+                .unwrap_err()
+                .to_string()
+                .contains("expected cpu, gpu or cpu-burn")
+        );
         assert_eq!(Compute::parse("cpu-burn").unwrap(), Compute::CpuBurn);
         if cfg!(feature = "gpu") {
             assert_eq!(Compute::parse("gpu").unwrap(), Compute::Gpu);

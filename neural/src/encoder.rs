@@ -2,8 +2,8 @@
 //! bone transforms (MetaAvatar's variant: root rotation dropped, absolute normalised rest
 //! joints, no final ReLU), or the plain quaternion encoding (23 joints x 4) as an option.
 
-use avatar_core::body::skeleton::{NUM_JOINTS, SMPL_PARENTS as PARENTS};
 use avatar_core::body::BodyParams;
+use avatar_core::body::skeleton::{NUM_JOINTS, SMPL_PARENTS as PARENTS};
 use avatar_core::canonical::Normalisation;
 use burn::module::{Module, Param};
 use burn::tensor::activation::relu;
@@ -47,7 +47,12 @@ impl PoseEncoding {
     /// The input vector of one pose. `rest_joints`: the subject's rest joints in metres;
     /// `norm`: the subject's canonical normalisation. The global orientation (joint 0) is
     /// dropped: the avatar lives in the canonical frame.
-    pub fn input(&self, params: &BodyParams, rest_joints: &[Vec3; NUM_JOINTS], norm: &Normalisation) -> Vec<f32> {
+    pub fn input(
+        &self,
+        params: &BodyParams,
+        rest_joints: &[Vec3; NUM_JOINTS],
+        norm: &Normalisation,
+    ) -> Vec<f32> {
         let rotations = params.rotations();
         match self {
             PoseEncoding::Hierarchical => {
@@ -59,7 +64,11 @@ impl PoseEncoding {
                     out.extend_from_slice(&r.transpose().to_cols_array());
                     out.extend_from_slice(&unit[j].to_array());
                     let parent = PARENTS[j];
-                    let length = if parent < 0 { unit[j].length() } else { (unit[j] - unit[parent as usize]).length() };
+                    let length = if parent < 0 {
+                        unit[j].length()
+                    } else {
+                        (unit[j] - unit[parent as usize]).length()
+                    };
                     out.push(length);
                 }
                 out
@@ -92,11 +101,19 @@ pub struct BoneEncoder {
 }
 
 /// PyTorch's default linear initialisation, U(+-1/sqrt(fan_in)) for weights and biases.
-pub(crate) fn default_linear(rng: &mut ChaCha8Rng, fan_in: usize, fan_out: usize, device: &Device) -> (Param<Tensor<2>>, Param<Tensor<1>>) {
+pub(crate) fn default_linear(
+    rng: &mut ChaCha8Rng,
+    fan_in: usize,
+    fan_out: usize,
+    device: &Device,
+) -> (Param<Tensor<2>>, Param<Tensor<1>>) {
     let bound = 1.0 / (fan_in as f32).sqrt();
     let w: Vec<f32> = (0..fan_in * fan_out).map(|_| rng.random_range(-bound..bound)).collect();
     let b: Vec<f32> = (0..fan_out).map(|_| rng.random_range(-bound..bound)).collect();
-    (Param::from_tensor(Tensor::from_data(TensorData::new(w, [fan_in, fan_out]), device)), Param::from_tensor(Tensor::from_data(TensorData::new(b, [fan_out]), device)))
+    (
+        Param::from_tensor(Tensor::from_data(TensorData::new(w, [fan_in, fan_out]), device)),
+        Param::from_tensor(Tensor::from_data(TensorData::new(b, [fan_out]), device)),
+    )
 }
 
 fn linear(x: Tensor<2>, w: &Param<Tensor<2>>, b: &Param<Tensor<1>>) -> Tensor<2> {
@@ -105,7 +122,14 @@ fn linear(x: Tensor<2>, w: &Param<Tensor<2>>, b: &Param<Tensor<1>>) -> Tensor<2>
 
 impl BoneEncoder {
     pub fn init(encoding: PoseEncoding, seed: u64, device: &Device) -> BoneEncoder {
-        let mut e = BoneEncoder { prior_w: vec![], prior_b: vec![], w1: vec![], b1: vec![], w2: vec![], b2: vec![] };
+        let mut e = BoneEncoder {
+            prior_w: vec![],
+            prior_b: vec![],
+            w1: vec![],
+            b1: vec![],
+            w2: vec![],
+            b2: vec![],
+        };
         if encoding == PoseEncoding::Quaternion {
             return e;
         }
@@ -132,12 +156,14 @@ impl BoneEncoder {
         }
         let b = input.dims()[0];
         let bone = |j: usize| input.clone().slice([0..b, j * BONE_INPUTS..(j + 1) * BONE_INPUTS]);
-        let rot_and_joint: Vec<Tensor<2>> = (0..NUM_JOINTS).map(|j| bone(j).slice([0..b, 0..12])).collect();
+        let rot_and_joint: Vec<Tensor<2>> =
+            (0..NUM_JOINTS).map(|j| bone(j).slice([0..b, 0..12])).collect();
         let prior = linear(Tensor::cat(rot_and_joint, 1), &self.prior_w[0], &self.prior_b[0]);
         // Joints come in kinematic order: a parent's feature is ready before its children.
         let mut features: Vec<Tensor<2>> = Vec::with_capacity(NUM_JOINTS);
         for j in 0..NUM_JOINTS {
-            let parent = if PARENTS[j] < 0 { prior.clone() } else { features[PARENTS[j] as usize].clone() };
+            let parent =
+                if PARENTS[j] < 0 { prior.clone() } else { features[PARENTS[j] as usize].clone() };
             let x = Tensor::cat(vec![bone(j), parent], 1);
             let h = relu(linear(x, &self.w1[j], &self.b1[j]));
             features.push(linear(h, &self.w2[j], &self.b2[j]));

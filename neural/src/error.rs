@@ -43,7 +43,10 @@ impl From<Error> for avatar_core::Error {
     fn from(e: Error) -> Self {
         match e {
             Error::Core(e) => e,
-            Error::AvatarKind { path, kind, known } => avatar_core::Error::file(path, format!("{kind:?} is not an avatar this build can load ({known})")),
+            Error::AvatarKind { path, kind, known } => avatar_core::Error::file(
+                path,
+                format!("{kind:?} is not an avatar this build can load ({known})"),
+            ),
             other => avatar_core::Error::invalid(other.to_string()),
         }
     }

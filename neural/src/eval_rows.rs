@@ -2,15 +2,15 @@
 //! avatar, the from-scratch baseline (same networks and fine-tuning steps, random
 //! initialisation) and the static meta-SDF (Alg. 1's pose-independent SDF fine-tuned).
 
+use crate::avatar::{AnyAvatar, AvatarFit, FitKind, Init, MetaAvatar, StaticAvatar, fit_avatar};
 use crate::capture_points::CapturePoints;
 use crate::hyper_fit::HyperFitOptions;
-use crate::avatar::{fit_avatar, AnyAvatar, AvatarFit, FitKind, Init, MetaAvatar, StaticAvatar};
 use crate::model_file::MetaModel;
+use avatar_core::avatar::AvatarSource;
 use avatar_core::body::BodyParams;
 use avatar_core::canonical::forward_skin_with_weights;
 use avatar_core::error::{Error, Result};
 use avatar_core::eval::{FitData, Predictor};
-use avatar_core::avatar::AvatarSource;
 use avatar_core::mesh::TriMesh;
 use std::sync::Arc;
 
@@ -40,7 +40,13 @@ pub struct NeuralRow {
 
 impl NeuralRow {
     /// `options.steps` is the same for every row, so each gets the same fine-tuning budget.
-    pub fn new(kind: RowKind, model: Arc<MetaModel>, options: HyperFitOptions, max_frames: usize, resolution: usize) -> Self {
+    pub fn new(
+        kind: RowKind,
+        model: Arc<MetaModel>,
+        options: HyperFitOptions,
+        max_frames: usize,
+        resolution: usize,
+    ) -> Self {
         NeuralRow { kind, model, options, max_frames, resolution, fitted: None }
     }
 }
@@ -58,8 +64,14 @@ impl Predictor for NeuralRow {
         let capture = CapturePoints::open(data.capture_dir, self.max_frames)?;
         let kind = match self.kind {
             RowKind::MetaLearned => FitKind::Meta(Init::MetaLearned(&self.model)),
-            RowKind::FromScratch => FitKind::Meta(Init::Scratch { config: self.model.header.config, seed: self.options.seed }),
-            RowKind::StaticMetaSdf => FitKind::Static { siren: self.model.header.config.siren, init: Some(self.model.static_siren()) },
+            RowKind::FromScratch => FitKind::Meta(Init::Scratch {
+                config: self.model.header.config,
+                seed: self.options.seed,
+            }),
+            RowKind::StaticMetaSdf => FitKind::Static {
+                siren: self.model.header.config.siren,
+                init: Some(self.model.static_siren()),
+            },
         };
         let fit = AvatarFit { kind, options: self.options.clone(), chunk: 0, cancel: None };
         self.fitted = Some(match fit_avatar(&capture, &fit, &mut |_| {}).0 {
@@ -76,7 +88,9 @@ impl Predictor for NeuralRow {
             // Diagnostic: AVATAR_EVAL_SAVE=DIR keeps each fitted MetaAvatar as DIR/CAPTURE.avatar
             // (with `--keep-captures`, `examples/posed_errors` then measures changes to posing
             // without a refit).
-            if let (Some(dir), Some(name)) = (std::env::var_os("AVATAR_EVAL_SAVE"), data.capture_dir.file_name()) {
+            if let (Some(dir), Some(name)) =
+                (std::env::var_os("AVATAR_EVAL_SAVE"), data.capture_dir.file_name())
+            {
                 let path = std::path::Path::new(&dir).join(name).with_extension("avatar");
                 a.save(&path).map_err(|e| Error::invalid(format!("{}: {e}", path.display())))?;
             }

@@ -1,7 +1,7 @@
 //! Fitting a SIREN SDF to oriented points with the IGR loss (Adam): the inner loop of
 //! meta-learning and of fine-tuning the static SDF.
 
-use crate::loss::{igr_loss, IgrWeights};
+use crate::loss::{IgrWeights, igr_loss};
 use crate::off_surface::OffSurface;
 use crate::siren::Siren;
 use crate::train::{Adam, IgrPoints, SirenGradient, SirenShape};
@@ -33,7 +33,17 @@ pub struct FitOptions {
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { steps: 500, learning_rate: 1e-4, batch: 2000, off_surface: 2000, free_space: 0, near_sigma: 0.02, weights: IgrWeights::default(), prior_weight: 1000.0, seed: 0 }
+        FitOptions {
+            steps: 500,
+            learning_rate: 1e-4,
+            batch: 2000,
+            off_surface: 2000,
+            free_space: 0,
+            near_sigma: 0.02,
+            weights: IgrWeights::default(),
+            prior_weight: 1000.0,
+            seed: 0,
+        }
     }
 }
 
@@ -44,7 +54,11 @@ pub type SignPrior<'a> = &'a (dyn Fn(&[Vec3]) -> Vec<f32> + Sync);
 /// to be outside), else the prior's (0 without one); `None` when neither constrains anything.
 /// The prior is asked once (a fit counts its calls as steps), and only for the other points:
 /// its closest-point queries are a tenth of a training step.
-pub fn off_surface_signs(prior: Option<SignPrior>, offs: &[Vec3], free: &[bool]) -> Option<Vec<f32>> {
+pub fn off_surface_signs(
+    prior: Option<SignPrior>,
+    offs: &[Vec3],
+    free: &[bool],
+) -> Option<Vec<f32>> {
     if prior.is_none() && !free.contains(&true) {
         return None;
     }
@@ -73,8 +87,29 @@ pub struct SdfOptimiser {
 /// (constrained to be outside; may be empty). Stops early when `cancel` is set and
 /// returns the model as it is then (the partial result stays usable).
 #[allow(clippy::too_many_arguments)]
-pub fn fit_sdf(model: Siren, points: &[Vec3], normals: &[Vec3], outside: &[Vec3], options: &FitOptions, device: &Device, prior: Option<SignPrior>, cancel: Option<&AtomicBool>, progress: Progress) -> Siren {
-    fit_sdf_resuming(model, points, normals, outside, options, &mut SdfOptimiser::default(), device, prior, cancel, progress)
+pub fn fit_sdf(
+    model: Siren,
+    points: &[Vec3],
+    normals: &[Vec3],
+    outside: &[Vec3],
+    options: &FitOptions,
+    device: &Device,
+    prior: Option<SignPrior>,
+    cancel: Option<&AtomicBool>,
+    progress: Progress,
+) -> Siren {
+    fit_sdf_resuming(
+        model,
+        points,
+        normals,
+        outside,
+        options,
+        &mut SdfOptimiser::default(),
+        device,
+        prior,
+        cancel,
+        progress,
+    )
 }
 
 /// [`fit_sdf`] continuing from `optimiser`'s state (Adam's moments and step count).
@@ -96,7 +131,9 @@ pub fn fit_sdf_resuming(
     let log_every = (options.steps / 50).max(1);
     // On the CPU the steps run on the training path (`crate::train`), on a GPU through burn.
     let mut flat = crate::compute::flat_training().then(|| {
-        let (gradient, adam) = optimiser.flat.get_or_insert_with(|| (SirenGradient::new(SirenShape::of(&model.config())), Adam::default()));
+        let (gradient, adam) = optimiser.flat.get_or_insert_with(|| {
+            (SirenGradient::new(SirenShape::of(&model.config())), Adam::default())
+        });
         let params = crate::flat_params::flatten(&model);
         (gradient, adam, vec![0f32; params.len()], params)
     });
@@ -104,7 +141,8 @@ pub fn fit_sdf_resuming(
         if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             break;
         }
-        let (surface, surface_n, off, free) = sample_step(points, normals, outside, options, &mut rng);
+        let (surface, surface_n, off, free) =
+            sample_step(points, normals, outside, options, &mut rng);
         // The free-space samples are the last `free` off-surface points.
         let is_free: Vec<bool> = (0..off.len()).map(|k| k >= off.len() - free).collect();
         let signs = off_surface_signs(prior, &off, &is_free);
@@ -113,7 +151,15 @@ pub fn fit_sdf_resuming(
             let mut all: Vec<[f32; 3]> = surface.iter().map(|p| p.to_array()).collect();
             all.extend(off.iter().map(|p| p.to_array()));
             let normals: Vec<[f32; 3]> = surface_n.iter().map(|n| n.to_array()).collect();
-            let loss = IgrPoints { weights: options.weights, prior_weight: options.prior_weight, groups: 1, surface: surface.len(), off: off.len(), normals: &normals, signs: signs.as_deref() };
+            let loss = IgrPoints {
+                weights: options.weights,
+                prior_weight: options.prior_weight,
+                groups: 1,
+                surface: surface.len(),
+                off: off.len(),
+                normals: &normals,
+                signs: signs.as_deref(),
+            };
             let l = gradient.compute(params, &all, &loss, grad);
             if log {
                 progress(step, l.total, l.terms);
@@ -122,12 +168,22 @@ pub fn fit_sdf_resuming(
             adam.step(params, grad, &[(all, options.learning_rate)]);
             continue;
         }
-        let signs = signs.map(|s| (Tensor::from_data(TensorData::new(s, [off.len(), 1]), device), options.prior_weight));
+        let signs = signs.map(|s| {
+            (Tensor::from_data(TensorData::new(s, [off.len(), 1]), device), options.prior_weight)
+        });
         let mut all = surface.clone();
         all.extend(off);
         let x = to_tensor(&all, device);
         let (f, g) = model.sdf_and_gradient(x);
-        let loss = igr_loss(f, g, to_tensor(&surface_n, device), surface.len(), &options.weights, signs, log);
+        let loss = igr_loss(
+            f,
+            g,
+            to_tensor(&surface_n, device),
+            surface.len(),
+            &options.weights,
+            signs,
+            log,
+        );
         if log {
             progress(step, crate::loss::scalar(&loss.total), loss.terms);
         }
@@ -136,7 +192,8 @@ pub fn fit_sdf_resuming(
         model = optim.step(options.learning_rate, model, grads);
     }
     match flat {
-        Some((_, _, _, params)) => crate::flat_params::load_flat(model, &params).expect("the flat parameters come from this model"),
+        Some((_, _, _, params)) => crate::flat_params::load_flat(model, &params)
+            .expect("the flat parameters come from this model"),
         None => model,
     }
 }
@@ -144,17 +201,31 @@ pub fn fit_sdf_resuming(
 /// A step's points: surface points with their normals, and off-surface points (half uniform
 /// in [-1, 1]^3, half near the surface, then `free_space` from `outside`), with the count of
 /// free-space points at the end of the off-surface points.
-pub fn sample_step(points: &[Vec3], normals: &[Vec3], outside: &[Vec3], options: &FitOptions, rng: &mut ChaCha8Rng) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, usize) {
-    let idx: Vec<usize> = (0..options.batch.min(points.len())).map(|_| rng.random_range(0..points.len())).collect();
+pub fn sample_step(
+    points: &[Vec3],
+    normals: &[Vec3],
+    outside: &[Vec3],
+    options: &FitOptions,
+    rng: &mut ChaCha8Rng,
+) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, usize) {
+    let idx: Vec<usize> =
+        (0..options.batch.min(points.len())).map(|_| rng.random_range(0..points.len())).collect();
     let surface: Vec<Vec3> = idx.iter().map(|&i| points[i]).collect();
     let surface_n: Vec<Vec3> = idx.iter().map(|&i| normals[i]).collect();
     let mut off = Vec::new();
-    let spec = OffSurface { surface: points, outside, count: options.off_surface, free_space: options.free_space, near_sigma: options.near_sigma };
+    let spec = OffSurface {
+        surface: points,
+        outside,
+        count: options.off_surface,
+        free_space: options.free_space,
+        near_sigma: options.near_sigma,
+    };
     let free = spec.draw(rng, &mut off);
     (surface, surface_n, off, free)
 }
 
 /// SDF values of points (no gradient), through the fast evaluation path (`siren_eval`).
 pub fn sdf_values(model: &Siren, points: &[Vec3]) -> Vec<f32> {
-    crate::siren_eval::SirenEval::of(model).sdf(&points.iter().map(|p| p.to_array()).collect::<Vec<_>>())
+    crate::siren_eval::SirenEval::of(model)
+        .sdf(&points.iter().map(|p| p.to_array()).collect::<Vec<_>>())
 }

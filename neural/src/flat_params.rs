@@ -48,7 +48,10 @@ impl ModuleMapper for Load<'_> {
 pub fn load_flat<M: Module>(module: M, flat: &[f32]) -> crate::error::Result<M> {
     let expected = module.num_params();
     if flat.len() != expected {
-        return Err(crate::error::Error::invalid(format!("{} weights given, the network has {expected}", flat.len())));
+        return Err(crate::error::Error::invalid(format!(
+            "{} weights given, the network has {expected}",
+            flat.len()
+        )));
     }
     let mut loader = Load { flat, offset: 0 };
     Ok(module.map(&mut loader))
@@ -69,9 +72,14 @@ impl ModuleVisitor for Difference<'_> {
         let n = shape.num_elements();
         let data = value.into_data().convert::<f32>();
         let theta = data.as_slice::<f32>().expect("f32 tensor");
-        let diff: Vec<f32> = theta.iter().zip(&self.adapted[self.offset..self.offset + n]).map(|(a, b)| a - b).collect();
+        let diff: Vec<f32> = theta
+            .iter()
+            .zip(&self.adapted[self.offset..self.offset + n])
+            .map(|(a, b)| a - b)
+            .collect();
         self.offset += n;
-        self.grads.register(param.id, Tensor::<D>::from_data(TensorData::new(diff, shape), &device));
+        self.grads
+            .register(param.id, Tensor::<D>::from_data(TensorData::new(diff, shape), &device));
     }
 }
 
@@ -94,7 +102,9 @@ impl ModuleVisitor for GradientVisitor<'_> {
     fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
         let n = param.val().shape().num_elements();
         match self.grads.get::<D>(param.id) {
-            Some(g) => self.out.extend_from_slice(g.into_data().convert::<f32>().as_slice::<f32>().expect("f32 tensor")),
+            Some(g) => self.out.extend_from_slice(
+                g.into_data().convert::<f32>().as_slice::<f32>().expect("f32 tensor"),
+            ),
             None => self.out.extend(std::iter::repeat_n(0.0, n)),
         }
     }

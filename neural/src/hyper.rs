@@ -8,7 +8,7 @@
 //! low-rank residual U_l C(pose) per layer, about 1 M parameters) that a laptop CPU
 //! fine-tunes in minutes.
 
-use crate::encoder::{default_linear, BoneEncoder, PoseEncoding};
+use crate::encoder::{BoneEncoder, PoseEncoding, default_linear};
 use crate::off_surface::gauss;
 use crate::siren::{Siren, SirenConfig};
 use burn::module::{Module, Param};
@@ -31,12 +31,22 @@ pub struct HyperConfig {
 impl HyperConfig {
     /// The published sizes (MetaAvatar): 85.6 M parameters in the heads and the encoder.
     pub fn paper() -> Self {
-        HyperConfig { siren: SirenConfig::paper(), head_hidden: 256, rank: None, encoding: PoseEncoding::Hierarchical }
+        HyperConfig {
+            siren: SirenConfig::paper(),
+            head_hidden: 256,
+            rank: None,
+            encoding: PoseEncoding::Hierarchical,
+        }
     }
 
     /// The compact default: fine-tunes on two CPU cores in minutes, ships in a few MB.
     pub fn compact() -> Self {
-        HyperConfig { siren: SirenConfig::compact(), head_hidden: 128, rank: Some(8), encoding: PoseEncoding::Hierarchical }
+        HyperConfig {
+            siren: SirenConfig::compact(),
+            head_hidden: 128,
+            rank: Some(8),
+            encoding: PoseEncoding::Hierarchical,
+        }
     }
 
     pub fn preset(name: &str) -> Option<Self> {
@@ -69,8 +79,13 @@ impl HyperConfig {
     /// before any size arithmetic, which then cannot overflow.
     pub fn check(&self) -> crate::error::Result<()> {
         self.siren.check()?;
-        if !(1..=4096).contains(&self.head_hidden) || self.rank.is_some_and(|r| !(1..=4096).contains(&r)) {
-            return Err(crate::error::Error::invalid(format!("hypernetwork head width {} or rank {:?} out of range (1-4096)", self.head_hidden, self.rank)));
+        if !(1..=4096).contains(&self.head_hidden)
+            || self.rank.is_some_and(|r| !(1..=4096).contains(&r))
+        {
+            return Err(crate::error::Error::invalid(format!(
+                "hypernetwork head width {} or rank {:?} out of range (1-4096)",
+                self.head_hidden, self.rank
+            )));
         }
         Ok(())
     }
@@ -83,7 +98,9 @@ impl HyperConfig {
     pub fn encoder_params(&self) -> usize {
         use crate::encoder::{BONE_FEATURES as F, BONE_INPUTS as I};
         match self.encoding {
-            PoseEncoding::Hierarchical => 24 * 12 * F + F + 24 * ((I + F) * (I + F) + (I + F) + (I + F) * F + F),
+            PoseEncoding::Hierarchical => {
+                24 * 12 * F + F + 24 * ((I + F) * (I + F) + (I + F) + (I + F) * F + F)
+            }
             PoseEncoding::Quaternion => 0,
         }
     }
@@ -95,7 +112,15 @@ impl HyperConfig {
             .into_iter()
             .map(|(fan_in, fan_out)| {
                 let out = self.head_outputs(fan_in, fan_out);
-                c * h + h + 2 * h + h * h + h + 2 * h + h * out + out + self.layer_rank(fan_in).map_or(0, |r| fan_in * r)
+                c * h
+                    + h
+                    + 2 * h
+                    + h * h
+                    + h
+                    + 2 * h
+                    + h * out
+                    + out
+                    + self.layer_rank(fan_in).map_or(0, |r| fan_in * r)
             })
             .sum()
     }
@@ -107,11 +132,21 @@ impl HyperConfig {
         let mut heads = Vec::new();
         let mut bases = Vec::new();
         for (fan_in, fan_out) in self.layer_shapes() {
-            heads.push(Head::init(&mut rng, cond, self.head_hidden, self.head_outputs(fan_in, fan_out), device));
+            heads.push(Head::init(
+                &mut rng,
+                cond,
+                self.head_hidden,
+                self.head_outputs(fan_in, fan_out),
+                device,
+            ));
             if let Some(r) = self.layer_rank(fan_in) {
                 let bound = 1.0 / (fan_in as f32).sqrt();
-                let u: Vec<f32> = (0..fan_in * r).map(|_| rng.random_range(-bound..bound)).collect();
-                bases.push(Param::from_tensor(Tensor::from_data(TensorData::new(u, [fan_in, r]), device)));
+                let u: Vec<f32> =
+                    (0..fan_in * r).map(|_| rng.random_range(-bound..bound)).collect();
+                bases.push(Param::from_tensor(Tensor::from_data(
+                    TensorData::new(u, [fan_in, r]),
+                    device,
+                )));
             }
         }
         HyperNet { encoder, heads, bases, sdf: meta_sdf }
@@ -129,13 +164,22 @@ pub struct Head {
 }
 
 impl Head {
-    fn init(rng: &mut ChaCha8Rng, inputs: usize, hidden: usize, outputs: usize, device: &Device) -> Head {
+    fn init(
+        rng: &mut ChaCha8Rng,
+        inputs: usize,
+        hidden: usize,
+        outputs: usize,
+        device: &Device,
+    ) -> Head {
         let mut head = Head { w: vec![], b: vec![], gamma: vec![], beta: vec![] };
         for fan_in in [inputs, hidden] {
             // Kaiming normal (fan_in, ReLU) as in the reference; biases PyTorch's default.
             let std = (2.0 / fan_in as f32).sqrt();
             let w: Vec<f32> = (0..fan_in * hidden).map(|_| gauss(rng) * std).collect();
-            head.w.push(Param::from_tensor(Tensor::from_data(TensorData::new(w, [fan_in, hidden]), device)));
+            head.w.push(Param::from_tensor(Tensor::from_data(
+                TensorData::new(w, [fan_in, hidden]),
+                device,
+            )));
             let (_, b) = default_linear(rng, fan_in, hidden, device);
             head.b.push(b);
             head.gamma.push(Param::from_tensor(Tensor::ones([hidden], device)));
@@ -191,7 +235,11 @@ impl HyperNet {
         let siren = SirenConfig { hidden: widths[0], layers: widths.len() - 1 };
         let head_hidden = self.heads[0].w[0].val().dims()[1];
         let rank = self.bases.iter().map(|u| u.val().dims()[1]).max();
-        let encoding = if self.encoder.prior_w.is_empty() { crate::encoder::PoseEncoding::Quaternion } else { crate::encoder::PoseEncoding::Hierarchical };
+        let encoding = if self.encoder.prior_w.is_empty() {
+            crate::encoder::PoseEncoding::Quaternion
+        } else {
+            crate::encoder::PoseEncoding::Hierarchical
+        };
         HyperConfig { siren, head_hidden, rank, encoding }
     }
 
@@ -229,9 +277,17 @@ impl HyperNet {
     }
 
     /// The SIREN of one pose (pose input of length input_len), for meshing.
-    pub fn siren_for(&self, pose_input: &[f32], device: &Device) -> (Vec<Tensor<2>>, Vec<Tensor<1>>) {
-        let x = Tensor::from_data(TensorData::new(pose_input.to_vec(), [1, pose_input.len()]), device);
+    pub fn siren_for(
+        &self,
+        pose_input: &[f32],
+        device: &Device,
+    ) -> (Vec<Tensor<2>>, Vec<Tensor<1>>) {
+        let x =
+            Tensor::from_data(TensorData::new(pose_input.to_vec(), [1, pose_input.len()]), device);
         let p = self.predict(x);
-        (p.weights.into_iter().map(|w| w.squeeze_dim::<2>(0)).collect(), p.biases.into_iter().map(|b| b.squeeze_dim::<1>(0)).collect())
+        (
+            p.weights.into_iter().map(|w| w.squeeze_dim::<2>(0)).collect(),
+            p.biases.into_iter().map(|b| b.squeeze_dim::<1>(0)).collect(),
+        )
     }
 }

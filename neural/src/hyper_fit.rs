@@ -3,9 +3,9 @@
 //! poses, predicts one SIREN per pose and scores its surface and off-surface points.
 
 use crate::fit::{Progress, SignPrior};
-use crate::off_surface::OffSurface;
 use crate::hyper::HyperNet;
-use crate::loss::{igr_loss, scalar, IgrWeights};
+use crate::loss::{IgrWeights, igr_loss, scalar};
+use crate::off_surface::OffSurface;
 use crate::train::{Adam, HyperBatch, HyperGradient, IgrPoints, StepLoss};
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
@@ -103,7 +103,11 @@ fn no_loose_extension() -> f32 {
 impl HyperFitOptions {
     /// The steps a fit runs in all when its avatar has loose pieces after `steps`.
     pub fn loose_steps(&self) -> usize {
-        if self.loose_step_factor > 1.0 { ((self.steps as f64) * self.loose_step_factor as f64).round() as usize } else { self.steps }
+        if self.loose_step_factor > 1.0 {
+            ((self.steps as f64) * self.loose_step_factor as f64).round() as usize
+        } else {
+            self.steps
+        }
     }
 
     /// The static SDF's fit with the same budget: the same steps, rate of the SDF weights, loss
@@ -137,7 +141,13 @@ pub struct HyperOptimisers {
 
 impl Default for HyperOptimisers {
     fn default() -> Self {
-        HyperOptimisers { encoder: AdamConfig::new().init(), heads: AdamConfig::new().init(), bases: AdamConfig::new().init(), sdf: AdamConfig::new().init(), flat: None }
+        HyperOptimisers {
+            encoder: AdamConfig::new().init(),
+            heads: AdamConfig::new().init(),
+            bases: AdamConfig::new().init(),
+            sdf: AdamConfig::new().init(),
+            flat: None,
+        }
     }
 }
 
@@ -151,7 +161,12 @@ pub struct GroupRates {
 
 impl HyperOptimisers {
     /// One optimiser step of every group from the gradients of a loss.
-    pub fn step(&mut self, model: HyperNet, mut grads: burn::tensor::Gradients, rates: GroupRates) -> HyperNet {
+    pub fn step(
+        &mut self,
+        model: HyperNet,
+        mut grads: burn::tensor::Gradients,
+        rates: GroupRates,
+    ) -> HyperNet {
         let g = [
             GradientsParams::from_module(&mut grads, &model.encoder),
             GradientsParams::from_module(&mut grads, &model.heads),
@@ -163,12 +178,21 @@ impl HyperOptimisers {
 
     /// The same from per-group gradient containers (encoder, heads, bases, SDF), for
     /// Reptile's theta - theta'.
-    pub fn step_params(&mut self, model: HyperNet, grads: [GradientsParams; 4], rates: GroupRates) -> HyperNet {
+    pub fn step_params(
+        &mut self,
+        model: HyperNet,
+        grads: [GradientsParams; 4],
+        rates: GroupRates,
+    ) -> HyperNet {
         let [g_enc, g_heads, g_bases, g_sdf] = grads;
         let HyperNet { encoder, heads, bases, sdf } = model;
         HyperNet {
             // A zero rate freezes the group (fine-tuning's bone encoder).
-            encoder: if rates.encoder > 0.0 { self.encoder.step(rates.encoder, encoder, g_enc) } else { encoder },
+            encoder: if rates.encoder > 0.0 {
+                self.encoder.step(rates.encoder, encoder, g_enc)
+            } else {
+                encoder
+            },
             heads: self.heads.step(rates.heads, heads, g_heads),
             bases: self.bases.step(rates.heads, bases, g_bases),
             sdf: self.sdf.step(rates.sdf, sdf, g_sdf),
@@ -203,17 +227,34 @@ impl SampledBatch {
 
     /// Points and normals as plain arrays (the training path's layout).
     pub fn arrays(&self) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
-        (self.points.iter().map(|p| p.to_array()).collect(), self.normals.iter().map(|p| p.to_array()).collect())
+        (
+            self.points.iter().map(|p| p.to_array()).collect(),
+            self.normals.iter().map(|p| p.to_array()).collect(),
+        )
     }
 
     /// The step's data for the training path, over `arrays()`' buffers; `signs`: the prior's sign
     /// of each off-surface point.
-    pub fn flat_batch<'a>(&'a self, points: &'a [[f32; 3]], normals: &'a [[f32; 3]], signs: Option<&'a [f32]>, options: &HyperFitOptions) -> HyperBatch<'a> {
+    pub fn flat_batch<'a>(
+        &'a self,
+        points: &'a [[f32; 3]],
+        normals: &'a [[f32; 3]],
+        signs: Option<&'a [f32]>,
+        options: &HyperFitOptions,
+    ) -> HyperBatch<'a> {
         let rows = options.surface_per_pose + options.off_per_pose;
         HyperBatch {
             inputs: &self.inputs,
             points: points.chunks(rows).collect(),
-            loss: IgrPoints { weights: options.weights, prior_weight: options.prior_weight, groups: self.poses, surface: options.surface_per_pose, off: options.off_per_pose, normals, signs },
+            loss: IgrPoints {
+                weights: options.weights,
+                prior_weight: options.prior_weight,
+                groups: self.poses,
+                surface: options.surface_per_pose,
+                off: options.off_per_pose,
+                normals,
+                signs,
+            },
             residual_weight: options.residual_weight,
         }
     }
@@ -222,7 +263,11 @@ impl SampledBatch {
 /// Draw a step's points: per pose, surface points with their normals, then off-surface points
 /// (half uniform in the cube, half near the surface; `free_space_per_pose` of them from the
 /// pose's free-space samples when it has any).
-pub fn sample_batch(samples: &[&PoseSample], options: &HyperFitOptions, rng: &mut ChaCha8Rng) -> SampledBatch {
+pub fn sample_batch(
+    samples: &[&PoseSample],
+    options: &HyperFitOptions,
+    rng: &mut ChaCha8Rng,
+) -> SampledBatch {
     let b = samples.len();
     let (s, o) = (options.surface_per_pose, options.off_per_pose);
     let mut points = Vec::with_capacity(b * (s + o));
@@ -239,7 +284,13 @@ pub fn sample_batch(samples: &[&PoseSample], options: &HyperFitOptions, rng: &mu
             normals.push(sample.normals[i]);
         }
         let start = offs.len();
-        let spec = OffSurface { surface: &sample.points, outside: &sample.free_space, count: o, free_space: options.free_space_per_pose, near_sigma: options.near_sigma };
+        let spec = OffSurface {
+            surface: &sample.points,
+            outside: &sample.free_space,
+            count: o,
+            free_space: options.free_space_per_pose,
+            near_sigma: options.near_sigma,
+        };
         let free = spec.draw(rng, &mut offs);
         points.extend_from_slice(&offs[start..]);
         outside.extend(start + o - free..start + o);
@@ -264,22 +315,56 @@ pub fn batch_loss(
 }
 
 /// [`batch_loss`] of drawn data (`signs`: the prior's sign of each off-surface point).
-pub fn batch_loss_of(model: &HyperNet, batch: &SampledBatch, options: &HyperFitOptions, signs: Option<Vec<f32>>, device: &Device, log: bool) -> (Tensor<1>, [f32; 4]) {
+pub fn batch_loss_of(
+    model: &HyperNet,
+    batch: &SampledBatch,
+    options: &HyperFitOptions,
+    signs: Option<Vec<f32>>,
+    device: &Device,
+    log: bool,
+) -> (Tensor<1>, [f32; 4]) {
     let b = batch.poses;
     let (s, o) = (options.surface_per_pose, options.off_per_pose);
     let input_len = batch.inputs.len() / b;
-    let predicted = model.predict(Tensor::from_data(TensorData::new(batch.inputs.clone(), [b, input_len]), device));
-    let (f, g) = crate::siren::batched_sdf_and_gradient(&predicted.weights, &predicted.biases, tensor3(&batch.points, b, device));
+    let predicted = model
+        .predict(Tensor::from_data(TensorData::new(batch.inputs.clone(), [b, input_len]), device));
+    let (f, g) = crate::siren::batched_sdf_and_gradient(
+        &predicted.weights,
+        &predicted.biases,
+        tensor3(&batch.points, b, device),
+    );
     // Surface rows of every pose first, then the off-surface rows, as igr_loss expects.
-    let f = Tensor::cat(vec![f.clone().slice([0..b, 0..s]).reshape([b * s, 1]), f.slice([0..b, s..s + o]).reshape([b * o, 1])], 0);
-    let g = Tensor::cat(vec![g.clone().slice([0..b, 0..s]).reshape([b * s, 3]), g.slice([0..b, s..s + o]).reshape([b * o, 3])], 0);
+    let f = Tensor::cat(
+        vec![
+            f.clone().slice([0..b, 0..s]).reshape([b * s, 1]),
+            f.slice([0..b, s..s + o]).reshape([b * o, 1]),
+        ],
+        0,
+    );
+    let g = Tensor::cat(
+        vec![
+            g.clone().slice([0..b, 0..s]).reshape([b * s, 3]),
+            g.slice([0..b, s..s + o]).reshape([b * o, 3]),
+        ],
+        0,
+    );
     let n_off = batch.offs.len();
-    let signs = signs.map(|v| (Tensor::from_data(TensorData::new(v, [n_off, 1]), device), options.prior_weight));
+    let signs = signs
+        .map(|v| (Tensor::from_data(TensorData::new(v, [n_off, 1]), device), options.prior_weight));
     let normals: Vec<f32> = batch.normals.iter().flat_map(|n| n.to_array()).collect();
-    let loss = igr_loss(f, g, Tensor::from_data(TensorData::new(normals, [b * s, 3]), device), b * s, &options.weights, signs, log);
+    let loss = igr_loss(
+        f,
+        g,
+        Tensor::from_data(TensorData::new(normals, [b * s, 3]), device),
+        b * s,
+        &options.weights,
+        signs,
+        log,
+    );
     let params = model.sdf.num_params() as f32;
     // The small epsilon keeps the square root differentiable at zero (the residuals start there).
-    let total = loss.total + (predicted.residual_sq + 1e-12).sqrt() * (options.residual_weight / params);
+    let total =
+        loss.total + (predicted.residual_sq + 1e-12).sqrt() * (options.residual_weight / params);
     (total, loss.terms)
 }
 
@@ -299,7 +384,8 @@ pub fn fit_hyper(
     progress: Progress,
 ) -> HyperNet {
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
-    let rates = GroupRates { heads: options.lr_heads, encoder: options.lr_encoder, sdf: options.lr_sdf };
+    let rates =
+        GroupRates { heads: options.lr_heads, encoder: options.lr_encoder, sdf: options.lr_sdf };
     let per_step = options.poses_per_step.clamp(1, samples.len().max(1));
     let mut order: Vec<usize> = Vec::new();
     let log_every = (options.steps / 50).max(1);
@@ -325,7 +411,8 @@ pub fn fit_hyper(
                 }
             }
             None => {
-                let (loss, terms) = batch_loss(&model, &batch, options, &mut rng, device, prior, log);
+                let (loss, terms) =
+                    batch_loss(&model, &batch, options, &mut rng, device, prior, log);
                 if log {
                     progress(step, scalar(&loss), terms);
                 }
@@ -334,7 +421,8 @@ pub fn fit_hyper(
         }
     }
     match flat {
-        Some(fit) => crate::flat_params::load_flat(model, &fit.params).expect("the flat parameters come from this model"),
+        Some(fit) => crate::flat_params::load_flat(model, &fit.params)
+            .expect("the flat parameters come from this model"),
         None => model,
     }
 }
@@ -355,13 +443,25 @@ impl FlatFit {
         FlatFit { grad: vec![0f32; params.len()], params }
     }
 
-    fn step(&mut self, drawn: &SampledBatch, signs: Option<&[f32]>, options: &HyperFitOptions, rates: GroupRates, optimisers: &mut HyperOptimisers) -> StepLoss {
+    fn step(
+        &mut self,
+        drawn: &SampledBatch,
+        signs: Option<&[f32]>,
+        options: &HyperFitOptions,
+        rates: GroupRates,
+        optimisers: &mut HyperOptimisers,
+    ) -> StepLoss {
         let (gradient, adam) = optimisers.flat.as_mut().expect("set up by FlatFit::new");
         let (points, normals) = drawn.arrays();
         let batch = drawn.flat_batch(&points, &normals, signs, options);
         let loss = gradient.compute(&self.params, &batch, rates.encoder > 0.0, &mut self.grad);
         let lay = gradient.layout();
-        let groups = [(lay.encoder_range.clone(), rates.encoder), (lay.heads_range.clone(), rates.heads), (lay.bases_range.clone(), rates.heads), (lay.sdf_range.clone(), rates.sdf)];
+        let groups = [
+            (lay.encoder_range.clone(), rates.encoder),
+            (lay.heads_range.clone(), rates.heads),
+            (lay.bases_range.clone(), rates.heads),
+            (lay.sdf_range.clone(), rates.sdf),
+        ];
         adam.step(&mut self.params, &self.grad, &groups);
         loss
     }

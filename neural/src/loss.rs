@@ -41,7 +41,15 @@ pub struct IgrLoss {
 /// (PINA's off-surface prior from the body's SDF, for regions no camera saw); weighted by
 /// `prior_weight`, penalising the wrong sign linearly.
 #[allow(clippy::too_many_arguments)]
-pub fn igr_loss(f: Tensor<2>, grad: Tensor<2>, normals: Tensor<2>, surface: usize, w: &IgrWeights, prior: Option<(Tensor<2>, f32)>, with_terms: bool) -> IgrLoss {
+pub fn igr_loss(
+    f: Tensor<2>,
+    grad: Tensor<2>,
+    normals: Tensor<2>,
+    surface: usize,
+    w: &IgrWeights,
+    prior: Option<(Tensor<2>, f32)>,
+    with_terms: bool,
+) -> IgrLoss {
     let n = f.dims()[0];
     let f_s = f.clone().slice([0..surface, 0..1]);
     let f_o = f.slice([surface..n, 0..1]);
@@ -58,7 +66,8 @@ pub fn igr_loss(f: Tensor<2>, grad: Tensor<2>, normals: Tensor<2>, surface: usiz
         (cos.neg() + 1.0).mean() * w.normal
     };
     let off = (f_o.clone().abs() * (-w.alpha)).exp().mean() * w.off_surface;
-    let prior_term = prior.map(|(signs, weight)| (f_o * signs.neg()).clamp_min(0.0).mean() * weight);
+    let prior_term =
+        prior.map(|(signs, weight)| (f_o * signs.neg()).clamp_min(0.0).mean() * weight);
     let all_norm = (grad.clone() * grad).sum_dim(1).sqrt();
     let eik = (all_norm - 1.0).abs().mean() * w.eikonal;
     let terms = if with_terms {

@@ -7,15 +7,15 @@
 //! `samples.bin` (float32: per sample 72 pose values, then points x (position, normal)).
 
 use crate::encoder::PoseEncoding;
+use crate::error::{Error, Result};
 use crate::pose_sample::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams};
 use avatar_core::canonical::Normalisation;
-use crate::error::{Error, Result};
 use avatar_core::eval::dataset::{TRAIN_OUTFITS, TRAIN_SUBJECT_SEEDS};
 use avatar_core::eval::sampling::sample_surface_with_normals;
 use avatar_core::mesh::TriMesh;
 use avatar_core::motion::library_split;
-use avatar_core::synth::{canonical_surface, subject_betas, ClothedTemplate, Outfit, PoseFeatures};
+use avatar_core::synth::{ClothedTemplate, Outfit, PoseFeatures, canonical_surface, subject_betas};
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -78,31 +78,47 @@ impl Manifest {
     fn validate(&self) -> Result<(usize, usize)> {
         let points = self.config.points_per_pose;
         if points == 0 || points > 1_000_000 {
-            return Err(Error::invalid(format!("points_per_pose {points} is out of range (1 to 1000000)")));
+            return Err(Error::invalid(format!(
+                "points_per_pose {points} is out of range (1 to 1000000)"
+            )));
         }
         if self.groups.is_empty() {
             return Err(Error::invalid("no groups: the data set is empty"));
         }
         let mut next = 0usize;
         for (k, g) in self.groups.iter().enumerate() {
-            let bad = |m: String| Err(Error::invalid(format!("group {k} (subject {}, {}): {m}", g.subject, g.outfit)));
+            let bad = |m: String| {
+                Err(Error::invalid(format!("group {k} (subject {}, {}): {m}", g.subject, g.outfit)))
+            };
             if g.first_sample != next || g.samples == 0 {
-                return bad(format!("samples {}..+{} do not follow the previous group's (next sample {next})", g.first_sample, g.samples));
+                return bad(format!(
+                    "samples {}..+{} do not follow the previous group's (next sample {next})",
+                    g.first_sample, g.samples
+                ));
             }
             next = match next.checked_add(g.samples) {
                 Some(n) => n,
                 None => return bad("sample count overflows".into()),
             };
-            if g.rest_joints.len() != avatar_core::body::NUM_JOINTS || g.rest_joints.iter().flatten().any(|v| !(v.is_finite() && v.abs() <= 10.0)) {
-                return bad(format!("rest_joints must be 24 finite points within 10 m ({} given)", g.rest_joints.len()));
+            if g.rest_joints.len() != avatar_core::body::NUM_JOINTS
+                || g.rest_joints.iter().flatten().any(|v| !(v.is_finite() && v.abs() <= 10.0))
+            {
+                return bad(format!(
+                    "rest_joints must be 24 finite points within 10 m ({} given)",
+                    g.rest_joints.len()
+                ));
             }
-            if let Err(e) = g.normalisation.validate().and_then(|_| avatar_core::body::check_betas(&g.betas)) {
+            if let Err(e) =
+                g.normalisation.validate().and_then(|_| avatar_core::body::check_betas(&g.betas))
+            {
                 return bad(e.to_string());
             }
         }
         let per = 72 + 6 * points;
         if next.checked_mul(per).is_none_or(|n| n > MAX_DATA_FLOATS) {
-            return Err(Error::invalid(format!("{next} samples of {per} floats is more than this build reads")));
+            return Err(Error::invalid(format!(
+                "{next} samples of {per} floats is more than this build reads"
+            )));
         }
         Ok((next, per))
     }
@@ -119,22 +135,36 @@ pub struct MetaData {
 impl MetaData {
     /// Generate the data set (deterministic for a config).
     pub fn generate(body: &BodyModel, config: &MetaDataConfig) -> Result<MetaData> {
-        let outfits: Vec<Outfit> = config.outfits.iter().map(|n| Outfit::from_name(n)).collect::<avatar_core::Result<_>>()?;
+        let outfits: Vec<Outfit> = config
+            .outfits
+            .iter()
+            .map(|n| Outfit::from_name(n))
+            .collect::<avatar_core::Result<_>>()?;
         if let Some(o) = outfits.iter().find(|o| !TRAIN_OUTFITS.contains(o)) {
-            return Err(Error::invalid(format!("outfit {} is reserved for evaluation; meta-training uses {:?}", o.name(), TRAIN_OUTFITS.map(|o| o.name()))));
+            return Err(Error::invalid(format!(
+                "outfit {} is reserved for evaluation; meta-training uses {:?}",
+                o.name(),
+                TRAIN_OUTFITS.map(|o| o.name())
+            )));
         }
         let subjects: Vec<u64> = TRAIN_SUBJECT_SEEDS.take(config.subjects).collect();
         if subjects.is_empty() || config.poses_per_group == 0 || config.points_per_pose == 0 {
-            return Err(Error::invalid("meta-training data needs at least one subject, pose and point"));
+            return Err(Error::invalid(
+                "meta-training data needs at least one subject, pose and point",
+            ));
         }
         let (train_clips, _) = library_split();
-        let all_poses: Vec<BodyParams> = train_clips.iter().flat_map(|c| c.frames.iter().cloned()).collect();
-        let jobs: Vec<(u64, Outfit)> = subjects.iter().flat_map(|&s| outfits.iter().map(move |&o| (s, o))).collect();
+        let all_poses: Vec<BodyParams> =
+            train_clips.iter().flat_map(|c| c.frames.iter().cloned()).collect();
+        let jobs: Vec<(u64, Outfit)> =
+            subjects.iter().flat_map(|&s| outfits.iter().map(move |&o| (s, o))).collect();
         let per_group: Vec<Result<(Group, Vec<BodyParams>, Vec<Vec<Vec3>>, Vec<Vec<Vec3>>)>> = jobs
             .par_iter()
             .enumerate()
             .map(|(g, &(subject, outfit))| {
-                let mut rng = ChaCha8Rng::seed_from_u64(config.seed.wrapping_mul(0x9E37_79B9).wrapping_add(g as u64));
+                let mut rng = ChaCha8Rng::seed_from_u64(
+                    config.seed.wrapping_mul(0x9E37_79B9).wrapping_add(g as u64),
+                );
                 let betas = subject_betas(body, subject);
                 let template = ClothedTemplate::build(body, &betas, outfit);
                 let rest = body.shaped_vertices(&betas);
@@ -148,7 +178,8 @@ impl MetaData {
                     let bones = body.pose(&params).bones;
                     let surface = canonical_surface(&template, &PoseFeatures::of(&bones), subject);
                     let mesh = TriMesh::new(surface, template.faces.clone());
-                    let (p, n) = sample_surface_with_normals(&mesh, config.points_per_pose, &mut rng)?;
+                    let (p, n) =
+                        sample_surface_with_normals(&mesh, config.points_per_pose, &mut rng)?;
                     pts.push(p.into_iter().map(|q| norm.to_unit(q)).collect());
                     nrm.push(n);
                     params.betas.clear();
@@ -167,7 +198,12 @@ impl MetaData {
             })
             .collect();
         let mut data = MetaData {
-            manifest: Manifest { format: DATA_FORMAT.into(), version: DATA_VERSION, config: config.clone(), groups: Vec::new() },
+            manifest: Manifest {
+                format: DATA_FORMAT.into(),
+                version: DATA_VERSION,
+                config: config.clone(),
+                groups: Vec::new(),
+            },
             poses: Vec::new(),
             points: Vec::new(),
             normals: Vec::new(),
@@ -196,36 +232,64 @@ impl MetaData {
             }
         }
         avatar_core::io::write_bytes_atomic(dir.join("samples.bin"), &bytes)?;
-        let manifest = serde_json::to_vec_pretty(&self.manifest).map_err(|e| Error::invalid(e.to_string()))?;
+        let manifest =
+            serde_json::to_vec_pretty(&self.manifest).map_err(|e| Error::invalid(e.to_string()))?;
         Ok(avatar_core::io::write_bytes_atomic(dir.join("meta-data.json"), &manifest)?)
     }
 
     pub fn load(dir: &Path) -> Result<MetaData> {
         let mpath = dir.join("meta-data.json");
         if std::fs::metadata(&mpath).map_err(|e| Error::io(&mpath, e))?.len() > 64 << 20 {
-            return Err(Error::file(&mpath, "too large for a meta-training manifest (64 MB at most)"));
+            return Err(Error::file(
+                &mpath,
+                "too large for a meta-training manifest (64 MB at most)",
+            ));
         }
         let text = std::fs::read(&mpath).map_err(|e| Error::io(&mpath, e))?;
-        let manifest: Manifest = serde_json::from_slice(&text).map_err(|e| Error::file(&mpath, format!("bad manifest: {e}")))?;
+        let manifest: Manifest = serde_json::from_slice(&text)
+            .map_err(|e| Error::file(&mpath, format!("bad manifest: {e}")))?;
         if manifest.format != DATA_FORMAT || manifest.version != DATA_VERSION {
-            return Err(Error::file(&mpath, format!("meta-training data {:?} version {} is not supported (this build reads {DATA_FORMAT:?} version {DATA_VERSION})", manifest.format, manifest.version)));
+            return Err(Error::file(
+                &mpath,
+                format!(
+                    "meta-training data {:?} version {} is not supported (this build reads {DATA_FORMAT:?} version {DATA_VERSION})",
+                    manifest.format, manifest.version
+                ),
+            ));
         }
         let (count, per) = manifest.validate().map_err(|e| e.in_file(&mpath))?;
         let spath = dir.join("samples.bin");
         // The size first: the manifest says how much to read.
         let size = std::fs::metadata(&spath).map_err(|e| Error::io(&spath, e))?.len();
         if size != (count * per * 4) as u64 {
-            return Err(Error::file(&spath, format!("{size} bytes, expected {} for the {count} samples {} lists (truncated, or from another run)", count * per * 4, mpath.display())));
+            return Err(Error::file(
+                &spath,
+                format!(
+                    "{size} bytes, expected {} for the {count} samples {} lists (truncated, or from another run)",
+                    count * per * 4,
+                    mpath.display()
+                ),
+            ));
         }
         let bytes = std::fs::read(&spath).map_err(|e| Error::io(&spath, e))?;
-        let floats: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
+        let floats: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+            .collect();
         if floats.iter().any(|v| !v.is_finite()) {
             return Err(Error::file(&spath, "samples contain NaN or infinity"));
         }
-        let mut data = MetaData { manifest, poses: Vec::new(), points: Vec::new(), normals: Vec::new() };
+        let mut data =
+            MetaData { manifest, poses: Vec::new(), points: Vec::new(), normals: Vec::new() };
         for chunk in floats.chunks_exact(per) {
-            data.poses.push(BodyParams::from_flat(&chunk[..72], Vec::new(), Vec3::ZERO).map_err(|e| Error::file(&spath, e.to_string()))?);
-            let (p, n): (Vec<Vec3>, Vec<Vec3>) = chunk[72..].chunks_exact(6).map(|c| (Vec3::new(c[0], c[1], c[2]), Vec3::new(c[3], c[4], c[5]))).unzip();
+            data.poses.push(
+                BodyParams::from_flat(&chunk[..72], Vec::new(), Vec3::ZERO)
+                    .map_err(|e| Error::file(&spath, e.to_string()))?,
+            );
+            let (p, n): (Vec<Vec3>, Vec<Vec3>) = chunk[72..]
+                .chunks_exact(6)
+                .map(|c| (Vec3::new(c[0], c[1], c[2]), Vec3::new(c[3], c[4], c[5])))
+                .unzip();
             data.points.push(p);
             data.normals.push(n);
         }
@@ -233,13 +297,28 @@ impl MetaData {
     }
 
     /// Load `dir`, or generate it there first when it holds no data yet.
-    pub fn load_or_generate(dir: &Path, body: &BodyModel, config: &MetaDataConfig, log: &dyn Fn(&str)) -> Result<MetaData> {
+    pub fn load_or_generate(
+        dir: &Path,
+        body: &BodyModel,
+        config: &MetaDataConfig,
+        log: &dyn Fn(&str),
+    ) -> Result<MetaData> {
         if dir.join("meta-data.json").exists() {
             let data = MetaData::load(dir)?;
-            log(&format!("meta-train: using the data in {} ({} samples)", dir.display(), data.len()));
+            log(&format!(
+                "meta-train: using the data in {} ({} samples)",
+                dir.display(),
+                data.len()
+            ));
             return Ok(data);
         }
-        log(&format!("meta-train: generating {} subjects x {} outfits x {} poses into {}", config.subjects, config.outfits.len(), config.poses_per_group, dir.display()));
+        log(&format!(
+            "meta-train: generating {} subjects x {} outfits x {} poses into {}",
+            config.subjects,
+            config.outfits.len(),
+            config.poses_per_group,
+            dir.display()
+        ));
         let data = MetaData::generate(body, config)?;
         data.save(dir)?;
         Ok(data)
@@ -255,8 +334,18 @@ impl MetaData {
 
     /// The hypernetwork sample of sample `i` (pose input for `encoding`).
     pub fn sample(&self, i: usize, encoding: PoseEncoding) -> PoseSample {
-        let g = self.manifest.groups.iter().find(|g| (g.first_sample..g.first_sample + g.samples).contains(&i)).expect("sample in a group");
+        let g = self
+            .manifest
+            .groups
+            .iter()
+            .find(|g| (g.first_sample..g.first_sample + g.samples).contains(&i))
+            .expect("sample in a group");
         let joints: [Vec3; 24] = std::array::from_fn(|j| Vec3::from_array(g.rest_joints[j]));
-        PoseSample { pose_input: encoding.input(&self.poses[i], &joints, &g.normalisation), points: self.points[i].clone(), normals: self.normals[i].clone(), free_space: Vec::new() }
+        PoseSample {
+            pose_input: encoding.input(&self.poses[i], &joints, &g.normalisation),
+            points: self.points[i].clone(),
+            normals: self.normals[i].clone(),
+            free_space: Vec::new(),
+        }
     }
 }

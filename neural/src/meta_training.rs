@@ -5,16 +5,16 @@
 //! resume where it stopped; every iteration draws its tasks from its own seeded generator, so a
 //! resumed run sees the same tasks as an uninterrupted one (Adam's moments restart at zero).
 
-use crate::fit::{fit_sdf, FitOptions};
+use crate::error::{Error, Result};
+use crate::fit::{FitOptions, fit_sdf};
+use crate::flat_params::{flatten, load_flat, reptile_gradients};
 use crate::hyper::HyperConfig;
-use crate::hyper_fit::{fit_hyper, GroupRates, HyperFitOptions, HyperOptimisers};
-use crate::pose_sample::PoseSample;
+use crate::hyper_fit::{GroupRates, HyperFitOptions, HyperOptimisers, fit_hyper};
 use crate::loss::IgrWeights;
 use crate::meta_data::MetaData;
 use crate::model_file::MetaModel;
-use crate::flat_params::{flatten, load_flat, reptile_gradients};
+use crate::pose_sample::PoseSample;
 use crate::weights_file;
-use crate::error::{Error, Result};
 use burn::optim::AdamConfig;
 use rand::seq::index::sample as sample_indices;
 use rand::{Rng, SeedableRng};
@@ -107,21 +107,37 @@ struct Checkpoint {
 
 impl Checkpoint {
     fn new(options: &MetaOptions, stage: &str, iteration: usize, seconds: f64) -> Checkpoint {
-        Checkpoint { format: "avatar-studio-checkpoint".into(), version: 1, kind: "meta-checkpoint".into(), options: options.clone(), stage: stage.into(), iteration, seconds }
+        Checkpoint {
+            format: "avatar-studio-checkpoint".into(),
+            version: 1,
+            kind: "meta-checkpoint".into(),
+            options: options.clone(),
+            stage: stage.into(),
+            iteration,
+            seconds,
+        }
     }
 
     /// Check a checkpoint's header before its weights are read; the number of weights it needs.
     /// An unknown stage is an error: silently restarting would throw the run away.
     fn expected_weights(&self) -> Result<usize> {
-        if self.format != "avatar-studio-checkpoint" || self.version != 1 || self.kind != "meta-checkpoint" {
-            return Err(Error::invalid(format!("checkpoint format {:?} version {} kind {:?} is not supported by this build", self.format, self.version, self.kind)));
+        if self.format != "avatar-studio-checkpoint"
+            || self.version != 1
+            || self.kind != "meta-checkpoint"
+        {
+            return Err(Error::invalid(format!(
+                "checkpoint format {:?} version {} kind {:?} is not supported by this build",
+                self.format, self.version, self.kind
+            )));
         }
         self.options.config.check()?;
         let sdf = self.options.config.siren.num_params();
         match self.stage.as_str() {
             "sdf" => Ok(sdf),
             "hyper" => Ok(self.options.config.num_params() + sdf),
-            other => Err(Error::invalid(format!("unknown checkpoint stage {other:?} (sdf or hyper); refusing to restart over it: move it away to start afresh"))),
+            other => Err(Error::invalid(format!(
+                "unknown checkpoint stage {other:?} (sdf or hyper); refusing to restart over it: move it away to start afresh"
+            ))),
         }
     }
 }
@@ -143,19 +159,31 @@ pub struct MetaProgress<'a> {
 /// compared: `fit_hyper` never refines poses (meta-training data has exact ones), and those
 /// options gain fields as fine-tuning evolves.
 fn resumes(saved: &MetaOptions, asked: &MetaOptions) -> bool {
-    let mut same = MetaOptions { sdf_iterations: asked.sdf_iterations, hyper_iterations: asked.hyper_iterations, ..saved.clone() };
+    let mut same = MetaOptions {
+        sdf_iterations: asked.sdf_iterations,
+        hyper_iterations: asked.hyper_iterations,
+        ..saved.clone()
+    };
     same.hyper_inner.refine_poses = asked.hyper_inner.refine_poses.clone();
     same == *asked
 }
 
 fn iteration_rng(seed: u64, stage: u64, iteration: usize) -> ChaCha8Rng {
-    ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ (stage << 40) ^ iteration as u64)
+    ChaCha8Rng::seed_from_u64(
+        seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ (stage << 40) ^ iteration as u64,
+    )
 }
 
 /// Meta-train into `out` (checkpoint, loss log, final model). Resumes from `out/checkpoint.bin`
 /// when its options match. Returns the model path; a cancelled run returns an error after
 /// writing its checkpoint.
-pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Option<&AtomicBool>, log: &mut dyn FnMut(&MetaProgress)) -> Result<PathBuf> {
+pub fn meta_train(
+    data: &MetaData,
+    options: &MetaOptions,
+    out: &Path,
+    cancel: Option<&AtomicBool>,
+    log: &mut dyn FnMut(&MetaProgress),
+) -> Result<PathBuf> {
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     if data.is_empty() {
         return Err(Error::invalid("meta-training data is empty"));
@@ -165,13 +193,21 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
     let log_path = out.join("loss.csv");
     let mut resume: Option<(Checkpoint, Vec<f32>)> = None;
     if ckpt_path.exists() {
-        let (ck, w): (Checkpoint, Vec<f32>) = weights_file::read_expecting(&ckpt_path, Checkpoint::expected_weights)?;
+        let (ck, w): (Checkpoint, Vec<f32>) =
+            weights_file::read_expecting(&ckpt_path, Checkpoint::expected_weights)?;
         if !resumes(&ck.options, options) {
-            return Err(Error::file(&ckpt_path, "a checkpoint of a run with other options is in the output folder: use another --out or the same options"));
+            return Err(Error::file(
+                &ckpt_path,
+                "a checkpoint of a run with other options is in the output folder: use another --out or the same options",
+            ));
         }
         resume = Some((ck, w));
     }
-    let mut csv = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).map_err(|e| Error::io(&log_path, e))?;
+    let mut csv = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&log_path)
+        .map_err(|e| Error::io(&log_path, e))?;
     let started = Instant::now();
     let prior_seconds = resume.as_ref().map_or(0.0, |(c, _)| c.seconds);
     let elapsed = |s: &Instant| prior_seconds + s.elapsed().as_secs_f64();
@@ -188,7 +224,8 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
         }
         Some((ck, w)) if ck.stage == "hyper" => {
             let n_sdf = sdf_config.num_params();
-            meta_sdf = load_flat(meta_sdf, &w[w.len() - n_sdf..]).map_err(|e| e.in_file(&ckpt_path))?;
+            meta_sdf =
+                load_flat(meta_sdf, &w[w.len() - n_sdf..]).map_err(|e| e.in_file(&ckpt_path))?;
             start = options.sdf_iterations;
             hyper_resume = Some((ck.iteration, w[..w.len() - n_sdf].to_vec()));
         }
@@ -197,7 +234,9 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
     let mut outer = AdamConfig::new().init();
     for it in start..options.sdf_iterations {
         if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-            return Err(Error::invalid("meta-training cancelled (checkpoint kept; run again to resume)"));
+            return Err(Error::invalid(
+                "meta-training cancelled (checkpoint kept; run again to resume)",
+            ));
         }
         let mut rng = iteration_rng(options.seed, 1, it);
         let mut mean = vec![0f32; sdf_config.num_params()];
@@ -213,7 +252,17 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
                 ..FitOptions::default()
             };
             let mut last = 0.0;
-            let adapted = fit_sdf(meta_sdf.clone(), &data.points[i], &data.normals[i], &[], &inner, &train_device, None, None, &mut |_, l, _| last = l);
+            let adapted = fit_sdf(
+                meta_sdf.clone(),
+                &data.points[i],
+                &data.normals[i],
+                &[],
+                &inner,
+                &train_device,
+                None,
+                None,
+                &mut |_, l, _| last = l,
+            );
             loss_sum += last;
             for (m, v) in mean.iter_mut().zip(flatten(&adapted)) {
                 *m += v / options.sdf_meta_batch as f32;
@@ -223,7 +272,13 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
         meta_sdf = outer.step(options.sdf_outer_lr, meta_sdf, grads);
         let loss = loss_sum / options.sdf_meta_batch as f32;
         let _ = writeln!(csv, "sdf,{},{loss},{:.1}", it + 1, elapsed(&started));
-        log(&MetaProgress { stage: "sdf", iteration: it + 1, iterations: options.sdf_iterations, loss, seconds: elapsed(&started) });
+        log(&MetaProgress {
+            stage: "sdf",
+            iteration: it + 1,
+            iterations: options.sdf_iterations,
+            loss,
+            seconds: elapsed(&started),
+        });
         if (it + 1) % options.checkpoint_every == 0 || it + 1 == options.sdf_iterations {
             let ck = Checkpoint::new(options, "sdf", it + 1, elapsed(&started));
             weights_file::write(&ckpt_path, &ck, &flatten(&meta_sdf))?;
@@ -241,19 +296,41 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
     }
     let static_flat = flatten(&meta_sdf);
     let mut outer = HyperOptimisers::default();
-    let rates = GroupRates { heads: options.hyper_outer.heads, encoder: options.hyper_outer.encoder, sdf: options.hyper_outer.sdf };
+    let rates = GroupRates {
+        heads: options.hyper_outer.heads,
+        encoder: options.hyper_outer.encoder,
+        sdf: options.hyper_outer.sdf,
+    };
     for it in start..options.hyper_iterations {
         if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-            return Err(Error::invalid("meta-training cancelled (checkpoint kept; run again to resume)"));
+            return Err(Error::invalid(
+                "meta-training cancelled (checkpoint kept; run again to resume)",
+            ));
         }
         let mut rng = iteration_rng(options.seed, 2, it);
         let group = &data.manifest.groups[rng.random_range(0..data.manifest.groups.len())];
         let size = rng.random_range(1..=options.hyper_max_task.min(group.samples).max(1));
-        let task: Vec<PoseSample> = sample_indices(&mut rng, group.samples, size).into_iter().map(|k| samples[group.first_sample + k].clone()).collect();
+        let task: Vec<PoseSample> = sample_indices(&mut rng, group.samples, size)
+            .into_iter()
+            .map(|k| samples[group.first_sample + k].clone())
+            .collect();
         let per_step = options.hyper_inner.poses_per_step.max(1);
-        let inner = HyperFitOptions { steps: options.hyper_inner_epochs * size.div_ceil(per_step), seed: rng.random(), ..options.hyper_inner.clone() };
+        let inner = HyperFitOptions {
+            steps: options.hyper_inner_epochs * size.div_ceil(per_step),
+            seed: rng.random(),
+            ..options.hyper_inner.clone()
+        };
         let mut last = 0.0;
-        let adapted = fit_hyper(model.clone(), &task, &inner, &mut HyperOptimisers::default(), &train_device, None, None, &mut |_, l, _| last = l);
+        let adapted = fit_hyper(
+            model.clone(),
+            &task,
+            &inner,
+            &mut HyperOptimisers::default(),
+            &train_device,
+            None,
+            None,
+            &mut |_, l, _| last = l,
+        );
         let grads = [
             reptile_gradients(&model.encoder, &flatten(&adapted.encoder)),
             reptile_gradients(&model.heads, &flatten(&adapted.heads)),
@@ -262,7 +339,13 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
         ];
         model = outer.step_params(model, grads, rates);
         let _ = writeln!(csv, "hyper,{},{last},{:.1}", it + 1, elapsed(&started));
-        log(&MetaProgress { stage: "hyper", iteration: it + 1, iterations: options.hyper_iterations, loss: last, seconds: elapsed(&started) });
+        log(&MetaProgress {
+            stage: "hyper",
+            iteration: it + 1,
+            iterations: options.hyper_iterations,
+            loss: last,
+            seconds: elapsed(&started),
+        });
         if (it + 1) % options.checkpoint_every == 0 || it + 1 == options.hyper_iterations {
             let ck = Checkpoint::new(options, "hyper", it + 1, elapsed(&started));
             let mut w = flatten(&model);
@@ -271,7 +354,18 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
         }
     }
     let path = out.join(MODEL_FILE);
-    let meta = MetaModel::from_parts(options.config, &model, &meta_sdf, format!("meta-train seed {} ({} + {} iterations, {:.0} s)", options.seed, options.sdf_iterations, options.hyper_iterations, elapsed(&started)));
+    let meta = MetaModel::from_parts(
+        options.config,
+        &model,
+        &meta_sdf,
+        format!(
+            "meta-train seed {} ({} + {} iterations, {:.0} s)",
+            options.seed,
+            options.sdf_iterations,
+            options.hyper_iterations,
+            elapsed(&started)
+        ),
+    );
     meta.save(&path)?;
     Ok(path)
 }
@@ -280,13 +374,24 @@ pub fn meta_train(data: &MetaData, options: &MetaOptions, out: &Path, cancel: Op
 /// an Alg. 1-complete checkpoint into `out`, which `meta_train` then resumes from. Refused when
 /// `out` already holds a checkpoint (that run resumes as it is) or the model's SDF has another
 /// size. Lets Alg. 2 variants share one Alg. 1 result, as the reference's stage configs do.
-pub fn start_from_static(out: &Path, options: &MetaOptions, model: &MetaModel, model_path: &Path) -> Result<()> {
+pub fn start_from_static(
+    out: &Path,
+    options: &MetaOptions,
+    model: &MetaModel,
+    model_path: &Path,
+) -> Result<()> {
     let ckpt_path = out.join(CHECKPOINT);
     if ckpt_path.exists() {
-        return Err(Error::file(&ckpt_path, "the output folder already holds a checkpoint: resume it without --sdf-from, or use another --out"));
+        return Err(Error::file(
+            &ckpt_path,
+            "the output folder already holds a checkpoint: resume it without --sdf-from, or use another --out",
+        ));
     }
     if model.header.config.siren != options.config.siren {
-        return Err(Error::file(model_path, "its static meta-SDF has another network size than this run's preset"));
+        return Err(Error::file(
+            model_path,
+            "its static meta-SDF has another network size than this run's preset",
+        ));
     }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     // Alg. 1 complete, as a finished Alg. 1 of this run would have left it.
@@ -303,13 +408,21 @@ mod tests {
     #[test]
     fn a_run_resumes_with_other_iteration_counts_or_pose_refinement_but_nothing_else() {
         let saved = MetaOptions::default();
-        let longer = MetaOptions { sdf_iterations: saved.sdf_iterations * 2, hyper_iterations: 7, ..saved.clone() };
+        let longer = MetaOptions {
+            sdf_iterations: saved.sdf_iterations * 2,
+            hyper_iterations: 7,
+            ..saved.clone()
+        };
         assert!(resumes(&saved, &longer));
         let mut refined = saved.clone();
-        refined.hyper_inner.refine_poses.prealign_upper_body = !saved.hyper_inner.refine_poses.prealign_upper_body;
+        refined.hyper_inner.refine_poses.prealign_upper_body =
+            !saved.hyper_inner.refine_poses.prealign_upper_body;
         assert!(resumes(&saved, &refined), "fit_hyper never refines poses");
         assert!(!resumes(&saved, &MetaOptions { seed: 1, ..saved.clone() }));
-        assert!(!resumes(&saved, &MetaOptions { sdf_outer_lr: saved.sdf_outer_lr * 10.0, ..saved.clone() }));
+        assert!(!resumes(
+            &saved,
+            &MetaOptions { sdf_outer_lr: saved.sdf_outer_lr * 10.0, ..saved.clone() }
+        ));
         let mut inner = saved.clone();
         inner.hyper_inner.lr_heads *= 2.0;
         assert!(!resumes(&saved, &inner), "the inner fit's rates are part of the run");

@@ -3,11 +3,11 @@
 //! The compact model ships inside the binary (assets/model/), so the studio and `fit` work on a
 //! fresh machine with no downloads.
 
-use crate::hyper::{HyperConfig, HyperNet};
+use crate::error::{Error, Result};
 use crate::flat_params::flatten;
+use crate::hyper::{HyperConfig, HyperNet};
 use crate::siren::Siren;
 use crate::weights_file;
-use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -41,7 +41,8 @@ const SHIPPED: &[u8] = include_bytes!("../../assets/model/meta-compact.bin");
 impl MetaModel {
     /// The compact model embedded in the binary.
     pub fn shipped() -> MetaModel {
-        Self::parse(SHIPPED, Path::new("assets/model/meta-compact.bin")).expect("the shipped meta-model is valid (checked by a test)")
+        Self::parse(SHIPPED, Path::new("assets/model/meta-compact.bin"))
+            .expect("the shipped meta-model is valid (checked by a test)")
     }
 
     /// A model file, or the shipped one for None.
@@ -52,11 +53,24 @@ impl MetaModel {
         }
     }
 
-    pub fn from_parts(config: HyperConfig, hyper: &HyperNet, static_sdf: &Siren, provenance: String) -> MetaModel {
+    pub fn from_parts(
+        config: HyperConfig,
+        hyper: &HyperNet,
+        static_sdf: &Siren,
+        provenance: String,
+    ) -> MetaModel {
         let hyper = flatten(hyper);
         let static_sdf = flatten(static_sdf);
         MetaModel {
-            header: ModelHeader { format: MODEL_FORMAT.into(), version: MODEL_VERSION, kind: MODEL_KIND.into(), config, hyper_params: hyper.len(), static_params: static_sdf.len(), provenance },
+            header: ModelHeader {
+                format: MODEL_FORMAT.into(),
+                version: MODEL_VERSION,
+                kind: MODEL_KIND.into(),
+                config,
+                hyper_params: hyper.len(),
+                static_params: static_sdf.len(),
+                provenance,
+            },
             hyper,
             static_sdf,
         }
@@ -79,7 +93,10 @@ impl MetaModel {
         let (header, weights): (ModelHeader, Vec<f32>) = weights_file::parse(bytes, origin)?;
         let expected = Self::check_header(&header).map_err(|e| e.in_file(origin))?;
         if weights.len() != expected {
-            return Err(Error::file(origin, format!("truncated model file: {} weights, expected {expected}", weights.len())));
+            return Err(Error::file(
+                origin,
+                format!("truncated model file: {} weights, expected {expected}", weights.len()),
+            ));
         }
         Ok(Self::split(header, weights))
     }
@@ -87,14 +104,24 @@ impl MetaModel {
     /// Format, version, kind and sizes of a header; the number of weights it needs.
     fn check_header(header: &ModelHeader) -> Result<usize> {
         if header.format != MODEL_FORMAT || header.version != MODEL_VERSION {
-            return Err(Error::invalid(format!("meta-model format {:?} version {} is not supported by this build (it reads {MODEL_FORMAT:?} version {MODEL_VERSION})", header.format, header.version)));
+            return Err(Error::invalid(format!(
+                "meta-model format {:?} version {} is not supported by this build (it reads {MODEL_FORMAT:?} version {MODEL_VERSION})",
+                header.format, header.version
+            )));
         }
         if header.kind != MODEL_KIND {
-            return Err(Error::invalid(format!("kind {:?} is not a meta-model ({MODEL_KIND:?}): an avatar or another file under a meta-model header", header.kind)));
+            return Err(Error::invalid(format!(
+                "kind {:?} is not a meta-model ({MODEL_KIND:?}): an avatar or another file under a meta-model header",
+                header.kind
+            )));
         }
         header.config.check()?;
-        if header.hyper_params != header.config.num_params() || header.static_params != header.config.siren.num_params() {
-            return Err(Error::invalid("the header's parameter counts do not match its network configuration"));
+        if header.hyper_params != header.config.num_params()
+            || header.static_params != header.config.siren.num_params()
+        {
+            return Err(Error::invalid(
+                "the header's parameter counts do not match its network configuration",
+            ));
         }
         Ok(header.hyper_params + header.static_params)
     }
@@ -111,17 +138,25 @@ impl MetaModel {
 
     /// The trainable static meta-SDF.
     pub fn static_siren(&self) -> Siren {
-        trainable_siren(&self.header.config.siren, &self.static_sdf, 0).expect("counts checked on load")
+        trainable_siren(&self.header.config.siren, &self.static_sdf, 0)
+            .expect("counts checked on load")
     }
 }
 
 /// The meta-SDF as a trainable SIREN on the training device.
-pub fn trainable_siren(config: &crate::siren::SirenConfig, flat: &[f32], seed: u64) -> Result<Siren> {
+pub fn trainable_siren(
+    config: &crate::siren::SirenConfig,
+    flat: &[f32],
+    seed: u64,
+) -> Result<Siren> {
     crate::flat_params::load_flat(config.init(seed, &crate::compute::training_device()), flat)
 }
 
 /// The hypernetwork (its base SDF included) as a trainable module on the training device.
 pub fn trainable_hyper(config: &HyperConfig, flat: &[f32], seed: u64) -> Result<HyperNet> {
     let device = crate::compute::training_device();
-    crate::flat_params::load_flat(config.init(config.siren.init(seed, &device), seed, &device), flat)
+    crate::flat_params::load_flat(
+        config.init(config.siren.init(seed, &device), seed, &device),
+        flat,
+    )
 }

@@ -34,7 +34,11 @@ impl OffSurface<'_> {
             let p = if k >= self.count - free {
                 self.outside[rng.random_range(0..self.outside.len())]
             } else if k % 2 == 0 {
-                Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0))
+                Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                )
             } else {
                 let p = self.surface[rng.random_range(0..self.surface.len())];
                 p + Vec3::new(gauss(rng), gauss(rng), gauss(rng)) * self.near_sigma
@@ -63,7 +67,13 @@ mod tests {
     fn free_space_points_come_last_and_near_points_stay_near() {
         let surface = [Vec3::new(0.5, 0.0, 0.0)];
         let outside = [Vec3::splat(0.9), Vec3::splat(-0.9)];
-        let spec = OffSurface { surface: &surface, outside: &outside, count: 10, free_space: 3, near_sigma: 0.01 };
+        let spec = OffSurface {
+            surface: &surface,
+            outside: &outside,
+            count: 10,
+            free_space: 3,
+            near_sigma: 0.01,
+        };
         let mut out = vec![Vec3::ZERO];
         let free = spec.draw(&mut ChaCha8Rng::seed_from_u64(1), &mut out);
         assert_eq!((free, out.len()), (3, 11));

@@ -6,7 +6,9 @@
 //! `AVATAR_POSE_TRUTH=DIR` (a folder holding the exact `capture.json`; `eval` writes it there
 //! before perturbing its fittings) makes a fit print these errors after every refinement round.
 
-use avatar_core::body::{forward_kinematics, skeleton::parent, BodyParams, JOINT_NAMES, NUM_JOINTS};
+use avatar_core::body::{
+    BodyParams, JOINT_NAMES, NUM_JOINTS, forward_kinematics, skeleton::parent,
+};
 use avatar_core::capture::CaptureManifest;
 use glam::{Quat, Vec3};
 
@@ -48,14 +50,31 @@ fn joint_error(refined: Vec3, truth: Vec3) -> Vec3 {
     q.to_scaled_axis()
 }
 
-pub fn pose_errors(refined: &[BodyParams], truth: &[BodyParams], rest_joints: &[Vec3; NUM_JOINTS]) -> PoseErrors {
+pub fn pose_errors(
+    refined: &[BodyParams],
+    truth: &[BodyParams],
+    rest_joints: &[Vec3; NUM_JOINTS],
+) -> PoseErrors {
     let n = refined.len().min(truth.len()).max(1) as f32;
     let nj = NUM_JOINTS as f32;
-    let mut e = PoseErrors { joint_deg: 0.0, trans_cm: 0.0, posed_joints_cm: 0.0, common_deg: 0.0, common_trans_cm: 0.0, common_trans: Vec3::ZERO, twist_deg: 0.0, swing_deg: 0.0, per_joint_deg: [0.0; NUM_JOINTS], per_frame_trans: Vec::new() };
+    let mut e = PoseErrors {
+        joint_deg: 0.0,
+        trans_cm: 0.0,
+        posed_joints_cm: 0.0,
+        common_deg: 0.0,
+        common_trans_cm: 0.0,
+        common_trans: Vec3::ZERO,
+        twist_deg: 0.0,
+        swing_deg: 0.0,
+        per_joint_deg: [0.0; NUM_JOINTS],
+        per_frame_trans: Vec::new(),
+    };
     let mut mean_err = [Vec3::ZERO; NUM_JOINTS];
     let mut mean_trans = Vec3::ZERO;
     for (r, t) in refined.iter().zip(truth) {
-        for (j, (per_joint, mean)) in e.per_joint_deg.iter_mut().zip(mean_err.iter_mut()).enumerate() {
+        for (j, (per_joint, mean)) in
+            e.per_joint_deg.iter_mut().zip(mean_err.iter_mut()).enumerate()
+        {
             let err = joint_error(r.pose[j], t.pose[j]);
             let angle = err.length().to_degrees();
             let twist = err.dot(bone_axis(rest_joints, j)).abs().to_degrees();
@@ -68,8 +87,12 @@ pub fn pose_errors(refined: &[BodyParams], truth: &[BodyParams], rest_joints: &[
         e.trans_cm += (r.trans - t.trans).length() * 100.0 / n;
         mean_trans += (r.trans - t.trans) / n;
         e.per_frame_trans.push((r.trans - t.trans) * 100.0);
-        let (pr, pt) = (forward_kinematics(rest_joints, &r.rotations(), r.trans).posed_joints(), forward_kinematics(rest_joints, &t.rotations(), t.trans).posed_joints());
-        e.posed_joints_cm += pr.iter().zip(&pt).map(|(a, b)| (*a - *b).length()).sum::<f32>() * 100.0 / (n * nj);
+        let (pr, pt) = (
+            forward_kinematics(rest_joints, &r.rotations(), r.trans).posed_joints(),
+            forward_kinematics(rest_joints, &t.rotations(), t.trans).posed_joints(),
+        );
+        e.posed_joints_cm +=
+            pr.iter().zip(&pt).map(|(a, b)| (*a - *b).length()).sum::<f32>() * 100.0 / (n * nj);
     }
     e.common_deg = mean_err.iter().map(|v| v.length().to_degrees()).sum::<f32>() / nj;
     e.common_trans_cm = mean_trans.length() * 100.0;
@@ -82,7 +105,14 @@ impl std::fmt::Display for PoseErrors {
         write!(
             f,
             "joint {:.2} deg (shared {:.2}, twist {:.2}, swing {:.2}), translation {:.2} cm (shared {:.2} {:.2?}), posed joints {:.2} cm",
-            self.joint_deg, self.common_deg, self.twist_deg, self.swing_deg, self.trans_cm, self.common_trans_cm, self.common_trans.to_array(), self.posed_joints_cm
+            self.joint_deg,
+            self.common_deg,
+            self.twist_deg,
+            self.swing_deg,
+            self.trans_cm,
+            self.common_trans_cm,
+            self.common_trans.to_array(),
+            self.posed_joints_cm
         )
     }
 }
@@ -90,8 +120,16 @@ impl std::fmt::Display for PoseErrors {
 impl PoseErrors {
     /// Each joint's mean angle error, by name, and each frame's translation error.
     pub fn per_joint(&self) -> String {
-        let joints = (0..NUM_JOINTS).map(|j| format!("{} {:.1}", JOINT_NAMES[j], self.per_joint_deg[j])).collect::<Vec<_>>().join(", ");
-        let frames = self.per_frame_trans.iter().map(|t| format!("[{:.2}, {:.2}, {:.2}]", t.x, t.y, t.z)).collect::<Vec<_>>().join(" ");
+        let joints = (0..NUM_JOINTS)
+            .map(|j| format!("{} {:.1}", JOINT_NAMES[j], self.per_joint_deg[j]))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let frames = self
+            .per_frame_trans
+            .iter()
+            .map(|t| format!("[{:.2}, {:.2}, {:.2}]", t.x, t.y, t.z))
+            .collect::<Vec<_>>()
+            .join(" ");
         format!("{joints}\n  translation per frame (cm): {frames}")
     }
 }
@@ -111,7 +149,11 @@ pub fn match_truth(given: &[BodyParams], exact: &[BodyParams]) -> Vec<BodyParams
                 let (a, d) = avatar_core::body::pose_error(g, t);
                 a + d * 10.0
             };
-            exact.iter().min_by(|a, b| cost(a).total_cmp(&cost(b))).cloned().unwrap_or_else(|| g.clone())
+            exact
+                .iter()
+                .min_by(|a, b| cost(a).total_cmp(&cost(b)))
+                .cloned()
+                .unwrap_or_else(|| g.clone())
         })
         .collect()
 }

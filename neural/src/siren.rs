@@ -48,7 +48,10 @@ impl SirenConfig {
     /// Refuse sizes no network of this build has (checked before any size arithmetic).
     pub fn check(&self) -> crate::error::Result<()> {
         if !(1..=4096).contains(&self.hidden) || !(1..=64).contains(&self.layers) {
-            return Err(crate::error::Error::invalid(format!("SDF network {} x {} out of range (1-64 layers of 1-4096)", self.layers, self.hidden)));
+            return Err(crate::error::Error::invalid(format!(
+                "SDF network {} x {} out of range (1-64 layers of 1-4096)",
+                self.layers, self.hidden
+            )));
         }
         Ok(())
     }
@@ -66,11 +69,17 @@ impl SirenConfig {
         let mut biases = Vec::new();
         for (l, p) in widths.windows(2).enumerate() {
             let (fan_in, fan_out) = (p[0], p[1]);
-            let bound = if l == 0 { 1.0 / fan_in as f32 } else { (6.0 / fan_in as f32).sqrt() / W0 };
-            let w: Vec<f32> = (0..fan_in * fan_out).map(|_| rng.random_range(-bound..bound)).collect();
+            let bound =
+                if l == 0 { 1.0 / fan_in as f32 } else { (6.0 / fan_in as f32).sqrt() / W0 };
+            let w: Vec<f32> =
+                (0..fan_in * fan_out).map(|_| rng.random_range(-bound..bound)).collect();
             let b: Vec<f32> = (0..fan_out).map(|_| rng.random_range(-bound..bound)).collect();
-            weights.push(Param::from_tensor(Tensor::from_data(TensorData::new(w, [fan_in, fan_out]), device)));
-            biases.push(Param::from_tensor(Tensor::from_data(TensorData::new(b, [fan_out]), device)));
+            weights.push(Param::from_tensor(Tensor::from_data(
+                TensorData::new(w, [fan_in, fan_out]),
+                device,
+            )));
+            biases
+                .push(Param::from_tensor(Tensor::from_data(TensorData::new(b, [fan_out]), device)));
         }
         Siren { weights, biases }
     }
@@ -78,7 +87,11 @@ impl SirenConfig {
 
 /// Evaluate a SIREN given explicit layer parameters: SDF values [N, 1] and spatial gradients
 /// [N, 3].
-pub fn sdf_and_gradient(weights: &[Tensor<2>], biases: &[Tensor<1>], x: Tensor<2>) -> (Tensor<2>, Tensor<2>) {
+pub fn sdf_and_gradient(
+    weights: &[Tensor<2>],
+    biases: &[Tensor<1>],
+    x: Tensor<2>,
+) -> (Tensor<2>, Tensor<2>) {
     let w: Vec<Tensor<3>> = weights.iter().map(|w| w.clone().unsqueeze_dim::<3>(0)).collect();
     let b: Vec<Tensor<2>> = biases.iter().map(|b| b.clone().unsqueeze_dim::<2>(0)).collect();
     let (f, g) = batched_sdf_and_gradient(&w, &b, x.unsqueeze_dim::<3>(0));
@@ -88,7 +101,11 @@ pub fn sdf_and_gradient(weights: &[Tensor<2>], biases: &[Tensor<1>], x: Tensor<2
 /// A batch of SIRENs, one per pose (the hypernetwork predicts a weight set per pose):
 /// weights [B, in, out], biases [B, out], points [B, N, 3] -> SDF [B, N, 1] and spatial
 /// gradients [B, N, 3].
-pub fn batched_sdf_and_gradient(weights: &[Tensor<3>], biases: &[Tensor<2>], x: Tensor<3>) -> (Tensor<3>, Tensor<3>) {
+pub fn batched_sdf_and_gradient(
+    weights: &[Tensor<3>],
+    biases: &[Tensor<2>],
+    x: Tensor<3>,
+) -> (Tensor<3>, Tensor<3>) {
     let [batch, n, _] = x.dims();
     let device = x.device();
     // Tangent block: rows [a * N + i] carry d/dx_a at point i; it starts as the identity.
@@ -140,7 +157,10 @@ impl Siren {
     }
 
     pub fn params(&self) -> (Vec<Tensor<2>>, Vec<Tensor<1>>) {
-        (self.weights.iter().map(|w| w.val()).collect(), self.biases.iter().map(|b| b.val()).collect())
+        (
+            self.weights.iter().map(|w| w.val()).collect(),
+            self.biases.iter().map(|b| b.val()).collect(),
+        )
     }
 
     pub fn sdf_and_gradient(&self, x: Tensor<2>) -> (Tensor<2>, Tensor<2>) {

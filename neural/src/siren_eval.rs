@@ -39,10 +39,19 @@ impl SirenEval {
             .zip(biases)
             .map(|(w, b)| {
                 let [fan_in, fan_out] = w.dims();
-                Layer { w: to_vec(w.clone().into_data()), b: to_vec(b.clone().into_data()), fan_in, fan_out }
+                Layer {
+                    w: to_vec(w.clone().into_data()),
+                    b: to_vec(b.clone().into_data()),
+                    fan_in,
+                    fan_out,
+                }
             })
             .collect::<Vec<_>>();
-        assert!(layers.first().is_some_and(|l| l.fan_in == 3) && layers.last().is_some_and(|l| l.fan_out == 1), "a SIREN maps 3 inputs to 1 output");
+        assert!(
+            layers.first().is_some_and(|l| l.fan_in == 3)
+                && layers.last().is_some_and(|l| l.fan_out == 1),
+            "a SIREN maps 3 inputs to 1 output"
+        );
         SirenEval { layers }
     }
 
@@ -70,10 +79,16 @@ impl SirenEval {
     pub fn sdf_and_gradient(&self, points: &[[f32; 3]]) -> (Vec<f32>, Vec<[f32; 3]>) {
         let mut values = vec![0f32; points.len()];
         let mut grads = vec![[0f32; 3]; points.len()];
-        values.par_chunks_mut(BLOCK).zip(grads.par_chunks_mut(BLOCK)).zip(points.par_chunks(BLOCK)).for_each_init(
-            || Scratch::new(self.widest(), self.layers.len(), true),
-            |scratch, ((values, grads), points)| self.block(points, scratch, values, Some(grads)),
-        );
+        values
+            .par_chunks_mut(BLOCK)
+            .zip(grads.par_chunks_mut(BLOCK))
+            .zip(points.par_chunks(BLOCK))
+            .for_each_init(
+                || Scratch::new(self.widest(), self.layers.len(), true),
+                |scratch, ((values, grads), points)| {
+                    self.block(points, scratch, values, Some(grads))
+                },
+            );
         (values, grads)
     }
 
@@ -83,7 +98,10 @@ impl SirenEval {
     /// and one check; a point whose gradient vanishes stays where it is.
     pub fn project(&self, points: &[[f32; 3]], steps: usize) -> Vec<[f32; 3]> {
         let mut x = points.to_vec();
-        x.par_chunks_mut(BLOCK).for_each_init(|| ProjectScratch::new(self), |scratch, x| self.project_block(x, steps, scratch));
+        x.par_chunks_mut(BLOCK).for_each_init(
+            || ProjectScratch::new(self),
+            |scratch, x| self.project_block(x, steps, scratch),
+        );
         x
     }
 
@@ -125,7 +143,13 @@ impl SirenEval {
     }
 
     /// One block of at most BLOCK points.
-    fn block(&self, points: &[[f32; 3]], s: &mut Scratch, values: &mut [f32], grads: Option<&mut [[f32; 3]]>) {
+    fn block(
+        &self,
+        points: &[[f32; 3]],
+        s: &mut Scratch,
+        values: &mut [f32],
+        grads: Option<&mut [[f32; 3]]>,
+    ) {
         let n = points.len();
         let last = self.layers.len() - 1;
         for (i, p) in points.iter().enumerate() {
@@ -141,7 +165,22 @@ impl SirenEval {
             let h: &[f32] = if l == 0 { &s.input[..m * 3] } else { &s.acts[l - 1][..m * k] };
             // SAFETY: the slices hold m*k, k*nout and m*nout elements with the strides given.
             unsafe {
-                matrixmultiply::sgemm(m, k, nout, 1.0, h.as_ptr(), k as isize, 1, layer.w.as_ptr(), nout as isize, 1, 1.0, z.as_mut_ptr(), nout as isize, 1);
+                matrixmultiply::sgemm(
+                    m,
+                    k,
+                    nout,
+                    1.0,
+                    h.as_ptr(),
+                    k as isize,
+                    1,
+                    layer.w.as_ptr(),
+                    nout as isize,
+                    1,
+                    1.0,
+                    z.as_mut_ptr(),
+                    nout as isize,
+                    1,
+                );
             }
             if l == last {
                 values.copy_from_slice(&z[..n]);
@@ -171,7 +210,22 @@ impl SirenEval {
             // SAFETY: src is n x width, W_l^T is width x k (strides of the [k, width] matrix
             // swapped), dst is n x k.
             unsafe {
-                matrixmultiply::sgemm(n, width, k, 1.0, src.as_ptr(), width as isize, 1, layer.w.as_ptr(), 1, width as isize, 0.0, dst.as_mut_ptr(), k as isize, 1);
+                matrixmultiply::sgemm(
+                    n,
+                    width,
+                    k,
+                    1.0,
+                    src.as_ptr(),
+                    width as isize,
+                    1,
+                    layer.w.as_ptr(),
+                    1,
+                    width as isize,
+                    0.0,
+                    dst.as_mut_ptr(),
+                    k as isize,
+                    1,
+                );
             }
             std::mem::swap(&mut s.grad_a, &mut s.grad_b);
             width = k;
@@ -207,7 +261,11 @@ impl MetricSdf {
 
     /// Canonical points moved onto the zero level set by `steps` Newton steps.
     pub fn project(&self, points: &[Vec3], steps: usize) -> Vec<Vec3> {
-        self.siren.project(&self.unit(points), steps).into_iter().map(|q| self.normalisation.from_unit(Vec3::from_array(q))).collect()
+        self.siren
+            .project(&self.unit(points), steps)
+            .into_iter()
+            .map(|q| self.normalisation.from_unit(Vec3::from_array(q)))
+            .collect()
     }
 }
 
@@ -229,7 +287,13 @@ struct ProjectScratch {
 
 impl ProjectScratch {
     fn new(siren: &SirenEval) -> ProjectScratch {
-        ProjectScratch { eval: Scratch::new(siren.widest(), siren.layers.len(), true), active: Vec::with_capacity(BLOCK), gathered: Vec::with_capacity(BLOCK), f: vec![0f32; BLOCK], g: vec![[0f32; 3]; BLOCK] }
+        ProjectScratch {
+            eval: Scratch::new(siren.widest(), siren.layers.len(), true),
+            active: Vec::with_capacity(BLOCK),
+            gathered: Vec::with_capacity(BLOCK),
+            f: vec![0f32; BLOCK],
+            g: vec![[0f32; 3]; BLOCK],
+        }
     }
 }
 
@@ -289,8 +353,17 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     let odd = shifted.to_bits() << 31; // the parity of k, moved to the sign bit
     let r = (x - k * PI_HI) - k * PI_LO;
     let r2 = r * r;
-    let sin_r = r + r * r2 * (-1.0 / 6.0 + r2 * (1.0 / 120.0 + r2 * (-1.0 / 5040.0 + r2 * (1.0 / 362_880.0 + r2 * (-1.0 / 39_916_800.0)))));
-    let cos_r = 1.0 + r2 * (-0.5 + r2 * (1.0 / 24.0 + r2 * (-1.0 / 720.0 + r2 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0 + r2 * (1.0 / 479_001_600.0))))));
+    let sin_r = r + r
+        * r2
+        * (-1.0 / 6.0
+            + r2 * (1.0 / 120.0
+                + r2 * (-1.0 / 5040.0 + r2 * (1.0 / 362_880.0 + r2 * (-1.0 / 39_916_800.0)))));
+    let cos_r = 1.0
+        + r2 * (-0.5
+            + r2 * (1.0 / 24.0
+                + r2 * (-1.0 / 720.0
+                    + r2 * (1.0 / 40_320.0
+                        + r2 * (-1.0 / 3_628_800.0 + r2 * (1.0 / 479_001_600.0))))));
     (f32::from_bits(sin_r.to_bits() ^ odd), f32::from_bits(cos_r.to_bits() ^ odd))
 }
 

@@ -10,7 +10,16 @@ fn fitted() -> StaticAvatar {
     let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
     let options = FitOptions { steps: 15, batch: 500, off_surface: 500, ..FitOptions::default() };
     let mut last = f32::NAN;
-    let (avatar, report) = StaticAvatar::fit_capture(&demo, 2, SirenConfig { hidden: 32, layers: 2 }, None, &options, None, &mut |_, l, _| last = l).unwrap();
+    let (avatar, report) = StaticAvatar::fit_capture(
+        &demo,
+        2,
+        SirenConfig { hidden: 32, layers: 2 },
+        None,
+        &options,
+        None,
+        &mut |_, l, _| last = l,
+    )
+    .unwrap();
     assert_eq!(report.frames, 2);
     assert!(report.points > 5000, "{} points", report.points);
     assert!(last.is_finite());
@@ -24,7 +33,15 @@ fn save_and_reload_give_identical_sdf_values_and_bad_files_are_refused() {
     let path = dir.path().join("me.avatar");
     avatar.save(&path).unwrap();
     let back = StaticAvatar::load(&path).unwrap();
-    let probe: Vec<Vec3> = (0..200).map(|i| Vec3::new((i as f32 * 0.37).sin() * 0.5, (i as f32 * 0.11).cos() * 0.9, (i as f32 * 0.23).sin() * 0.2)).collect();
+    let probe: Vec<Vec3> = (0..200)
+        .map(|i| {
+            Vec3::new(
+                (i as f32 * 0.37).sin() * 0.5,
+                (i as f32 * 0.11).cos() * 0.9,
+                (i as f32 * 0.23).sin() * 0.2,
+            )
+        })
+        .collect();
     let (a, b) = (avatar.sdf_metres(&probe), back.sdf_metres(&probe));
     assert_eq!(a, b);
     assert_eq!(back.betas(), avatar.betas());
@@ -47,5 +64,8 @@ fn save_and_reload_give_identical_sdf_values_and_bad_files_are_refused() {
     let junk = dir.path().join("junk.avatar");
     std::fs::write(&junk, b"hello").unwrap();
     let err = StaticAvatar::load(&junk).err().unwrap().to_string();
-    assert!(err.contains("junk.avatar") && err.contains("not an Avatar Studio weights file"), "{err}");
+    assert!(
+        err.contains("junk.avatar") && err.contains("not an Avatar Studio weights file"),
+        "{err}"
+    );
 }

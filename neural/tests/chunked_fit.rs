@@ -3,7 +3,7 @@
 //! chunk's end keeps the avatar of the steps that ran. A static fit in one chunk of the
 //! `fit_avatar` recipe is `StaticAvatar::fit_points` with `static_equivalent` options.
 
-use avatar_neural::avatar::{fit_avatar, AvatarFit, FitEvent, FitKind};
+use avatar_neural::avatar::{AvatarFit, FitEvent, FitKind, fit_avatar};
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::encoder::PoseEncoding;
 use avatar_neural::*;
@@ -18,9 +18,22 @@ fn capture() -> CapturePoints {
 #[test]
 fn chunked_fits_show_partial_avatars_and_stop_at_a_chunk() {
     let capture = capture();
-    let config = HyperConfig { siren: SirenConfig { hidden: 16, layers: 2 }, head_hidden: 8, rank: Some(2), encoding: PoseEncoding::Hierarchical };
-    let options = HyperFitOptions { steps: 7, surface_per_pose: 50, off_per_pose: 50, ..HyperFitOptions::default() };
-    for kind in [FitKind::Meta(Init::Scratch { config, seed: 0 }), FitKind::Static { siren: config.siren, init: None }] {
+    let config = HyperConfig {
+        siren: SirenConfig { hidden: 16, layers: 2 },
+        head_hidden: 8,
+        rank: Some(2),
+        encoding: PoseEncoding::Hierarchical,
+    };
+    let options = HyperFitOptions {
+        steps: 7,
+        surface_per_pose: 50,
+        off_per_pose: 50,
+        ..HyperFitOptions::default()
+    };
+    for kind in [
+        FitKind::Meta(Init::Scratch { config, seed: 0 }),
+        FitKind::Static { siren: config.siren, init: None },
+    ] {
         let fit = AvatarFit { kind, options: options.clone(), chunk: 3, cancel: None };
         let (mut steps, mut partials) = (Vec::new(), Vec::new());
         let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| match e {
@@ -29,7 +42,11 @@ fn chunked_fits_show_partial_avatars_and_stop_at_a_chunk() {
                 steps.push(step);
             }
             FitEvent::Partial { done, avatar } => {
-                assert_eq!(avatar.partial().map(|p| p.steps_done), Some(done), "a partial avatar says how far it got");
+                assert_eq!(
+                    avatar.partial().map(|p| p.steps_done),
+                    Some(done),
+                    "a partial avatar says how far it got"
+                );
                 partials.push(done);
             }
         });
@@ -45,7 +62,10 @@ fn chunked_fits_show_partial_avatars_and_stop_at_a_chunk() {
                 cancel.store(true, Ordering::Relaxed);
             }
         });
-        assert_eq!(avatar.partial().map(|p| p.to_string()).as_deref(), Some("partial: 3 of 7 steps"));
+        assert_eq!(
+            avatar.partial().map(|p| p.to_string()).as_deref(),
+            Some("partial: 3 of 7 steps")
+        );
     }
 }
 
@@ -53,10 +73,29 @@ fn chunked_fits_show_partial_avatars_and_stop_at_a_chunk() {
 fn the_static_recipe_is_static_equivalent() {
     let capture = capture();
     let siren = SirenConfig { hidden: 16, layers: 2 };
-    let options = HyperFitOptions { steps: 4, surface_per_pose: 40, off_per_pose: 40, ..HyperFitOptions::default() };
-    let fit = AvatarFit { kind: FitKind::Static { siren, init: None }, options: options.clone(), chunk: 0, cancel: None };
-    let (AnyAvatar::Static(a), _) = fit_avatar(&capture, &fit, &mut |_| {}) else { panic!("a static avatar") };
-    let (b, _) = StaticAvatar::fit_points(&capture, siren, None, &options.static_equivalent(), None, &mut |_, _, _| {});
+    let options = HyperFitOptions {
+        steps: 4,
+        surface_per_pose: 40,
+        off_per_pose: 40,
+        ..HyperFitOptions::default()
+    };
+    let fit = AvatarFit {
+        kind: FitKind::Static { siren, init: None },
+        options: options.clone(),
+        chunk: 0,
+        cancel: None,
+    };
+    let (AnyAvatar::Static(a), _) = fit_avatar(&capture, &fit, &mut |_| {}) else {
+        panic!("a static avatar")
+    };
+    let (b, _) = StaticAvatar::fit_points(
+        &capture,
+        siren,
+        None,
+        &options.static_equivalent(),
+        None,
+        &mut |_, _, _| {},
+    );
     let probe: Vec<Vec3> = (0..20).map(|i| Vec3::new(0.01 * i as f32, 1.0, 0.05)).collect();
     assert_eq!(a.sdf_metres(&probe), b.sdf_metres(&probe));
 }

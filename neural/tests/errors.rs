@@ -2,12 +2,14 @@
 //! (naming the file); core's errors pass through unchanged and convert back for core's traits.
 
 use avatar_neural::compute::Compute;
-use avatar_neural::{weights_file, AnyAvatar, Error};
+use avatar_neural::{AnyAvatar, Error, weights_file};
 
 #[test]
 fn neural_errors_say_what_and_where() {
     match Compute::parse("tpu") {
-        Err(e @ Error::Device { .. }) => assert_eq!(e.to_string(), "--device \"tpu\": expected cpu, gpu or cpu-burn"),
+        Err(e @ Error::Device { .. }) => {
+            assert_eq!(e.to_string(), "--device \"tpu\": expected cpu, gpu or cpu-burn")
+        }
         other => panic!("{:?}", other.map(|_| ())),
     }
     let dir = tempfile::tempdir().unwrap();
@@ -17,12 +19,20 @@ fn neural_errors_say_what_and_where() {
     let Err(e) = AnyAvatar::load(&path) else { panic!("an unknown kind loads") };
     assert!(matches!(e, Error::AvatarKind { .. }), "{e:?}");
     let text = e.to_string();
-    assert!(text.starts_with(&path.display().to_string()) && text.contains("\"point-cloud\" is not an avatar this build can load"), "{text}");
+    assert!(
+        text.starts_with(&path.display().to_string())
+            && text.contains("\"point-cloud\" is not an avatar this build can load"),
+        "{text}"
+    );
     // Core's traits (eval::Predictor) see the same message, still naming the file.
     let core: avatar_core::Error = e.into();
     assert_eq!(core.to_string(), text);
 
     let missing = dir.path().join("missing.avatar");
     let Err(e) = AnyAvatar::load(&missing) else { panic!("a missing file loads") };
-    assert!(matches!(e, Error::Core(avatar_core::Error::Io { .. })) && e.to_string().contains("missing.avatar"), "{e:?}");
+    assert!(
+        matches!(e, Error::Core(avatar_core::Error::Io { .. }))
+            && e.to_string().contains("missing.avatar"),
+        "{e:?}"
+    );
 }

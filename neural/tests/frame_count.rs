@@ -29,15 +29,22 @@ fn five_frames_one_broken() -> tempfile::TempDir {
 fn a_range_takes_every_usable_frame_up_to_its_most_and_an_exact_count_refuses_fewer() {
     let dir = five_frames_one_broken();
     // Up to 32, at least 3: the four usable frames of five, the broken one skipped.
-    let all = CapturePoints::open_with(dir.path(), FrameCount { at_least: 3, at_most: 32 }, None).unwrap();
+    let all = CapturePoints::open_with(dir.path(), FrameCount { at_least: 3, at_most: 32 }, None)
+        .unwrap();
     assert_eq!(all.frames.len(), 4);
     // At most 2: the first two usable frames.
-    let two = CapturePoints::open_with(dir.path(), FrameCount { at_least: 1, at_most: 2 }, None).unwrap();
+    let two =
+        CapturePoints::open_with(dir.path(), FrameCount { at_least: 1, at_most: 2 }, None).unwrap();
     assert_eq!(two.frames.len(), 2);
     assert_eq!(two.frames[1].params, all.frames[1].params);
     // Exactly 5 is more than are usable: refused, naming the capture and the broken frame.
-    let err = CapturePoints::open_with(dir.path(), FrameCount::exactly(5), None).err().expect("4 usable frames of the 5 asked is refused").to_string();
-    for want in ["capture.json", "only 4 usable frames", "of the 5 asked", "000002.png", "--frames 4"] {
+    let err = CapturePoints::open_with(dir.path(), FrameCount::exactly(5), None)
+        .err()
+        .expect("4 usable frames of the 5 asked is refused")
+        .to_string();
+    for want in
+        ["capture.json", "only 4 usable frames", "of the 5 asked", "000002.png", "--frames 4"]
+    {
         assert!(err.contains(want), "missing {want:?} in {err}");
     }
     // The default asks for at least 8, or every frame of a smaller capture: 5 here, so refused too.

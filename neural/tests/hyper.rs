@@ -6,8 +6,8 @@
 use avatar_core::body::{BodyParams, NUM_JOINTS};
 use avatar_core::canonical::Normalisation;
 use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::hyper_fit::batch_loss;
 use avatar_neural::flat_params::{flatten, load_flat};
+use avatar_neural::hyper_fit::batch_loss;
 use avatar_neural::*;
 use burn::module::Module;
 use burn::tensor::{Tensor, TensorData};
@@ -39,13 +39,28 @@ fn joints() -> ([Vec3; NUM_JOINTS], Normalisation) {
 }
 
 fn probe(n: usize) -> Vec<Vec3> {
-    (0..n).map(|i| Vec3::new((i as f32 * 0.37).sin() * 0.7, (i as f32 * 0.11).cos() * 0.9, (i as f32 * 0.23).sin() * 0.5)).collect()
+    (0..n)
+        .map(|i| {
+            Vec3::new(
+                (i as f32 * 0.37).sin() * 0.7,
+                (i as f32 * 0.11).cos() * 0.9,
+                (i as f32 * 0.23).sin() * 0.5,
+            )
+        })
+        .collect()
 }
 
 fn sdf_of(layers: &(Vec<Tensor<2>>, Vec<Tensor<1>>), x: &[Vec3]) -> Vec<f32> {
     let device = cpu_device();
-    let t = Tensor::from_data(TensorData::new(x.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>(), [x.len(), 3]), &device);
-    avatar_neural::siren::sdf_only(&layers.0, &layers.1, t).into_data().as_slice::<f32>().unwrap().to_vec()
+    let t = Tensor::from_data(
+        TensorData::new(x.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>(), [x.len(), 3]),
+        &device,
+    );
+    avatar_neural::siren::sdf_only(&layers.0, &layers.1, t)
+        .into_data()
+        .as_slice::<f32>()
+        .unwrap()
+        .to_vec()
 }
 
 #[test]
@@ -53,7 +68,11 @@ fn at_initialisation_every_pose_gets_the_meta_sdf() {
     let device = cpu_device();
     let (rest_joints, norm) = joints();
     let x = probe(64);
-    for config in [tiny(Some(4), PoseEncoding::Hierarchical), tiny(None, PoseEncoding::Hierarchical), tiny(Some(4), PoseEncoding::Quaternion)] {
+    for config in [
+        tiny(Some(4), PoseEncoding::Hierarchical),
+        tiny(None, PoseEncoding::Hierarchical),
+        tiny(Some(4), PoseEncoding::Quaternion),
+    ] {
         let meta = config.siren.init(3, &device);
         let expected = sdf_values(&meta, &x);
         let net = config.init(meta, 5, &device);
@@ -73,7 +92,10 @@ fn perturbed(config: HyperConfig) -> HyperNet {
     let device = cpu_device();
     let net = config.init(config.siren.init(3, &device), 5, &device);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
-    let flat: Vec<f32> = flatten(&net).into_iter().map(|v| if v == 0.0 { rand::Rng::random_range(&mut rng, -0.02..0.02) } else { v }).collect();
+    let flat: Vec<f32> = flatten(&net)
+        .into_iter()
+        .map(|v| if v == 0.0 { rand::Rng::random_range(&mut rng, -0.02..0.02) } else { v })
+        .collect();
     load_flat(net, &flat).unwrap()
 }
 
@@ -84,11 +106,19 @@ fn batched_forward_mode_gradients_match_finite_differences_and_poses_differ() {
     let net = perturbed(config);
     let (rest_joints, norm) = joints();
     let ps = poses();
-    let inputs: Vec<f32> = ps.iter().flat_map(|p| config.encoding.input(p, &rest_joints, &norm)).collect();
-    let predicted = net.predict(Tensor::from_data(TensorData::new(inputs, [ps.len(), config.encoding.input_len()]), &device));
+    let inputs: Vec<f32> =
+        ps.iter().flat_map(|p| config.encoding.input(p, &rest_joints, &norm)).collect();
+    let predicted = net.predict(Tensor::from_data(
+        TensorData::new(inputs, [ps.len(), config.encoding.input_len()]),
+        &device,
+    ));
     let x = probe(10);
     let xs: Vec<f32> = (0..ps.len()).flat_map(|_| x.iter().flat_map(|p| p.to_array())).collect();
-    let (f, g) = batched_sdf_and_gradient(&predicted.weights, &predicted.biases, Tensor::from_data(TensorData::new(xs, [ps.len(), x.len(), 3]), &device));
+    let (f, g) = batched_sdf_and_gradient(
+        &predicted.weights,
+        &predicted.biases,
+        Tensor::from_data(TensorData::new(xs, [ps.len(), x.len(), 3]), &device),
+    );
     let f = f.into_data().as_slice::<f32>().unwrap().to_vec();
     let g = g.into_data().as_slice::<f32>().unwrap().to_vec();
     let h = 1e-3;
@@ -96,13 +126,20 @@ fn batched_forward_mode_gradients_match_finite_differences_and_poses_differ() {
         let layers = net.siren_for(&config.encoding.input(p, &rest_joints, &norm), &device);
         let plain = sdf_of(&layers, &x);
         for (i, q) in x.iter().enumerate() {
-            assert!((f[b * x.len() + i] - plain[i]).abs() < 1e-5, "batched and single-pose values differ");
+            assert!(
+                (f[b * x.len() + i] - plain[i]).abs() < 1e-5,
+                "batched and single-pose values differ"
+            );
             for a in 0..3 {
                 let mut e = Vec3::ZERO;
                 e[a] = h;
-                let fd = (sdf_of(&layers, &[*q + e])[0] - sdf_of(&layers, &[*q - e])[0]) / (2.0 * h);
+                let fd =
+                    (sdf_of(&layers, &[*q + e])[0] - sdf_of(&layers, &[*q - e])[0]) / (2.0 * h);
                 let an = g[(b * x.len() + i) * 3 + a];
-                assert!((fd - an).abs() < 2e-2 * (1.0 + an.abs()), "pose {b} point {i} axis {a}: {an} vs {fd}");
+                assert!(
+                    (fd - an).abs() < 2e-2 * (1.0 + an.abs()),
+                    "pose {b} point {i} axis {a}: {an} vs {fd}"
+                );
             }
         }
     }
@@ -118,20 +155,39 @@ fn preset_parameter_counts() {
     assert_eq!(paper.siren.num_params(), 330_241);
     // The analytic counts match the modules for the compact preset and the tiny ones.
     let device = cpu_device();
-    for config in [HyperConfig::compact(), tiny(Some(4), PoseEncoding::Quaternion), tiny(None, PoseEncoding::Hierarchical)] {
+    for config in [
+        HyperConfig::compact(),
+        tiny(Some(4), PoseEncoding::Quaternion),
+        tiny(None, PoseEncoding::Hierarchical),
+    ] {
         let net = config.init(config.siren.init(0, &device), 0, &device);
         assert_eq!(net.num_params(), config.num_params(), "{config:?}");
     }
     // The shipped checkpoint stays under 25 MB.
-    assert!(4 * (HyperConfig::compact().num_params() + SirenConfig::compact().num_params()) < 25_000_000);
+    assert!(
+        4 * (HyperConfig::compact().num_params() + SirenConfig::compact().num_params())
+            < 25_000_000
+    );
 }
 
 #[test]
 fn a_short_fine_tune_lowers_the_loss_on_the_demo_capture() {
     let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
     let capture = CapturePoints::open(&demo, 3).unwrap();
-    let config = HyperConfig { siren: SirenConfig { hidden: 32, layers: 3 }, head_hidden: 16, rank: Some(4), encoding: PoseEncoding::Hierarchical };
-    let options = HyperFitOptions { steps: 80, poses_per_step: 3, surface_per_pose: 400, off_per_pose: 400, seed: 1, ..HyperFitOptions::default() };
+    let config = HyperConfig {
+        siren: SirenConfig { hidden: 32, layers: 3 },
+        head_hidden: 16,
+        rank: Some(4),
+        encoding: PoseEncoding::Hierarchical,
+    };
+    let options = HyperFitOptions {
+        steps: 80,
+        poses_per_step: 3,
+        surface_per_pose: 400,
+        off_per_pose: 400,
+        seed: 1,
+        ..HyperFitOptions::default()
+    };
     let init = Init::Scratch { config, seed: 2 };
     // The loss of a fixed evaluation batch before and after.
     let samples = capture.pose_samples(config.encoding);
@@ -144,9 +200,11 @@ fn a_short_fine_tune_lowers_the_loss_on_the_demo_capture() {
     };
     let before = score(&config.init(config.siren.init(2, &device), 2, &device));
     let mut logged = Vec::new();
-    let (avatar, report) = MetaAvatar::fit_points(&capture, &init, &options, None, &mut |_, l, _| logged.push(l));
+    let (avatar, report) =
+        MetaAvatar::fit_points(&capture, &init, &options, None, &mut |_, l, _| logged.push(l));
     assert_eq!(report.frames, 3);
-    let trained = avatar_neural::meta_training::trainable_hyper(&config, &flatten(&avatar.model), 0).unwrap();
+    let trained =
+        avatar_neural::meta_training::trainable_hyper(&config, &flatten(&avatar.model), 0).unwrap();
     let after = score(&trained);
     assert!(after < 0.6 * before, "loss {before} -> {after}");
     assert!(logged.iter().all(|l| l.is_finite()));
@@ -155,9 +213,28 @@ fn a_short_fine_tune_lowers_the_loss_on_the_demo_capture() {
 #[test]
 fn a_saved_and_reloaded_meta_avatar_gives_identical_sdf_values_and_bad_files_are_refused() {
     let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
-    let config = HyperConfig { siren: SirenConfig { hidden: 16, layers: 2 }, head_hidden: 8, rank: Some(2), encoding: PoseEncoding::Hierarchical };
-    let options = HyperFitOptions { steps: 3, poses_per_step: 2, surface_per_pose: 200, off_per_pose: 200, ..HyperFitOptions::default() };
-    let (avatar, _) = MetaAvatar::fit_capture(&demo, 2, &Init::Scratch { config, seed: 0 }, &options, None, &mut |_, _, _| {}).unwrap();
+    let config = HyperConfig {
+        siren: SirenConfig { hidden: 16, layers: 2 },
+        head_hidden: 8,
+        rank: Some(2),
+        encoding: PoseEncoding::Hierarchical,
+    };
+    let options = HyperFitOptions {
+        steps: 3,
+        poses_per_step: 2,
+        surface_per_pose: 200,
+        off_per_pose: 200,
+        ..HyperFitOptions::default()
+    };
+    let (avatar, _) = MetaAvatar::fit_capture(
+        &demo,
+        2,
+        &Init::Scratch { config, seed: 0 },
+        &options,
+        None,
+        &mut |_, _, _| {},
+    )
+    .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("me.avatar");
     avatar.save(&path).unwrap();
@@ -197,6 +274,9 @@ fn a_saved_and_reloaded_meta_avatar_gives_identical_sdf_values_and_bad_files_are
 fn the_shipped_model_parses_with_the_compact_configuration() {
     let m = MetaModel::shipped();
     assert_eq!(m.header.config, HyperConfig::compact());
-    assert_eq!((m.hyper.len(), m.static_sdf.len()), (HyperConfig::compact().num_params(), SirenConfig::compact().num_params()));
+    assert_eq!(
+        (m.hyper.len(), m.static_sdf.len()),
+        (HyperConfig::compact().num_params(), SirenConfig::compact().num_params())
+    );
     assert!(m.header.provenance.contains("meta-train seed 0"), "{}", m.header.provenance);
 }

@@ -2,20 +2,30 @@
 //! their checkpoint without repeating iterations, a checkpoint of other options is refused, and
 //! the data folder round-trips; Alg. 2 can start from another model's static meta-SDF.
 
-use avatar_neural::meta_training::{meta_train, MetaOptions, MODEL_FILE};
 use avatar_neural::meta_data::{MetaData, MetaDataConfig};
+use avatar_neural::meta_training::{MODEL_FILE, MetaOptions, meta_train};
 use avatar_neural::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 fn options() -> MetaOptions {
     MetaOptions {
-        config: HyperConfig { siren: SirenConfig { hidden: 16, layers: 2 }, head_hidden: 8, rank: Some(2), encoding: PoseEncoding::Hierarchical },
+        config: HyperConfig {
+            siren: SirenConfig { hidden: 16, layers: 2 },
+            head_hidden: 8,
+            rank: Some(2),
+            encoding: PoseEncoding::Hierarchical,
+        },
         sdf_iterations: 3,
         sdf_inner_steps: 2,
         hyper_iterations: 4,
         hyper_max_task: 2,
         hyper_inner_epochs: 1,
-        hyper_inner: HyperFitOptions { poses_per_step: 2, surface_per_pose: 100, off_per_pose: 100, ..HyperFitOptions::default() },
+        hyper_inner: HyperFitOptions {
+            poses_per_step: 2,
+            surface_per_pose: 100,
+            off_per_pose: 100,
+            ..HyperFitOptions::default()
+        },
         points_per_step: 100,
         checkpoint_every: 1,
         seed: 4,
@@ -24,7 +34,13 @@ fn options() -> MetaOptions {
 }
 
 fn data(dir: &std::path::Path) -> MetaData {
-    let config = MetaDataConfig { subjects: 1, outfits: vec!["tshirt_shorts".into()], poses_per_group: 3, points_per_pose: 300, seed: 1 };
+    let config = MetaDataConfig {
+        subjects: 1,
+        outfits: vec!["tshirt_shorts".into()],
+        poses_per_group: 3,
+        points_per_pose: 300,
+        seed: 1,
+    };
     MetaData::load_or_generate(dir, avatar_core::body::open_body_ref(), &config, &|_| {}).unwrap()
 }
 
@@ -36,7 +52,10 @@ fn meta_training_is_deterministic_and_resumes_after_a_kill() {
     assert_eq!(d.len(), 3);
     // The saved data reads back identically.
     let back = MetaData::load(&data_dir).unwrap();
-    assert_eq!((back.poses.clone(), back.points.clone(), back.normals.clone()), (d.poses.clone(), d.points.clone(), d.normals.clone()));
+    assert_eq!(
+        (back.poses.clone(), back.points.clone(), back.normals.clone()),
+        (d.poses.clone(), d.points.clone(), d.normals.clone())
+    );
     // Every point lies in the normalised cube.
     assert!(d.points.iter().flatten().all(|p| p.abs().max_element() < 1.0));
 
@@ -88,23 +107,43 @@ fn alg2_can_start_from_another_models_static_sdf() {
     let root = tempfile::tempdir().unwrap();
     let d = data(&root.path().join("data"));
     let o = options();
-    let first = MetaModel::load(&meta_train(&d, &o, &root.path().join("a"), None, &mut |_| {}).unwrap()).unwrap();
+    let first =
+        MetaModel::load(&meta_train(&d, &o, &root.path().join("a"), None, &mut |_| {}).unwrap())
+            .unwrap();
     // Another Alg. 2 (other inner rates) from the first run's static meta-SDF: no Alg. 1
     // iteration runs and the static meta-SDF is carried over unchanged.
-    let variant = MetaOptions { hyper_inner: HyperFitOptions { lr_heads: 1e-4, ..o.hyper_inner.clone() }, ..options() };
+    let variant = MetaOptions {
+        hyper_inner: HyperFitOptions { lr_heads: 1e-4, ..o.hyper_inner.clone() },
+        ..options()
+    };
     let out = root.path().join("b");
     let model_path = root.path().join("a").join(MODEL_FILE);
     avatar_neural::meta_training::start_from_static(&out, &variant, &first, &model_path).unwrap();
     let mut stages = Vec::new();
-    let second = MetaModel::load(&meta_train(&d, &variant, &out, None, &mut |p| stages.push(p.stage.to_string())).unwrap()).unwrap();
+    let second = MetaModel::load(
+        &meta_train(&d, &variant, &out, None, &mut |p| stages.push(p.stage.to_string())).unwrap(),
+    )
+    .unwrap();
     assert_eq!(stages, vec!["hyper"; 4]);
     assert_eq!(second.static_sdf, first.static_sdf);
     assert_ne!(second.hyper, first.hyper, "other rates, other hypernetwork");
     // A folder that already holds a run is refused, naming its checkpoint.
-    let err = avatar_neural::meta_training::start_from_static(&out, &variant, &first, &model_path).unwrap_err().to_string();
+    let err = avatar_neural::meta_training::start_from_static(&out, &variant, &first, &model_path)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("checkpoint.bin") && err.contains("already"), "{err}");
     // So is a model whose SDF has another size.
-    let bigger = MetaOptions { config: HyperConfig { siren: SirenConfig { hidden: 24, layers: 2 }, ..o.config }, ..options() };
-    let err = avatar_neural::meta_training::start_from_static(&root.path().join("c"), &bigger, &first, &model_path).unwrap_err().to_string();
+    let bigger = MetaOptions {
+        config: HyperConfig { siren: SirenConfig { hidden: 24, layers: 2 }, ..o.config },
+        ..options()
+    };
+    let err = avatar_neural::meta_training::start_from_static(
+        &root.path().join("c"),
+        &bigger,
+        &first,
+        &model_path,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(err.contains("network size"), "{err}");
 }

@@ -6,14 +6,19 @@ use burn::tensor::{Tensor, TensorData};
 use glam::Vec3;
 
 fn points(n: usize) -> Vec<Vec3> {
-    (0..n).map(|i| {
-        let t = i as f32 * 0.618_034;
-        Vec3::new((t * 7.1).sin() * 0.6, (t * 3.3).cos() * 0.6, (t * 5.7).sin() * 0.6)
-    }).collect()
+    (0..n)
+        .map(|i| {
+            let t = i as f32 * 0.618_034;
+            Vec3::new((t * 7.1).sin() * 0.6, (t * 3.3).cos() * 0.6, (t * 5.7).sin() * 0.6)
+        })
+        .collect()
 }
 
 fn tensor(v: &[Vec3], device: &burn::tensor::Device) -> Tensor<2> {
-    Tensor::from_data(TensorData::new(v.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>(), [v.len(), 3]), device)
+    Tensor::from_data(
+        TensorData::new(v.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>(), [v.len(), 3]),
+        device,
+    )
 }
 
 #[test]
@@ -31,9 +36,13 @@ fn tangent_gradients_match_finite_differences() {
         for a in 0..3 {
             let mut e = Vec3::ZERO;
             e[a] = h;
-            let fd = (sdf_values(&model, &[*p + e])[0] - sdf_values(&model, &[*p - e])[0]) / (2.0 * h);
+            let fd =
+                (sdf_values(&model, &[*p + e])[0] - sdf_values(&model, &[*p - e])[0]) / (2.0 * h);
             let an = g[i * 3 + a];
-            assert!((fd - an).abs() < 2e-2 * (1.0 + an.abs()), "point {i} axis {a}: analytic {an} vs finite difference {fd}");
+            assert!(
+                (fd - an).abs() < 2e-2 * (1.0 + an.abs()),
+                "point {i} axis {a}: analytic {an} vs finite difference {fd}"
+            );
         }
     }
 }
@@ -46,8 +55,18 @@ fn short_fit_learns_a_sphere() {
     let surface: Vec<Vec3> = dirs.iter().map(|d| *d * r).collect();
     let model = SirenConfig { hidden: 64, layers: 3 }.init(3, &device);
     let mut losses = Vec::new();
-    let options = FitOptions { steps: 300, learning_rate: 1e-4, batch: 1000, off_surface: 1000, seed: 1, ..FitOptions::default() };
-    let model = fit_sdf(model, &surface, &dirs, &[], &options, &device, None, None, &mut |_, loss, _| losses.push(loss));
+    let options = FitOptions {
+        steps: 300,
+        learning_rate: 1e-4,
+        batch: 1000,
+        off_surface: 1000,
+        seed: 1,
+        ..FitOptions::default()
+    };
+    let model =
+        fit_sdf(model, &surface, &dirs, &[], &options, &device, None, None, &mut |_, loss, _| {
+            losses.push(loss)
+        });
     assert!(losses.len() >= 10);
     let (first, last) = (losses[0], *losses.last().unwrap());
     assert!(last < 0.3 * first, "loss {first} -> {last}");
@@ -61,8 +80,17 @@ fn short_fit_learns_a_sphere() {
     let dirs: Vec<Vec3> = points(50).into_iter().map(|p| p.normalize()).collect();
     let inside = sdf_values(&model, &dirs.iter().map(|d| *d * (r - 0.05)).collect::<Vec<_>>());
     let outside = sdf_values(&model, &dirs.iter().map(|d| *d * (r + 0.05)).collect::<Vec<_>>());
-    let right = inside.iter().filter(|&&v| v < 0.0).count() + outside.iter().filter(|&&v| v > 0.0).count();
-    assert!(right >= 95, "{right} of 100 probes have the right sign: inside {inside:?} outside {outside:?}");
-    let err = inside.iter().map(|v| (v + 0.05).abs()).chain(outside.iter().map(|v| (v - 0.05).abs())).sum::<f32>() / 100.0;
+    let right =
+        inside.iter().filter(|&&v| v < 0.0).count() + outside.iter().filter(|&&v| v > 0.0).count();
+    assert!(
+        right >= 95,
+        "{right} of 100 probes have the right sign: inside {inside:?} outside {outside:?}"
+    );
+    let err = inside
+        .iter()
+        .map(|v| (v + 0.05).abs())
+        .chain(outside.iter().map(|v| (v - 0.05).abs()))
+        .sum::<f32>()
+        / 100.0;
     assert!(err < 0.03, "mean distance error {err}");
 }

@@ -4,15 +4,23 @@
 //! reloads with the model file gone, with identical SDF values, bones and exported frames.
 
 use avatar_core::body::BodyParams;
-use avatar_core::export::{export_glb, AvatarSource, ExportOptions};
+use avatar_core::export::{AvatarSource, ExportOptions, export_glb};
 use avatar_core::motion::clip_by_name;
-use avatar_core::synth::{generate_smpl_capture, smpl_stand_in, Outfit, SynthJob};
+use avatar_core::synth::{Outfit, SynthJob, generate_smpl_capture, smpl_stand_in};
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::*;
 use glam::Vec3;
 
 fn probe() -> Vec<Vec3> {
-    (0..200).map(|i| Vec3::new((i as f32 * 0.37).sin() * 0.5, (i as f32 * 0.11).cos() * 0.9, (i as f32 * 0.23).sin() * 0.2)).collect()
+    (0..200)
+        .map(|i| {
+            Vec3::new(
+                (i as f32 * 0.37).sin() * 0.5,
+                (i as f32 * 0.11).cos() * 0.9,
+                (i as f32 * 0.23).sin() * 0.2,
+            )
+        })
+        .collect()
 }
 
 #[test]
@@ -29,11 +37,35 @@ fn an_avatar_of_an_smpl_capture_fits_poses_exports_and_reloads_without_the_model
     assert_eq!(betas.len(), stand_in.num_betas);
 
     let options = FitOptions { steps: 10, batch: 500, off_surface: 500, ..FitOptions::default() };
-    let (fitted, report) = StaticAvatar::fit_points(&capture, SirenConfig { hidden: 32, layers: 2 }, None, &options, None, &mut |_, _, _| {});
+    let (fitted, report) = StaticAvatar::fit_points(
+        &capture,
+        SirenConfig { hidden: 32, layers: 2 },
+        None,
+        &options,
+        None,
+        &mut |_, _, _| {},
+    );
     assert!(report.points > 3000, "{} points", report.points);
-    let config = HyperConfig { siren: SirenConfig { hidden: 16, layers: 2 }, head_hidden: 8, rank: Some(2), encoding: PoseEncoding::Hierarchical };
-    let hyper_options = HyperFitOptions { steps: 3, poses_per_step: 2, surface_per_pose: 200, off_per_pose: 200, ..HyperFitOptions::default() };
-    let (meta, _) = MetaAvatar::fit_points(&capture, &Init::Scratch { config, seed: 0 }, &hyper_options, None, &mut |_, _, _| {});
+    let config = HyperConfig {
+        siren: SirenConfig { hidden: 16, layers: 2 },
+        head_hidden: 8,
+        rank: Some(2),
+        encoding: PoseEncoding::Hierarchical,
+    };
+    let hyper_options = HyperFitOptions {
+        steps: 3,
+        poses_per_step: 2,
+        surface_per_pose: 200,
+        off_per_pose: 200,
+        ..HyperFitOptions::default()
+    };
+    let (meta, _) = MetaAvatar::fit_points(
+        &capture,
+        &Init::Scratch { config, seed: 0 },
+        &hyper_options,
+        None,
+        &mut |_, _, _| {},
+    );
 
     // The avatars pose with the stand-in's bones at the subject's shape.
     let clip = {
@@ -47,7 +79,10 @@ fn an_avatar_of_an_smpl_capture_fits_poses_exports_and_reloads_without_the_model
     assert_eq!(meta.body().pose(&pose).bones, truth);
     assert_eq!((fitted.header.body_model.as_str(), fitted.header.version), ("smpl", 2));
     let section = fitted.header.body.clone().unwrap();
-    assert_eq!((section.label.as_str(), section.vertices), ("my_smpl.npz", stand_in.num_vertices()));
+    assert_eq!(
+        (section.label.as_str(), section.vertices),
+        ("my_smpl.npz", stand_in.num_vertices())
+    );
     // Small: the low-poly body adds well under 0.2 MB.
     assert!(section.len() * 4 < 200_000, "{} bytes", section.len() * 4);
 
@@ -75,7 +110,12 @@ fn an_avatar_of_an_smpl_capture_fits_poses_exports_and_reloads_without_the_model
     for (a, b) in again.posed.iter().zip(&exported.posed) {
         let mut d: Vec<f32> = a.iter().zip(b).map(|(x, y)| x.distance(*y)).collect();
         d.sort_by(f32::total_cmp);
-        assert!(d[d.len() / 2] < 1e-3 && d[d.len() * 99 / 100] < 1e-2, "median {} m, p99 {} m", d[d.len() / 2], d[d.len() * 99 / 100]);
+        assert!(
+            d[d.len() / 2] < 1e-3 && d[d.len() * 99 / 100] < 1e-2,
+            "median {} m, p99 {} m",
+            d[d.len() / 2],
+            d[d.len() * 99 / 100]
+        );
     }
 
     let meta_back = MetaAvatar::load(&meta_path).unwrap();

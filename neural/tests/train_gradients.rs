@@ -7,11 +7,11 @@
 
 use avatar_core::body::{BodyParams, NUM_JOINTS};
 use avatar_core::canonical::Normalisation;
-use avatar_neural::hyper_fit::{batch_loss_of, sample_batch, SampledBatch};
-use avatar_neural::loss::{igr_loss, scalar, IgrWeights};
 use avatar_neural::flat_params::{flat_gradients, flatten, load_flat};
-use avatar_neural::train::{HyperGradient, IgrPoints, SirenGradient, SirenShape};
+use avatar_neural::hyper_fit::{SampledBatch, batch_loss_of, sample_batch};
+use avatar_neural::loss::{IgrWeights, igr_loss, scalar};
 use avatar_neural::siren::W0;
+use avatar_neural::train::{HyperGradient, IgrPoints, SirenGradient, SirenShape};
 use avatar_neural::*;
 use burn::module::Module;
 use burn::optim::GradientsParams;
@@ -36,11 +36,21 @@ fn pose_samples(count: usize, encoding: PoseEncoding, points: usize) -> Vec<Pose
             // Points on a wobbly sphere with its normals (any oriented point set will do).
             let (pts, nrm): (Vec<Vec3>, Vec<Vec3>) = (0..points)
                 .map(|_| {
-                    let d = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize_or(Vec3::X);
+                    let d = Vec3::new(
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                    )
+                    .normalize_or(Vec3::X);
                     (d * (0.5 + 0.05 * (d.x * 5.0).sin()), d)
                 })
                 .unzip();
-            PoseSample { pose_input: encoding.input(&p, &joints, &norm), points: pts, normals: nrm, free_space: Vec::new() }
+            PoseSample {
+                pose_input: encoding.input(&p, &joints, &norm),
+                points: pts,
+                normals: nrm,
+                free_space: Vec::new(),
+            }
         })
         .collect()
 }
@@ -75,13 +85,20 @@ fn perturbed(config: &HyperConfig, seed: u64) -> HyperNet {
 }
 
 fn relative(ours: &[f32], burn: &[f32]) -> f64 {
-    let diff: f64 = ours.iter().zip(burn).map(|(a, b)| ((a - b) as f64).powi(2)).sum::<f64>().sqrt();
+    let diff: f64 =
+        ours.iter().zip(burn).map(|(a, b)| ((a - b) as f64).powi(2)).sum::<f64>().sqrt();
     let norm: f64 = burn.iter().map(|b| (*b as f64).powi(2)).sum::<f64>().sqrt();
     diff / norm.max(1e-30)
 }
 
 /// Compare per parameter tensor (every tensor's gradient must be non-trivial somewhere).
-fn assert_tensors_agree(net: &HyperNet, ours: &[f32], burn: &[f32], what: &str, train_encoder: bool) {
+fn assert_tensors_agree(
+    net: &HyperNet,
+    ours: &[f32],
+    burn: &[f32],
+    what: &str,
+    train_encoder: bool,
+) {
     let mut offset = 0;
     let mut sizes = Vec::new();
     struct Sizes<'a>(&'a mut Vec<usize>);
@@ -96,7 +113,10 @@ fn assert_tensors_agree(net: &HyperNet, ours: &[f32], burn: &[f32], what: &str, 
     for (k, n) in sizes.into_iter().enumerate() {
         let (o, b) = (&ours[offset..offset + n], &burn[offset..offset + n]);
         if offset < encoder && !train_encoder {
-            assert!(o.iter().all(|v| *v == 0.0), "{what}: frozen encoder tensor {k} has a gradient");
+            assert!(
+                o.iter().all(|v| *v == 0.0),
+                "{what}: frozen encoder tensor {k} has a gradient"
+            );
         } else {
             let r = relative(o, b);
             if !(r < 1e-4) {
@@ -108,12 +128,33 @@ fn assert_tensors_agree(net: &HyperNet, ours: &[f32], burn: &[f32], what: &str, 
     assert!(failures.is_empty(), "{what}: {}", failures.join("; "));
 }
 
-fn check_hyper(config: HyperConfig, poses: usize, options: &HyperFitOptions, with_prior: bool, train_encoder: bool, what: &str) {
+fn check_hyper(
+    config: HyperConfig,
+    poses: usize,
+    options: &HyperFitOptions,
+    with_prior: bool,
+    train_encoder: bool,
+    what: &str,
+) {
     let samples = pose_samples(poses, config.encoding, 400);
     let refs: Vec<&PoseSample> = samples.iter().collect();
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let drawn: SampledBatch = sample_batch(&refs, options, &mut rng);
-    let signs: Option<Vec<f32>> = with_prior.then(|| drawn.offs.iter().map(|p| if p.length() > 0.55 { 1.0 } else if p.length() < 0.45 { -1.0 } else { 0.0 }).collect());
+    let signs: Option<Vec<f32>> = with_prior.then(|| {
+        drawn
+            .offs
+            .iter()
+            .map(|p| {
+                if p.length() > 0.55 {
+                    1.0
+                } else if p.length() < 0.45 {
+                    -1.0
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    });
     let net = perturbed(&config, 1);
 
     let device = cpu_training_device();
@@ -126,12 +167,21 @@ fn check_hyper(config: HyperConfig, poses: usize, options: &HyperFitOptions, wit
     let mut gradient = HyperGradient::new(&config);
     let mut ours = vec![0f32; config.num_params()];
     let l = gradient.compute(&flatten(&net), &batch, train_encoder, &mut ours);
-    assert!(((l.total - burn_loss) / burn_loss).abs() < 1e-4, "{what}: loss {} vs burn {burn_loss}", l.total);
+    assert!(
+        ((l.total - burn_loss) / burn_loss).abs() < 1e-4,
+        "{what}: loss {} vs burn {burn_loss}",
+        l.total
+    );
     assert_tensors_agree(&net, &ours, &burn_grad, what, train_encoder);
 }
 
 fn small_step(poses: usize) -> HyperFitOptions {
-    HyperFitOptions { poses_per_step: poses, surface_per_pose: 300, off_per_pose: 300, ..HyperFitOptions::default() }
+    HyperFitOptions {
+        poses_per_step: poses,
+        surface_per_pose: 300,
+        off_per_pose: 300,
+        ..HyperFitOptions::default()
+    }
 }
 
 #[test]
@@ -139,8 +189,22 @@ fn compact_step_gradients_match_burn_in_every_variant() {
     let config = HyperConfig::compact();
     let with_normals = HyperFitOptions { weights: IgrWeights::default(), ..small_step(3) };
     let no_residual = HyperFitOptions { residual_weight: 0.0, ..small_step(3) };
-    check_hyper(config, 3, &small_step(3), true, true, "compact, 3 poses, prior, regulariser, encoder");
-    check_hyper(config, 3, &with_normals, false, false, "compact, 3 poses, normal term, no prior, frozen encoder");
+    check_hyper(
+        config,
+        3,
+        &small_step(3),
+        true,
+        true,
+        "compact, 3 poses, prior, regulariser, encoder",
+    );
+    check_hyper(
+        config,
+        3,
+        &with_normals,
+        false,
+        false,
+        "compact, 3 poses, normal term, no prior, frozen encoder",
+    );
     check_hyper(config, 1, &no_residual, true, true, "compact, 1 pose, no regulariser");
     check_hyper(config, 1, &with_normals, true, false, "compact, 1 pose, normal term");
 }
@@ -149,7 +213,12 @@ fn compact_step_gradients_match_burn_in_every_variant() {
 fn other_shapes_match_burn_quaternion_encoding_and_full_residuals() {
     let quaternion = HyperConfig { encoding: PoseEncoding::Quaternion, ..HyperConfig::compact() };
     check_hyper(quaternion, 2, &small_step(2), true, true, "quaternion encoding");
-    let full = HyperConfig { siren: SirenConfig { hidden: 32, layers: 3 }, head_hidden: 16, rank: None, encoding: PoseEncoding::Hierarchical };
+    let full = HyperConfig {
+        siren: SirenConfig { hidden: 32, layers: 3 },
+        head_hidden: 16,
+        rank: None,
+        encoding: PoseEncoding::Hierarchical,
+    };
     let with_normals = HyperFitOptions { weights: IgrWeights::default(), ..small_step(2) };
     check_hyper(full, 2, &with_normals, true, true, "full residuals, normal term");
 }
@@ -157,44 +226,120 @@ fn other_shapes_match_burn_quaternion_encoding_and_full_residuals() {
 #[test]
 fn paper_step_gradients_match_burn() {
     // 85.6 M parameters: few points keep burn's reference step affordable in the test.
-    let options = HyperFitOptions { poses_per_step: 2, surface_per_pose: 256, off_per_pose: 256, weights: IgrWeights::default(), ..HyperFitOptions::default() };
-    check_hyper(HyperConfig::paper(), 2, &options, true, true, "paper, 2 poses, normal term, prior");
-    let options = HyperFitOptions { poses_per_step: 1, surface_per_pose: 48, off_per_pose: 48, residual_weight: 0.0, ..HyperFitOptions::default() };
-    check_hyper(HyperConfig::paper(), 1, &options, false, false, "paper, 1 pose, no normal term, no regulariser");
+    let options = HyperFitOptions {
+        poses_per_step: 2,
+        surface_per_pose: 256,
+        off_per_pose: 256,
+        weights: IgrWeights::default(),
+        ..HyperFitOptions::default()
+    };
+    check_hyper(
+        HyperConfig::paper(),
+        2,
+        &options,
+        true,
+        true,
+        "paper, 2 poses, normal term, prior",
+    );
+    let options = HyperFitOptions {
+        poses_per_step: 1,
+        surface_per_pose: 48,
+        off_per_pose: 48,
+        residual_weight: 0.0,
+        ..HyperFitOptions::default()
+    };
+    check_hyper(
+        HyperConfig::paper(),
+        1,
+        &options,
+        false,
+        false,
+        "paper, 1 pose, no normal term, no regulariser",
+    );
 }
 
 #[test]
 fn static_siren_step_gradients_match_burn() {
     let device = cpu_training_device();
-    for (config, normal_weight, prior) in [(SirenConfig::compact(), 0.0, true), (SirenConfig::compact(), 1e2, false), (SirenConfig::paper(), 1e2, true)] {
+    for (config, normal_weight, prior) in [
+        (SirenConfig::compact(), 0.0, true),
+        (SirenConfig::compact(), 1e2, false),
+        (SirenConfig::paper(), 1e2, true),
+    ] {
         let siren = config.init(4, &device);
         let samples = pose_samples(1, PoseEncoding::Quaternion, 2000);
-        let options = FitOptions { batch: 700, off_surface: 500, weights: IgrWeights { normal: normal_weight, ..IgrWeights::default() }, ..FitOptions::default() };
+        let options = FitOptions {
+            batch: 700,
+            off_surface: 500,
+            weights: IgrWeights { normal: normal_weight, ..IgrWeights::default() },
+            ..FitOptions::default()
+        };
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let (surface, surface_n, off, _) = avatar_neural::fit::sample_step(&samples[0].points, &samples[0].normals, &[], &options, &mut rng);
-        let signs: Option<Vec<f32>> = prior.then(|| off.iter().map(|p| if p.length() > 0.55 { 1.0 } else { -1.0 }).collect());
+        let (surface, surface_n, off, _) = avatar_neural::fit::sample_step(
+            &samples[0].points,
+            &samples[0].normals,
+            &[],
+            &options,
+            &mut rng,
+        );
+        let signs: Option<Vec<f32>> =
+            prior.then(|| off.iter().map(|p| if p.length() > 0.55 { 1.0 } else { -1.0 }).collect());
         let mut all = surface.clone();
         all.extend(&off);
-        let tensor = |v: &[Vec3]| Tensor::<2>::from_data(TensorData::new(v.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>(), [v.len(), 3]), &device);
+        let tensor = |v: &[Vec3]| {
+            Tensor::<2>::from_data(
+                TensorData::new(
+                    v.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>(),
+                    [v.len(), 3],
+                ),
+                &device,
+            )
+        };
         let (f, g) = siren.sdf_and_gradient(tensor(&all));
-        let sign_tensor = signs.clone().map(|s| (Tensor::<2>::from_data(TensorData::new(s, [off.len(), 1]), &device), options.prior_weight));
-        let loss = igr_loss(f, g, tensor(&surface_n), surface.len(), &options.weights, sign_tensor, false);
+        let sign_tensor = signs.clone().map(|s| {
+            (
+                Tensor::<2>::from_data(TensorData::new(s, [off.len(), 1]), &device),
+                options.prior_weight,
+            )
+        });
+        let loss =
+            igr_loss(f, g, tensor(&surface_n), surface.len(), &options.weights, sign_tensor, false);
         let burn_loss = scalar(&loss.total);
-        let burn_grad = flat_gradients(&siren, &GradientsParams::from_grads(loss.total.backward(), &siren));
+        let burn_grad =
+            flat_gradients(&siren, &GradientsParams::from_grads(loss.total.backward(), &siren));
 
         let pts: Vec<[f32; 3]> = all.iter().map(|p| p.to_array()).collect();
         let normals: Vec<[f32; 3]> = surface_n.iter().map(|p| p.to_array()).collect();
-        let points = IgrPoints { weights: options.weights, prior_weight: options.prior_weight, groups: 1, surface: surface.len(), off: off.len(), normals: &normals, signs: signs.as_deref() };
+        let points = IgrPoints {
+            weights: options.weights,
+            prior_weight: options.prior_weight,
+            groups: 1,
+            surface: surface.len(),
+            off: off.len(),
+            normals: &normals,
+            signs: signs.as_deref(),
+        };
         let mut ours = vec![0f32; config.num_params()];
-        let l = SirenGradient::new(SirenShape::of(&config)).compute(&flatten(&siren), &pts, &points, &mut ours);
-        assert!(((l.total - burn_loss) / burn_loss).abs() < 1e-4, "{config:?}: loss {} vs burn {burn_loss}", l.total);
+        let l = SirenGradient::new(SirenShape::of(&config)).compute(
+            &flatten(&siren),
+            &pts,
+            &points,
+            &mut ours,
+        );
+        assert!(
+            ((l.total - burn_loss) / burn_loss).abs() < 1e-4,
+            "{config:?}: loss {} vs burn {burn_loss}",
+            l.total
+        );
         let shape = SirenShape::of(&config);
         for k in 0..shape.layers() {
             for r in [shape.w_range(k), shape.b_range(k)] {
                 let rel = relative(&ours[r.clone()], &burn_grad[r.clone()]);
-                assert!(rel < 1e-4, "{config:?} normal {normal_weight} prior {prior}: layer {k} {r:?} differs by {rel:e}");
+                assert!(
+                    rel < 1e-4,
+                    "{config:?} normal {normal_weight} prior {prior}: layer {k} {r:?} differs by {rel:e}"
+                );
             }
         }
     }
 }
-

@@ -33,7 +33,10 @@ pub fn load_model(model: Option<&PathBuf>, lowpoly: bool) -> anyhow::Result<Body
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    Inputs::new().maybe_file(args.pose.as_ref()).maybe_file(args.model.as_ref()).check_file(&args.out, &["obj", "ply"])?;
+    Inputs::new()
+        .maybe_file(args.pose.as_ref())
+        .maybe_file(args.model.as_ref())
+        .check_file(&args.out, &["obj", "ply"])?;
     let model = load_model(args.model.as_ref(), args.lowpoly)?;
     let params = match &args.pose {
         Some(p) => BodyParams::load_json(p)?,

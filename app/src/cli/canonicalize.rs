@@ -1,10 +1,10 @@
 //! `avatar-studio canonicalize`: map a capture's depth points to the canonical (unposed) space
 //! and write them as a point cloud with normals.
 
-use avatar_core::canonical::{default_cache_dir, Canonicalizer, FieldOptions};
+use avatar_core::canonical::{Canonicalizer, FieldOptions, default_cache_dir};
 use avatar_core::capture::{Capture, CaptureOptions};
 use avatar_core::io::Inputs;
-use avatar_core::mesh::{io::write_point_cloud, PointCloud};
+use avatar_core::mesh::{PointCloud, io::write_point_cloud};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -35,7 +35,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.frames == Some(0) {
         anyhow::bail!("--frames must be at least 1");
     }
-    let capture = Capture::open_with(&args.capture, &CaptureOptions { body_model: args.body_model.clone(), ..CaptureOptions::default() })?;
+    let capture = Capture::open_with(
+        &args.capture,
+        &CaptureOptions { body_model: args.body_model.clone(), ..CaptureOptions::default() },
+    )?;
     for w in &capture.warnings {
         eprintln!("warning: {w}");
     }

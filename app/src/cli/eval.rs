@@ -4,9 +4,11 @@
 //! after a change, under 15 minutes on 2 cores) and `paper` (MetaAvatar's clean protocols).
 //! Every flag overrides its preset's value.
 
-use anyhow::{bail, Context};
+use anyhow::{Context, bail};
 use avatar_core::eval::dataset::EVAL_SUBJECT_SEEDS;
-use avatar_core::eval::{run as run_eval, CaptureConditions, EvalConfig, NakedBody, Predictor, Protocol, StaticOutfit};
+use avatar_core::eval::{
+    CaptureConditions, EvalConfig, NakedBody, Predictor, Protocol, StaticOutfit, run as run_eval,
+};
 use avatar_core::synth::Outfit;
 use avatar_neural::eval_rows::{NeuralRow, RowKind};
 use avatar_neural::loss::IgrWeights;
@@ -27,7 +29,8 @@ struct Preset {
     iou_resolution: usize,
 }
 
-const ALL: &[&str] = &["tshirt_shorts", "longsleeve_trousers", "polo_loose", "dress", "blazer_tails"];
+const ALL: &[&str] =
+    &["tshirt_shorts", "longsleeve_trousers", "polo_loose", "dress", "blazer_tails"];
 
 fn preset(name: &str) -> anyhow::Result<Preset> {
     Ok(match name {
@@ -186,16 +189,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         inputs.clone().file(&args.out).check_file(md, &["md"])?;
     }
     let protocol = args.protocol.as_deref().unwrap_or(p.protocol);
-    let protocols = Protocol::parse_list(protocol).with_context(|| format!("unknown protocol {protocol:?}: use interpolation, extrapolation, few-shot or all"))?;
+    let protocols = Protocol::parse_list(protocol).with_context(|| {
+        format!("unknown protocol {protocol:?}: use interpolation, extrapolation, few-shot or all")
+    })?;
     let subjects = args.subjects.unwrap_or(p.subjects);
     if subjects == 0 || subjects > EVAL_SUBJECT_SEEDS.len() {
         bail!("--subjects must be between 1 and {}", EVAL_SUBJECT_SEEDS.len());
     }
     let mut config = EvalConfig::paper(protocols);
-    config.captures = CaptureConditions::parse_list(args.captures.as_deref().unwrap_or(p.captures), args.noise.as_deref())?;
+    config.captures = CaptureConditions::parse_list(
+        args.captures.as_deref().unwrap_or(p.captures),
+        args.noise.as_deref(),
+    )?;
     config.subjects.truncate(subjects);
     if let Some(text) = &args.fit_error {
-        let values: Vec<f32> = text.split(',').map(|v| v.trim().parse::<f32>()).collect::<Result<_, _>>().unwrap_or_default();
+        let values: Vec<f32> = text
+            .split(',')
+            .map(|v| v.trim().parse::<f32>())
+            .collect::<Result<_, _>>()
+            .unwrap_or_default();
         let [deg, cm] = values[..] else {
             bail!("--fit-error {text:?}: expected DEGREES,CENTIMETRES (for example 5,2)");
         };
@@ -203,11 +215,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             bail!("--fit-error {deg},{cm} is out of range (0 to 45 degrees, 0 to 50 cm)");
         }
         for c in config.captures.iter_mut().filter(|c| c.name == "user") {
-            c.fit_error = avatar_core::eval::conditions::FitError { joint_deg: deg, trans_m: cm / 100.0 };
+            c.fit_error =
+                avatar_core::eval::conditions::FitError { joint_deg: deg, trans_m: cm / 100.0 };
         }
     }
-    let outfits: Vec<String> = args.outfits.clone().unwrap_or_else(|| p.outfits.iter().map(|o| o.to_string()).collect());
-    let outfits: Vec<String> = if outfits == ["all"] { ALL.iter().map(|o| o.to_string()).collect() } else { outfits };
+    let outfits: Vec<String> =
+        args.outfits.clone().unwrap_or_else(|| p.outfits.iter().map(|o| o.to_string()).collect());
+    let outfits: Vec<String> =
+        if outfits == ["all"] { ALL.iter().map(|o| o.to_string()).collect() } else { outfits };
     config.outfits = outfits.iter().map(|n| Outfit::from_name(n)).collect::<Result<_, _>>()?;
     config.heldout_stride = args.stride.unwrap_or(p.stride).max(1);
     config.metrics.chamfer_samples = args.chamfer_samples.unwrap_or(p.chamfer_samples).max(100);
@@ -227,7 +242,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(r) => r.clone(),
         None => p.rows.iter().map(|r| r.to_string()).collect(),
     };
-    let (steps, resolution) = (args.steps.unwrap_or(p.steps), args.resolution.unwrap_or(p.resolution));
+    let (steps, resolution) =
+        (args.steps.unwrap_or(p.steps), args.resolution.unwrap_or(p.resolution));
     if !(16..=512).contains(&resolution) {
         bail!("--resolution {resolution} is out of range (16 to 512)");
     }
@@ -250,9 +266,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         surface_per_pose: args.points_per_pose.unwrap_or(defaults.surface_per_pose).max(1),
         off_per_pose: args.points_per_pose.unwrap_or(defaults.off_per_pose).max(1),
         free_space_per_pose: args.free_space.unwrap_or(defaults.free_space_per_pose),
-        weights: IgrWeights { normal: args.normal_weight.unwrap_or(defaults.weights.normal), ..defaults.weights },
+        weights: IgrWeights {
+            normal: args.normal_weight.unwrap_or(defaults.weights.normal),
+            ..defaults.weights
+        },
         refine_poses: match args.refine_poses.as_deref() {
-            Some(v) => avatar_neural::pose_refine::PoseRefineOptions { enabled: v == "on", ..defaults.refine_poses },
+            Some(v) => avatar_neural::pose_refine::PoseRefineOptions {
+                enabled: v == "on",
+                ..defaults.refine_poses
+            },
             None => defaults.refine_poses,
         },
         ..defaults
@@ -267,18 +289,38 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 continue;
             }
             "outfit-static-field" => {
-                rows.push(Box::new(StaticOutfit::with_body_field(body.clone(), avatar_core::canonical::FieldOptions::default())));
+                rows.push(Box::new(StaticOutfit::with_body_field(
+                    body.clone(),
+                    avatar_core::canonical::FieldOptions::default(),
+                )));
                 continue;
             }
-            other => bail!("unknown --rows entry {other:?}: use meta, scratch, static, outfit-static, outfit-static-field or none"),
+            other => bail!(
+                "unknown --rows entry {other:?}: use meta, scratch, static, outfit-static, outfit-static-field or none"
+            ),
         };
         let model = match &model {
             Some(m) => m.clone(),
-            None => model.insert(std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?)).clone(),
+            None => model
+                .insert(std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?))
+                .clone(),
         };
-        rows.push(Box::new(NeuralRow::new(kind, model, options.clone(), args.max_frames, resolution)));
+        rows.push(Box::new(NeuralRow::new(
+            kind,
+            model,
+            options.clone(),
+            args.max_frames,
+            resolution,
+        )));
     }
-    eprintln!("eval: preset {}, {} setting(s) x {} outfit(s) x {} subject(s), {} row(s)", args.preset, config.captures.len() * config.protocols.len(), config.outfits.len(), subjects, rows.len());
+    eprintln!(
+        "eval: preset {}, {} setting(s) x {} outfit(s) x {} subject(s), {} row(s)",
+        args.preset,
+        config.captures.len() * config.protocols.len(),
+        config.outfits.len(),
+        subjects,
+        rows.len()
+    );
     let t = std::time::Instant::now();
     let report = run_eval(body, &config, &mut rows, &|msg| eprintln!("eval: {msg}"))?;
     report.save_json(&args.out)?;

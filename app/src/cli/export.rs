@@ -1,12 +1,12 @@
 //! `avatar-studio export`: an animated binary glTF (or an OBJ/PLY sequence) of an avatar
 //! playing a motion clip.
 
-use anyhow::{bail, Context};
+use anyhow::{Context, bail};
 use avatar_core::canonical::FieldOptions;
-use avatar_core::export::{export_glb, write_mesh_sequence, ExportOptions, SyntheticAvatar};
+use avatar_core::export::{ExportOptions, SyntheticAvatar, export_glb, write_mesh_sequence};
+use avatar_core::io::Inputs;
 use avatar_core::motion::{clip_file, open_clip};
 use avatar_core::synth::Outfit;
-use avatar_core::io::Inputs;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -43,7 +43,10 @@ pub struct Args {
 
 /// "R,G,B" with each channel a number from 0 to 1.
 fn parse_color(s: &str) -> anyhow::Result<[f32; 3]> {
-    let v: Vec<f32> = s.split(',').map(|c| c.trim().parse::<f32>().map_err(|_| anyhow::anyhow!("{c:?} is not a number"))).collect::<anyhow::Result<_>>()?;
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>().map_err(|_| anyhow::anyhow!("{c:?} is not a number")))
+        .collect::<anyhow::Result<_>>()?;
     match v[..] {
         [r, g, b] if v.iter().all(|c| (0.0..=1.0).contains(c)) => Ok([r, g, b]),
         [_, _, _] => bail!("each channel must be between 0 and 1 (linear RGB)"),
@@ -70,7 +73,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if args.format != "glb" {
         for f in 0..clip.len() {
-            inputs.check_file(&args.out.join(format!("frame_{f:06}.{}", args.format)), &[&args.format])?;
+            inputs.check_file(
+                &args.out.join(format!("frame_{f:06}.{}", args.format)),
+                &[&args.format],
+            )?;
         }
     }
     let t = std::time::Instant::now();
@@ -80,23 +86,41 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(path) => {
             loaded = avatar_neural::AnyAvatar::load(path)?;
             if let Some(p) = loaded.partial() {
-                eprintln!("note: {} is a partial avatar ({p}): its fit was cancelled", path.display());
+                eprintln!(
+                    "note: {} is a partial avatar ({p}): its fit was cancelled",
+                    path.display()
+                );
             }
             loaded.source()
         }
         None => {
             let outfit = Outfit::from_name(&args.synthetic_outfit)?;
-            synthetic = SyntheticAvatar::new(avatar_core::body::open_body(), args.synthetic_subject, outfit, &FieldOptions::default())?;
+            synthetic = SyntheticAvatar::new(
+                avatar_core::body::open_body(),
+                args.synthetic_subject,
+                outfit,
+                &FieldOptions::default(),
+            )?;
             &synthetic
         }
     };
-    let exported = export_glb(avatar, &clip, &ExportOptions { max_targets: args.targets, color: args.color.unwrap_or(avatar_core::export::DEFAULT_COLOR), ..ExportOptions::default() }).map_err(|e| match &args.avatar {
+    let exported = export_glb(
+        avatar,
+        &clip,
+        &ExportOptions {
+            max_targets: args.targets,
+            color: args.color.unwrap_or(avatar_core::export::DEFAULT_COLOR),
+            ..ExportOptions::default()
+        },
+    )
+    .map_err(|e| match &args.avatar {
         Some(path) => e.in_file(path),
         None => e,
     })?;
     match args.format.as_str() {
         "glb" => {
-            avatar_core::io::write_bytes_atomic(&args.out, &exported.glb).with_context(|| "writing the glTF")?;
+            avatar_core::io::write_bytes_atomic(&args.out, &exported.glb)
+                .with_context(|| "writing the glTF")?;
             println!(
                 "wrote {} ({:.2} MB): {} vertices, {} joints, {} morph targets, {} frames at {} fps, largest compression error {:.2} mm, {:.1} s",
                 args.out.display(),

@@ -3,13 +3,13 @@
 //! with the same networks, `--static` the pose-independent SDF.
 
 use anyhow::bail;
+use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitEvent, FitKind, fit_avatar};
 use avatar_neural::capture_points::{CapturePoints, FrameCount};
-use avatar_neural::avatar::{fit_avatar, AnyAvatar, AvatarFit, FitEvent, FitKind};
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaModel};
 use std::io::Write;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -60,7 +60,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.steps == 0 || args.frames == Some(0) {
         bail!("--steps and --frames must be at least 1");
     }
-    avatar_core::io::Inputs::new().capture(&args.capture).maybe_file(args.model.as_ref()).check_file(&args.out, &["avatar"])?;
+    avatar_core::io::Inputs::new()
+        .capture(&args.capture)
+        .maybe_file(args.model.as_ref())
+        .check_file(&args.out, &["avatar"])?;
     let Some(preset) = HyperConfig::preset(&args.preset) else {
         bail!("unknown --preset {:?}: use compact or paper", args.preset);
     };
@@ -81,7 +84,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let progress = |step: usize, steps: usize, loss: f32, terms: [f32; 4]| {
         let done = (step + 1) as f64 / steps as f64;
         let left = t.elapsed().as_secs_f64() * (1.0 - done) / done.max(1e-9);
-        let bar: String = (0..20).map(|i| if (i as f64) < done * 20.0 { '#' } else { '.' }).collect();
+        let bar: String =
+            (0..20).map(|i| if (i as f64) < done * 20.0 { '#' } else { '.' }).collect();
         eprint!(
             "\rfit [{bar}] step {:>5}/{steps} loss {loss:>9.3} (surface {:.3} normal {:.3} off {:.3} eikonal {:.3}) {:>4.0} s left ",
             step + 1,
@@ -94,14 +98,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let _ = std::io::stderr().flush();
     };
     // The hypernetwork from scratch needs no meta-model (its networks come from --preset).
-    let model = if args.from_scratch && !args.static_sdf { None } else { Some(MetaModel::load_or_shipped(args.model.as_deref())?) };
-    let mut options = HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
+    let model = if args.from_scratch && !args.static_sdf {
+        None
+    } else {
+        Some(MetaModel::load_or_shipped(args.model.as_deref())?)
+    };
+    let mut options =
+        HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
     options.refine_poses.enabled = args.refine_poses == "on";
     let (kind, what) = match (&model, args.static_sdf) {
-        (None, _) => (FitKind::Meta(Init::Scratch { config: preset, seed: args.seed }), String::new()),
+        (None, _) => {
+            (FitKind::Meta(Init::Scratch { config: preset, seed: args.seed }), String::new())
+        }
         (Some(m), false) => (FitKind::Meta(Init::MetaLearned(m)), String::new()),
-        (Some(m), true) if args.from_scratch => (FitKind::Static { siren: m.header.config.siren, init: None }, "static SDF (from scratch)".to_string()),
-        (Some(m), true) => (FitKind::Static { siren: m.header.config.siren, init: Some(m.static_siren()) }, "static SDF (static meta-SDF)".to_string()),
+        (Some(m), true) if args.from_scratch => (
+            FitKind::Static { siren: m.header.config.siren, init: None },
+            "static SDF (from scratch)".to_string(),
+        ),
+        (Some(m), true) => (
+            FitKind::Static { siren: m.header.config.siren, init: Some(m.static_siren()) },
+            "static SDF (static meta-SDF)".to_string(),
+        ),
     };
     let frames = args.frames.map_or(FrameCount::DEFAULT, FrameCount::exactly);
     let capture = CapturePoints::open_with(&args.capture, frames, args.body_model.as_deref())?;
@@ -121,7 +138,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
                 None => String::new(),
             };
-            format!("pose-dependent avatar ({}, {} parameters{refined})", init.label(), a.num_params())
+            format!(
+                "pose-dependent avatar ({}, {} parameters{refined})",
+                init.label(),
+                a.num_params()
+            )
         }
         _ => what,
     };

@@ -1,8 +1,8 @@
 //! `avatar-studio import depth|scan`: turn the material users have into a capture folder that
 //! `fit` takes (docs/capture-format.md).
 
-use avatar_core::capture::import::{import_depth, DepthImport, Pinhole};
-use avatar_core::capture::scan::{import_scan, ScanViews};
+use avatar_core::capture::import::{DepthImport, Pinhole, import_depth};
+use avatar_core::capture::scan::{ScanViews, import_scan};
 use avatar_core::capture::{DEPTH_SCALE_MM, DEPTH_SCALE_TUM};
 use std::path::PathBuf;
 
@@ -99,7 +99,12 @@ fn depth(a: DepthArgs) -> anyhow::Result<()> {
     if let Some(d) = &report.diagnosis {
         eprintln!("warning: {d}");
     }
-    println!("wrote {}: {} frames, {} usable by `fit`", a.out.display(), report.frames, report.usable);
+    println!(
+        "wrote {}: {} frames, {} usable by `fit`",
+        a.out.display(),
+        report.frames,
+        report.usable
+    );
     Ok(())
 }
 

@@ -1,11 +1,11 @@
 //! `avatar-studio meta-train`: MetaAvatar's meta-learning (Alg. 1 then Alg. 2) on synthetic
 //! training subjects. Resumable: run the same command again after a kill.
 
-use anyhow::{bail, Context};
-use avatar_neural::meta_training::{meta_train, start_from_static, MetaOptions};
+use anyhow::{Context, bail};
+use avatar_neural::HyperConfig;
 use avatar_neural::MetaModel;
 use avatar_neural::meta_data::{MetaData, MetaDataConfig};
-use avatar_neural::HyperConfig;
+use avatar_neural::meta_training::{MetaOptions, meta_train, start_from_static};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -60,20 +60,36 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     args.device.select()?;
-    let config = HyperConfig::preset(&args.preset).with_context(|| format!("unknown --preset {:?}: use compact or paper", args.preset))?;
+    let config = HyperConfig::preset(&args.preset)
+        .with_context(|| format!("unknown --preset {:?}: use compact or paper", args.preset))?;
     if args.subjects == 0 || args.poses == 0 {
         bail!("--subjects and --poses must be at least 1");
     }
     // The data folder's files and --sdf-from are inputs; the run writes these three files.
-    let inputs = avatar_core::io::Inputs::new().file(args.data.join("meta-data.json")).file(args.data.join("samples.bin")).maybe_file(args.sdf_from.as_ref());
+    let inputs = avatar_core::io::Inputs::new()
+        .file(args.data.join("meta-data.json"))
+        .file(args.data.join("samples.bin"))
+        .maybe_file(args.sdf_from.as_ref());
     inputs.check_folder(&args.out)?;
     for (name, ext) in [("checkpoint.bin", "bin"), ("meta-model.bin", "bin"), ("loss.csv", "csv")] {
         inputs.check_file(&args.out.join(name), &[ext])?;
     }
     let body = avatar_core::body::open_body_ref();
-    let data_config = MetaDataConfig { subjects: args.subjects, poses_per_group: args.poses, seed: args.seed, ..MetaDataConfig::default() };
+    let data_config = MetaDataConfig {
+        subjects: args.subjects,
+        poses_per_group: args.poses,
+        seed: args.seed,
+        ..MetaDataConfig::default()
+    };
     let data = MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?;
-    let mut options = MetaOptions { config, sdf_iterations: args.sdf_iterations, hyper_iterations: args.hyper_iterations, sdf_outer_lr: args.sdf_outer_lr, seed: args.seed, ..MetaOptions::default() };
+    let mut options = MetaOptions {
+        config,
+        sdf_iterations: args.sdf_iterations,
+        hyper_iterations: args.hyper_iterations,
+        sdf_outer_lr: args.sdf_outer_lr,
+        seed: args.seed,
+        ..MetaOptions::default()
+    };
     let inner = &mut options.hyper_inner;
     inner.lr_heads = args.hyper_inner_lr_heads.unwrap_or(inner.lr_heads);
     inner.lr_encoder = args.hyper_inner_lr_encoder.unwrap_or(inner.lr_encoder);
@@ -98,7 +114,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     let path = meta_train(&data, &options, &args.out, None, &mut |p| {
         let done = p.iteration as f64 / p.iterations.max(1) as f64;
-        eprint!("\rmeta-train: {} {:>5}/{} loss {:>9.3} {:>7.0} s", p.stage, p.iteration, p.iterations, p.loss, p.seconds);
+        eprint!(
+            "\rmeta-train: {} {:>5}/{} loss {:>9.3} {:>7.0} s",
+            p.stage, p.iteration, p.iterations, p.loss, p.seconds
+        );
         if p.iteration == p.iterations || done >= 1.0 {
             eprintln!();
         }

@@ -14,7 +14,11 @@ mod synth;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "avatar-studio", version, about = "Turn a few depth images of a clothed person into an animatable 3D avatar.")]
+#[command(
+    name = "avatar-studio",
+    version,
+    about = "Turn a few depth images of a clothed person into an animatable 3D avatar."
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,

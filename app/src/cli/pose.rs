@@ -1,6 +1,6 @@
 //! `avatar-studio pose`: pose an avatar along a motion clip and write a mesh per frame.
 
-use avatar_core::export::{export_glb, write_mesh_sequence, ExportOptions};
+use avatar_core::export::{ExportOptions, export_glb, write_mesh_sequence};
 use avatar_core::io::Inputs;
 use avatar_core::mesh::io::write_mesh;
 use avatar_neural::AnyAvatar;
@@ -35,17 +35,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         anyhow::bail!("unknown --format {:?}: use obj or ply", args.format);
     }
     if !RESOLUTION.contains(&args.resolution) {
-        anyhow::bail!("--resolution {} is out of range ({} to {})", args.resolution, RESOLUTION.start(), RESOLUTION.end());
+        anyhow::bail!(
+            "--resolution {} is out of range ({} to {})",
+            args.resolution,
+            RESOLUTION.start(),
+            RESOLUTION.end()
+        );
     }
     if args.frames == Some(0) {
         anyhow::bail!("--frames must be at least 1");
     }
-    let inputs = Inputs::new().file(&args.avatar).maybe_file(avatar_core::motion::clip_file(&args.motion));
+    let inputs =
+        Inputs::new().file(&args.avatar).maybe_file(avatar_core::motion::clip_file(&args.motion));
     inputs.check_folder(&args.out)?;
     let mut avatar = AnyAvatar::load(&args.avatar)?;
     avatar.set_resolution(args.resolution);
     if let Some(p) = avatar.partial() {
-        eprintln!("note: {} is a partial avatar ({p}): its fit was cancelled", args.avatar.display());
+        eprintln!(
+            "note: {} is a partial avatar ({p}): its fit was cancelled",
+            args.avatar.display()
+        );
     }
     let mut clip = avatar_core::motion::open_clip(&args.motion)?;
     if let Some(n) = args.frames {
@@ -63,10 +72,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     match &avatar {
         // Pose-dependent clothing: pose -> hypernetwork -> SDF -> mesh -> forward skinning, per frame.
         AnyAvatar::Meta(a) => {
-            std::fs::create_dir_all(&args.out).map_err(|e| anyhow::anyhow!("{}: {e}", args.out.display()))?;
+            std::fs::create_dir_all(&args.out)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", args.out.display()))?;
             let mut vertices = 0;
             for (i, params) in clip.frames.iter().enumerate() {
-                let mesh = a.posed_mesh(params).map_err(avatar_core::Error::from).map_err(in_avatar)?;
+                let mesh =
+                    a.posed_mesh(params).map_err(avatar_core::Error::from).map_err(in_avatar)?;
                 vertices += mesh.positions.len();
                 write_mesh(name(i), &mesh)?;
             }
@@ -81,9 +92,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         // Pose-independent surface: extract once, then forward skinning (the exporter's path).
         AnyAvatar::Static(a) => {
-            let exported = export_glb(a, &clip, &ExportOptions { max_targets: 1, ..ExportOptions::default() }).map_err(in_avatar)?;
+            let exported =
+                export_glb(a, &clip, &ExportOptions { max_targets: 1, ..ExportOptions::default() })
+                    .map_err(in_avatar)?;
             let n = write_mesh_sequence(&exported, &args.out, &args.format)?;
-            println!("wrote {n} {} meshes ({} vertices) to {}", args.format, exported.rest.positions.len(), args.out.display());
+            println!(
+                "wrote {n} {} meshes ({} vertices) to {}",
+                args.format,
+                exported.rest.positions.len(),
+                args.out.display()
+            );
         }
     }
     Ok(())

@@ -1,9 +1,12 @@
 //! `avatar-studio synth`: synthetic clothed-human captures with ground truth.
 
-use anyhow::{bail, Context};
+use anyhow::{Context, bail};
 use avatar_core::body::open_body_ref;
-use avatar_core::motion::{clip_file, open_clip, MotionClip};
-use avatar_core::synth::{contact_sheet::write_contact_sheet, generate_capture, subject_betas, DepthNoise, Outfit, SynthJob, ALL_OUTFITS};
+use avatar_core::motion::{MotionClip, clip_file, open_clip};
+use avatar_core::synth::{
+    ALL_OUTFITS, DepthNoise, Outfit, SynthJob, contact_sheet::write_contact_sheet,
+    generate_capture, subject_betas,
+};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -42,7 +45,11 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let inputs = args.clips.iter().filter_map(|c| clip_file(c)).fold(avatar_core::io::Inputs::new(), |i, c| i.file(c));
+    let inputs = args
+        .clips
+        .iter()
+        .filter_map(|c| clip_file(c))
+        .fold(avatar_core::io::Inputs::new(), |i, c| i.file(c));
     inputs.check_folder(&args.out)?;
     if !(args.turn.is_finite() && args.turn.abs() <= 360.0) {
         bail!("--turn {} is not an angle in degrees (-360 to 360)", args.turn);
@@ -54,12 +61,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         inputs.check_file(sheet, &["png"])?;
     }
     let body = open_body_ref();
-    let outfits: Vec<Outfit> = args.outfits.iter().map(|o| Outfit::from_name(o)).collect::<Result<_, _>>()?;
-    let clips: Vec<MotionClip> = args.clips.iter().map(|c| open_clip(c)).collect::<avatar_core::Result<_>>()?;
-    let noise = match &args.noise {
-        None => None,
-        Some(n) => Some(DepthNoise::preset(n).with_context(|| format!("unknown noise preset {n:?}: use kinect_v1 or kinect_v2"))?),
-    };
+    let outfits: Vec<Outfit> =
+        args.outfits.iter().map(|o| Outfit::from_name(o)).collect::<Result<_, _>>()?;
+    let clips: Vec<MotionClip> =
+        args.clips.iter().map(|c| open_clip(c)).collect::<avatar_core::Result<_>>()?;
+    let noise =
+        match &args.noise {
+            None => None,
+            Some(n) => Some(DepthNoise::preset(n).with_context(|| {
+                format!("unknown noise preset {n:?}: use kinect_v1 or kinect_v2")
+            })?),
+        };
     if args.subjects == 0 {
         bail!("--subjects must be at least 1");
     }
@@ -68,7 +80,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for s in 0..args.subjects {
         for &outfit in &outfits {
             for clip in &clips {
-                let dir = if single { args.out.clone() } else { args.out.join(format!("s{s:02}_{}_{}", outfit.name(), clip.name)) };
+                let dir = if single {
+                    args.out.clone()
+                } else {
+                    args.out.join(format!("s{s:02}_{}_{}", outfit.name(), clip.name))
+                };
                 let mut job = SynthJob::new(args.seed + s, outfit, clip.clone());
                 job.frames = args.frames_per_clip;
                 job.turn_per_frame_deg = args.turn;
@@ -105,8 +121,19 @@ pub fn contact_sheet_poses() -> Vec<avatar_core::body::BodyParams> {
     use avatar_core::motion::{PoseBuilder, Side};
     let relaxed = PoseBuilder::relaxed();
     let mut stride = PoseBuilder::relaxed();
-    stride.hip(Side::Left, 35.0, 0.0, 0.0).hip(Side::Right, -20.0, 0.0, 0.0).knee(Side::Right, 40.0).elbow(Side::Left, 90.0).elbow(Side::Right, 70.0);
+    stride
+        .hip(Side::Left, 35.0, 0.0, 0.0)
+        .hip(Side::Right, -20.0, 0.0, 0.0)
+        .knee(Side::Right, 40.0)
+        .elbow(Side::Left, 90.0)
+        .elbow(Side::Right, 70.0);
     let mut raised = PoseBuilder::tpose();
-    raised.shoulder(Side::Left, 70.0, 0.0, 0.0).shoulder(Side::Right, 70.0, 0.0, 0.0).hip(Side::Left, 60.0, 10.0, 0.0).hip(Side::Right, 60.0, 10.0, 0.0).knee(Side::Left, 90.0).knee(Side::Right, 90.0);
+    raised
+        .shoulder(Side::Left, 70.0, 0.0, 0.0)
+        .shoulder(Side::Right, 70.0, 0.0, 0.0)
+        .hip(Side::Left, 60.0, 10.0, 0.0)
+        .hip(Side::Right, 60.0, 10.0, 0.0)
+        .knee(Side::Left, 90.0)
+        .knee(Side::Right, 90.0);
     vec![relaxed.build(), stride.build(), raised.build()]
 }

@@ -6,8 +6,8 @@
 use crate::studio::commands::Command;
 use crate::studio::path_dialog::PathDialogOutcome;
 use crate::studio::posing::PoseWorker;
-use crate::studio::project::{ViewMode, ViewState, DEMO};
-use crate::studio::settings::{RfdDialogs, Settings, SETTINGS_KEY};
+use crate::studio::project::{DEMO, ViewMode, ViewState};
+use crate::studio::settings::{RfdDialogs, SETTINGS_KEY, Settings};
 use crate::studio::state::{JobView, StudioApp, StudioOptions, Tasks};
 use crate::studio::timeline::Timeline;
 use crate::studio::viewport::{self, Scene};
@@ -23,7 +23,8 @@ impl StudioApp {
         // viewport::flat, not by egui (the same pixels, a fraction of the CPU).
         // `AVATAR_STUDIO_FLAT=0` turns that off, for comparisons (docs/studio.md).
         let flat = cc.wgpu_render_state.as_ref().is_some_and(|rs| {
-            let on = viewport::install(rs) && std::env::var("AVATAR_STUDIO_FLAT").map_or(true, |v| v != "0");
+            let on = viewport::install(rs)
+                && std::env::var("AVATAR_STUDIO_FLAT").map_or(true, |v| v != "0");
             if on {
                 viewport::flat::install(rs, crate::studio::style::PANEL_FILL);
                 viewport::ui_meshes::install(rs);
@@ -31,12 +32,21 @@ impl StudioApp {
             on
         });
         crate::studio::style::apply(&cc.egui_ctx, flat);
-        let settings: Settings = cc.storage.and_then(|s| eframe::get_value(s, SETTINGS_KEY)).unwrap_or_default();
+        let settings: Settings =
+            cc.storage.and_then(|s| eframe::get_value(s, SETTINGS_KEY)).unwrap_or_default();
         let ctx = cc.egui_ctx.clone();
         let wake_ctx = ctx.clone();
         let poser = PoseWorker::start(move || wake_ctx.request_repaint());
-        let timeline = Timeline::library("walk").or_else(|| Timeline::library(avatar_core::motion::clip_names()[0])).expect("the motion library has clips");
-        let view = ViewState { shading: settings.shading, skeleton: settings.skeleton, material: settings.material, light: settings.light, ..ViewState::default() };
+        let timeline = Timeline::library("walk")
+            .or_else(|| Timeline::library(avatar_core::motion::clip_names()[0]))
+            .expect("the motion library has clips");
+        let view = ViewState {
+            shading: settings.shading,
+            skeleton: settings.skeleton,
+            material: settings.material,
+            light: settings.light,
+            ..ViewState::default()
+        };
         let mut app = StudioApp {
             ctx,
             options: options.clone(),
@@ -151,7 +161,11 @@ impl eframe::App for StudioApp {
         self.measure_playback();
         // While the view moves on a software renderer, the panels' text and widgets too are
         // painted by our shader (viewport/ui_meshes.rs); a still window is egui's.
-        self.ui_meshes_painted = self.flat && self.viewport_moving && frame.wgpu_render_state().is_some_and(|rs| viewport::ui_meshes::take_over(ui.ctx(), rs));
+        self.ui_meshes_painted = self.flat
+            && self.viewport_moving
+            && frame
+                .wgpu_render_state()
+                .is_some_and(|rs| viewport::ui_meshes::take_over(ui.ctx(), rs));
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {

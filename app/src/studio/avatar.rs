@@ -107,6 +107,8 @@ pub fn canonical_of(avatar: &dyn StudioAvatar, body_betas: &[f32]) -> Result<Can
 
 /// The body model's own skinning of its rest mesh (the placeholder before an avatar exists).
 pub fn body_canonical(body: &BodyModel, betas: &[f32]) -> CanonicalMesh {
-    let rest = body.pose(&avatar_core::body::BodyParams { betas: betas.to_vec(), ..Default::default() }).rest_vertices;
+    let rest = body
+        .pose(&avatar_core::body::BodyParams { betas: betas.to_vec(), ..Default::default() })
+        .rest_vertices;
     CanonicalMesh { mesh: body.mesh(rest), weights: body.weights.clone(), smoother: None }
 }

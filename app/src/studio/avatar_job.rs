@@ -1,27 +1,44 @@
 //! The studio's fine-tuning job: `avatar_neural::avatar::fit_avatar` on its own thread (a
 //! background [`Task`]), talking to the UI through events. Nothing is written to disk by the job.
 
-use crate::studio::avatar::{studio_avatar, CanonicalMesh, StudioAvatar};
+use crate::studio::avatar::{CanonicalMesh, StudioAvatar, studio_avatar};
 use crate::studio::fit_config::FitConfig;
 use crate::studio::tasks::Task;
-use avatar_neural::avatar::{fit_avatar, AvatarFit, FitEvent};
-use avatar_neural::capture_points::{CapturePoints, FrameCount};
 use avatar_neural::MetaModel;
+use avatar_neural::avatar::{AvatarFit, FitEvent, fit_avatar};
+use avatar_neural::capture_points::{CapturePoints, FrameCount};
 use crossbeam_channel::Receiver;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// What the job tells the UI.
 pub enum JobEvent {
     /// Preparation finished: the canonical points are ready.
-    Started { points: usize, frames: usize },
-    Progress { step: usize, steps: usize, loss: f32, terms: [f32; 4], elapsed_s: f64 },
+    Started {
+        points: usize,
+        frames: usize,
+    },
+    Progress {
+        step: usize,
+        steps: usize,
+        loss: f32,
+        terms: [f32; 4],
+        elapsed_s: f64,
+    },
     /// The partial result.
-    Preview { step: usize, mesh: Arc<CanonicalMesh> },
+    Preview {
+        step: usize,
+        mesh: Arc<CanonicalMesh>,
+    },
     /// The fit ended (cancelled fits finish too, with the partial avatar).
-    Finished { avatar: Arc<dyn StudioAvatar>, cancelled: bool, warnings: Vec<String>, seconds: f64 },
+    Finished {
+        avatar: Arc<dyn StudioAvatar>,
+        cancelled: bool,
+        warnings: Vec<String>,
+        seconds: f64,
+    },
     Failed(String),
 }
 
@@ -37,7 +54,11 @@ pub struct FitJob {
 
 impl FitJob {
     /// Start a fit on its own thread. `wake` is called after each event (the UI repaints).
-    pub fn start(capture: PathBuf, config: FitConfig, wake: impl Fn() + Send + Sync + 'static) -> FitJob {
+    pub fn start(
+        capture: PathBuf,
+        config: FitConfig,
+        wake: impl Fn() + Send + Sync + 'static,
+    ) -> FitJob {
         let (dir, cfg) = (capture.clone(), config.clone());
         let paused = Arc::new(AtomicBool::new(false));
         let pause = paused.clone();
@@ -51,9 +72,16 @@ impl FitJob {
                     std::thread::sleep(Duration::from_millis(20));
                 }
             };
-            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_fit(&dir, &cfg, cx.cancel_flag(), &hold, &send)));
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                run_fit(&dir, &cfg, cx.cancel_flag(), &hold, &send)
+            }));
             match result {
-                Ok(Ok((avatar, warnings))) => send(JobEvent::Finished { avatar, cancelled: cx.cancelled(), warnings, seconds: t.elapsed().as_secs_f64() }),
+                Ok(Ok((avatar, warnings))) => send(JobEvent::Finished {
+                    avatar,
+                    cancelled: cx.cancelled(),
+                    warnings,
+                    seconds: t.elapsed().as_secs_f64(),
+                }),
                 Ok(Err(e)) => send(JobEvent::Failed(e.to_string())),
                 Err(_) => send(JobEvent::Failed("the fit stopped on an internal error".into())),
             }
@@ -83,23 +111,45 @@ impl FitJob {
 /// The fit itself (runs on the job thread): `fit_avatar` in chunks of `preview_every` steps;
 /// after each chunk the partial avatar's canonical surface at the rest pose is meshed for the
 /// preview, then `after_chunk` runs (it may block: a paused job).
-pub fn run_fit(dir: &Path, cfg: &FitConfig, cancel: &AtomicBool, after_chunk: &dyn Fn(), send: &dyn Fn(JobEvent)) -> crate::error::Result<(Arc<dyn StudioAvatar>, Vec<String>)> {
+pub fn run_fit(
+    dir: &Path,
+    cfg: &FitConfig,
+    cancel: &AtomicBool,
+    after_chunk: &dyn Fn(),
+    send: &dyn Fn(JobEvent),
+) -> crate::error::Result<(Arc<dyn StudioAvatar>, Vec<String>)> {
     if cfg.steps == 0 || cfg.frames == 0 || cfg.batch == 0 || cfg.hidden == 0 || cfg.layers == 0 {
-        return Err(crate::error::StudioError::invalid("steps, frames, points per step, width and layers must be at least 1"));
+        return Err(crate::error::StudioError::invalid(
+            "steps, frames, points per step, width and layers must be at least 1",
+        ));
     }
     let t = Instant::now();
     let capture = CapturePoints::open_with(dir, FrameCount::up_to(cfg.frames), None)?;
     send(JobEvent::Started { points: capture.num_points(), frames: capture.frames.len() });
     let model = MetaModel::shipped();
-    let fit = AvatarFit { kind: cfg.fit_kind(&model), options: cfg.fit_options(), chunk: cfg.preview_every, cancel: Some(cancel) };
+    let fit = AvatarFit {
+        kind: cfg.fit_kind(&model),
+        options: cfg.fit_options(),
+        chunk: cfg.preview_every,
+        cancel: Some(cancel),
+    };
     let rest = avatar_core::body::BodyParams { betas: capture.betas.clone(), ..Default::default() };
     let (avatar, report) = fit_avatar(&capture, &fit, &mut |event| match event {
-        FitEvent::Progress { step, steps, loss, terms } => send(JobEvent::Progress { step: step + 1, steps, loss, terms, elapsed_s: t.elapsed().as_secs_f64() }),
+        FitEvent::Progress { step, steps, loss, terms } => send(JobEvent::Progress {
+            step: step + 1,
+            steps,
+            loss,
+            terms,
+            elapsed_s: t.elapsed().as_secs_f64(),
+        }),
         FitEvent::Partial { done, mut avatar } => {
             avatar.set_resolution(cfg.preview_resolution.clamp(8, 256));
             if let Ok(mesh) = avatar.source().canonical_mesh(&rest) {
                 let weights = avatar.source().mesh_skinning_weights(&mesh);
-                send(JobEvent::Preview { step: done, mesh: Arc::new(CanonicalMesh { mesh, weights, smoother: None }) });
+                send(JobEvent::Preview {
+                    step: done,
+                    mesh: Arc::new(CanonicalMesh { mesh, weights, smoother: None }),
+                });
             }
             after_chunk();
         }

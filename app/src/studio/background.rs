@@ -19,7 +19,11 @@ impl StudioApp {
             match r {
                 Ok(c) => self.capture_loaded(source, c),
                 Err(e) => {
-                    let what = if source == DEMO { "the demo capture".to_string() } else { source.clone() };
+                    let what = if source == DEMO {
+                        "the demo capture".to_string()
+                    } else {
+                        source.clone()
+                    };
                     self.fail(format!("Could not open {what}: {e}"));
                     self.scene_dirty = true;
                 }
@@ -51,7 +55,11 @@ impl StudioApp {
         self.poll_job();
         match self.bakes.poll() {
             Some(Ok(b)) => {
-                self.info(format!("Baked {} frames for playback in {:.1} s", b.frames.len(), b.seconds));
+                self.info(format!(
+                    "Baked {} frames for playback in {:.1} s",
+                    b.frames.len(),
+                    b.seconds
+                ));
                 self.show_baked();
             }
             Some(Err(e)) => self.fail(format!("{e}")),
@@ -64,13 +72,25 @@ impl StudioApp {
         self.thumbnails = capture
             .frames
             .iter()
-            .map(|f| f.thumbnail.clone().map(|img| (self.ctx.load_texture(format!("thumb-{}-{}", capture.name, f.index), img.clone(), egui::TextureOptions::LINEAR), Arc::new(img))))
+            .map(|f| {
+                f.thumbnail.clone().map(|img| {
+                    (
+                        self.ctx.load_texture(
+                            format!("thumb-{}-{}", capture.name, f.index),
+                            img.clone(),
+                            egui::TextureOptions::LINEAR,
+                        ),
+                        Arc::new(img),
+                    )
+                })
+            })
             .collect();
         self.body_rest = Some(Arc::new(body_canonical(&capture.body, &capture.betas)));
         match self.pending_view.take() {
             Some(v) => {
                 self.view = v;
-                self.view.selected_frame = self.view.selected_frame.min(capture.frames.len().saturating_sub(1));
+                self.view.selected_frame =
+                    self.view.selected_frame.min(capture.frames.len().saturating_sub(1));
                 self.framed = true;
             }
             None => {
@@ -81,7 +101,13 @@ impl StudioApp {
         let flagged = capture.flagged();
         let msg = format!(
             "Opened {}: {} frames, {} usable{}",
-            if source == DEMO { "the demo capture".to_string() } else if crate::studio::scan::is_scan(std::path::Path::new(&source)) { format!("the scan {source}") } else { capture.dir.display().to_string() },
+            if source == DEMO {
+                "the demo capture".to_string()
+            } else if crate::studio::scan::is_scan(std::path::Path::new(&source)) {
+                format!("the scan {source}")
+            } else {
+                capture.dir.display().to_string()
+            },
             capture.frames.len(),
             capture.usable(),
             if flagged > 0 { format!(", {flagged} flagged") } else { String::new() }
@@ -90,7 +116,11 @@ impl StudioApp {
         if source != DEMO {
             Settings::push_recent(&mut self.settings.recent_captures, &source);
         }
-        let title = if source == DEMO { "Avatar Studio - demo capture".to_string() } else { format!("Avatar Studio - {}", capture.name) };
+        let title = if source == DEMO {
+            "Avatar Studio - demo capture".to_string()
+        } else {
+            format!("Avatar Studio - {}", capture.name)
+        };
         self.ctx.send_viewport_cmd(egui::ViewportCommand::Title(title));
         self.capture = Some(Arc::new(capture));
         self.capture_source = Some(source);
@@ -132,8 +162,20 @@ impl StudioApp {
         }
         match finished {
             Some(JobEvent::Finished { avatar, cancelled, warnings, seconds }) => {
-                let what = if cancelled { "Fine-tuning cancelled: the partial avatar is loaded" } else { "Fine-tuning finished" };
-                let text = format!("{what} ({}, {seconds:.1} s){}", avatar.describe(), if warnings.is_empty() { String::new() } else { format!("; {} warnings", warnings.len()) });
+                let what = if cancelled {
+                    "Fine-tuning cancelled: the partial avatar is loaded"
+                } else {
+                    "Fine-tuning finished"
+                };
+                let text = format!(
+                    "{what} ({}, {seconds:.1} s){}",
+                    avatar.describe(),
+                    if warnings.is_empty() {
+                        String::new()
+                    } else {
+                        format!("; {} warnings", warnings.len())
+                    }
+                );
                 self.job_view.finished = Some(text.clone());
                 self.info(text);
                 self.job = None;
@@ -152,9 +194,19 @@ impl StudioApp {
     // ---- posing and playback -------------------------------------------------------------
 
     /// The bake of the current clip for what is shown now, if it is done.
-    fn current_bake(&self) -> Option<(crate::studio::playback::BakeKey, crate::studio::posing::Posable)> {
+    fn current_bake(
+        &self,
+    ) -> Option<(crate::studio::playback::BakeKey, crate::studio::posing::Posable)> {
         let posable = self.posable()?;
-        Some((crate::studio::playback::BakeKey::new(&posable, &self.timeline.clip_source, self.timeline.frames(), &self.timeline.offsets), posable))
+        Some((
+            crate::studio::playback::BakeKey::new(
+                &posable,
+                &self.timeline.clip_source,
+                self.timeline.frames(),
+                &self.timeline.offsets,
+            ),
+            posable,
+        ))
     }
 
     /// Bake the clip's poses for playback (in the background, once per posable and clip).
@@ -165,7 +217,8 @@ impl StudioApp {
         }
         let Some((key, posable)) = self.current_bake() else { return };
         let betas = self.betas();
-        let params = (0..self.timeline.frames()).map(|f| self.timeline.params_at(f, &betas)).collect();
+        let params =
+            (0..self.timeline.frames()).map(|f| self.timeline.params_at(f, &betas)).collect();
         let (body, wake) = (self.body(), self.wake());
         self.bakes.start(key, posable.exact(), body, params, wake);
     }
@@ -173,7 +226,11 @@ impl StudioApp {
     /// Show the baked mesh of the current frame, if the clip is baked. Returns true if shown.
     fn show_baked(&mut self) -> bool {
         let Some((key, _)) = self.current_bake() else { return false };
-        let Some(frame) = self.bakes.get(&key).and_then(|b| b.frames.get(self.timeline.current_frame()).cloned()) else { return false };
+        let Some(frame) =
+            self.bakes.get(&key).and_then(|b| b.frames.get(self.timeline.current_frame()).cloned())
+        else {
+            return false;
+        };
         if !self.posed.as_ref().is_some_and(|p| Arc::ptr_eq(p, &frame)) {
             self.posed = Some(frame);
             self.scene_dirty = true;
@@ -200,7 +257,8 @@ impl StudioApp {
                 Ok(m) => {
                     self.last_pose_seconds = Some(m.seconds);
                     if m.id == self.poser.latest {
-                        self.last_request_to_mesh = self.pose_requested_at.map(|t| t.elapsed().as_secs_f64());
+                        self.last_request_to_mesh =
+                            self.pose_requested_at.map(|t| t.elapsed().as_secs_f64());
                     }
                     // A baked frame shown meanwhile is newer than a live pose that arrives late.
                     if !self.show_baked() {

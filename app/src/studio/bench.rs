@@ -4,15 +4,21 @@
 
 use crate::studio::avatar::{body_canonical, canonical_of};
 use crate::studio::avatar_job::run_fit;
+use crate::studio::capture_view::load_capture;
 use crate::studio::fit_config::FitConfig;
 use crate::studio::posing::{Posable, PoseWorker};
-use crate::studio::capture_view::load_capture;
 use crate::studio::timeline::Timeline;
-use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-fn round_trip(worker: &mut PoseWorker, timeline: &mut Timeline, posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, betas: &[f32]) -> f64 {
+fn round_trip(
+    worker: &mut PoseWorker,
+    timeline: &mut Timeline,
+    posable: &Posable,
+    body: &Arc<avatar_core::body::BodyModel>,
+    betas: &[f32],
+) -> f64 {
     let mut times = Vec::new();
     for f in (0..timeline.frames()).step_by((timeline.frames() / 12).max(1)) {
         timeline.set_frame(f);
@@ -42,22 +48,37 @@ pub fn bench_report() -> String {
         Ok(c) => c,
         Err(e) => return out + &format!("| open the demo | | {e} |\n"),
     };
-    out += &format!("| open the demo capture for the studio ({} frames, thumbnails) | {:.0} ms | start-up shows the window before this finishes |\n", capture.frames.len(), t.elapsed().as_secs_f64() * 1e3);
+    out += &format!(
+        "| open the demo capture for the studio ({} frames, thumbnails) | {:.0} ms | start-up shows the window before this finishes |\n",
+        capture.frames.len(),
+        t.elapsed().as_secs_f64() * 1e3
+    );
     let body = capture.body.clone();
     let betas = capture.betas.clone();
     let mut worker = PoseWorker::start(|| {});
     let mut timeline = Timeline::library("walk").expect("library clip");
     let rest = Posable::Mesh(Arc::new(body_canonical(&body, &betas)));
     let s = round_trip(&mut worker, &mut timeline, &rest, &body, &betas);
-    out += &format!("| pose slider to posed mesh: the capture's body ({} vertices) | {:.1} ms | target: under 0.5 s on 2 cores |\n", body.num_vertices(), s * 1e3);
+    out += &format!(
+        "| pose slider to posed mesh: the capture's body ({} vertices) | {:.1} ms | target: under 0.5 s on 2 cores |\n",
+        body.num_vertices(),
+        s * 1e3
+    );
     let t = Instant::now();
     let cfg = FitConfig::tiny();
     let fitted = run_fit(&dir, &cfg, &AtomicBool::new(false), &|| {}, &|_| {});
     let fit_s = t.elapsed().as_secs_f64();
     match fitted {
         Ok((avatar, _)) => {
-            out += &format!("| fine-tune the quick configuration ({}, {} steps, {} frames) | {:.1} s | |\n", avatar.describe(), cfg.steps, cfg.frames, fit_s);
-            let file = std::env::temp_dir().join(format!("avatar-studio-bench-{}.avatar", std::process::id()));
+            out += &format!(
+                "| fine-tune the quick configuration ({}, {} steps, {} frames) | {:.1} s | |\n",
+                avatar.describe(),
+                cfg.steps,
+                cfg.frames,
+                fit_s
+            );
+            let file = std::env::temp_dir()
+                .join(format!("avatar-studio-bench-{}.avatar", std::process::id()));
             if let Err(e) = avatar.save(&file) {
                 return out + &format!("| save the avatar | | {e} |\n");
             }
@@ -71,16 +92,35 @@ pub fn bench_report() -> String {
                 let mesh_s = t.elapsed().as_secs_f64();
                 let n = m.mesh.positions.len();
                 // As the studio poses it: smooth normals from the SDF's gradient at the rest pose.
-                let rest = avatar_core::body::BodyParams { betas: betas.clone(), ..Default::default() };
-                let normals = Arc::new(crate::studio::posing::sdf_normals(a.source(), &rest, &m.mesh.positions, &m.mesh.vertex_normals()).expect("the SDF evaluates"));
+                let rest =
+                    avatar_core::body::BodyParams { betas: betas.clone(), ..Default::default() };
+                let normals = Arc::new(
+                    crate::studio::posing::sdf_normals(
+                        a.source(),
+                        &rest,
+                        &m.mesh.positions,
+                        &m.mesh.vertex_normals(),
+                    )
+                    .expect("the SDF evaluates"),
+                );
                 let posable = if a.pose_dependent() {
-                    Posable::PoseDependent { avatar: a.clone(), reference: Arc::new(m), rest_normals: Some(normals) }
+                    Posable::PoseDependent {
+                        avatar: a.clone(),
+                        reference: Arc::new(m),
+                        rest_normals: Some(normals),
+                    }
                 } else {
                     Posable::Smooth { mesh: Arc::new(m), normals }
                 };
                 let s = round_trip(&mut worker, &mut timeline, &posable, &body, &betas);
-                out += &format!("| mesh the avatar at {res} cells (once per avatar) | {:.2} s | {n} vertices |\n", mesh_s);
-                out += &format!("| pose slider to posed mesh: the avatar at {res} cells | {:.1} ms | target: 100 ms on 2 cores |\n", s * 1e3);
+                out += &format!(
+                    "| mesh the avatar at {res} cells (once per avatar) | {:.2} s | {n} vertices |\n",
+                    mesh_s
+                );
+                out += &format!(
+                    "| pose slider to posed mesh: the avatar at {res} cells | {:.1} ms | target: 100 ms on 2 cores |\n",
+                    s * 1e3
+                );
                 if res == 128 {
                     out += &playback_rows(&posable, &body, &timeline, &betas);
                 }
@@ -97,7 +137,12 @@ pub fn bench_report() -> String {
 /// Playback: the walk clip baked for the avatar (in the background, once), then its baked
 /// frames shown one after another as the studio does (the scene rebuilt from the frame's mesh
 /// and normals, drawn by the viewport's renderer headless at 1280 x 800).
-fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, timeline: &Timeline, betas: &[f32]) -> String {
+fn playback_rows(
+    posable: &Posable,
+    body: &Arc<avatar_core::body::BodyModel>,
+    timeline: &Timeline,
+    betas: &[f32],
+) -> String {
     use crate::studio::playback::{BakeKey, Bakes};
     let params = (0..timeline.frames()).map(|f| timeline.params_at(f, betas)).collect();
     let key = BakeKey::new(posable, &timeline.clip_source, timeline.frames(), &timeline.offsets);
@@ -111,7 +156,11 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
             None => std::thread::sleep(Duration::from_millis(2)),
         }
     };
-    let mut out = format!("| bake the walk clip for playback ({} frames, the avatar at 128 cells; once per avatar and clip) | {:.1} s | |\n", baked.frames.len(), t.elapsed().as_secs_f64());
+    let mut out = format!(
+        "| bake the walk clip for playback ({} frames, the avatar at 128 cells; once per avatar and clip) | {:.1} s | |\n",
+        baked.frames.len(),
+        t.elapsed().as_secs_f64()
+    );
     let (device, queue, info) = match headless() {
         Ok(d) => d,
         Err(e) => return out + &format!("| playback | | {e} |\n"),
@@ -124,7 +173,12 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
     }
     let scene_of = |m: &crate::studio::posing::PosedMesh| {
         let mut scene = crate::studio::viewport::Scene::new();
-        scene.add_mesh_with_normals(&m.positions, m.normals.as_deref(), &m.faces, avatar_core::export::DEFAULT_COLOR);
+        scene.add_mesh_with_normals(
+            &m.positions,
+            m.normals.as_deref(),
+            &m.faces,
+            avatar_core::export::DEFAULT_COLOR,
+        );
         scene.add_grid(glam::Vec3::ZERO, -1.2, 1.5, 0.25);
         scene
     };
@@ -132,9 +186,16 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
     let scenes: Vec<_> = baked.frames.iter().map(|m| scene_of(m)).collect();
     let build_ms = t.elapsed().as_secs_f64() * 1e3 / scenes.len() as f64;
     drop(scenes);
-    out += &format!("| playback: the scene rebuilt from a baked frame ({} vertices; CPU, uploaded with the draw below) | {build_ms:.2} ms | |\n", first.positions.len());
+    out += &format!(
+        "| playback: the scene rebuilt from a baked frame ({} vertices; CPU, uploaded with the draw below) | {build_ms:.2} ms | |\n",
+        first.positions.len()
+    );
     let software = info.device_type == eframe::egui_wgpu::wgpu::DeviceType::Cpu;
-    let mut resources = crate::studio::viewport::ViewportResources::new(&device, eframe::egui_wgpu::wgpu::TextureFormat::Rgba8Unorm, software);
+    let mut resources = crate::studio::viewport::ViewportResources::new(
+        &device,
+        eframe::egui_wgpu::wgpu::TextureFormat::Rgba8Unorm,
+        software,
+    );
     // While playing (moving) as the studio draws it, then paused (4x MSAA) for comparison.
     for moving in [true, false] {
         let samples = resources.samples(moving);
@@ -147,7 +208,18 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
             }
             let scene = scene_of(m);
             let mut encoder = device.create_command_encoder(&Default::default());
-            resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), crate::studio::viewport::Shading::Lit, 3.0, drawn, crate::studio::project::default_light(), samples);
+            resources.render(
+                &device,
+                &queue,
+                &mut encoder,
+                &scene,
+                &camera.matrices(size[0] as f32 / size[1] as f32),
+                crate::studio::viewport::Shading::Lit,
+                3.0,
+                drawn,
+                crate::studio::project::default_light(),
+                samples,
+            );
             queue.submit([encoder.finish()]);
             if let Err(e) = device.poll(eframe::egui_wgpu::wgpu::PollType::wait_indefinitely()) {
                 return out + &format!("| playback | | {e} |\n");
@@ -155,20 +227,35 @@ fn playback_rows(posable: &Posable, body: &Arc<avatar_core::body::BodyModel>, ti
         }
         let fps = baked.frames.len() as f64 / t.elapsed().as_secs_f64();
         let what = if moving { "playing" } else { "the paused look, for comparison" };
-        out += &format!("| playback of the baked clip ({what}): each frame's scene rebuilt, uploaded and drawn for a 1280 x 800 view ({} x {} pixels), {samples} sample(s) a pixel, on {} ({:?}) | {fps:.1} fps | target: the clip's 30 fps |\n", drawn[0], drawn[1], info.name, info.device_type);
+        out += &format!(
+            "| playback of the baked clip ({what}): each frame's scene rebuilt, uploaded and drawn for a 1280 x 800 view ({} x {} pixels), {samples} sample(s) a pixel, on {} ({:?}) | {fps:.1} fps | target: the clip's 30 fps |\n",
+            drawn[0], drawn[1], info.name, info.device_type
+        );
     }
     out
 }
 
-type Headless = (eframe::egui_wgpu::wgpu::Device, eframe::egui_wgpu::wgpu::Queue, eframe::egui_wgpu::wgpu::AdapterInfo);
+type Headless = (
+    eframe::egui_wgpu::wgpu::Device,
+    eframe::egui_wgpu::wgpu::Queue,
+    eframe::egui_wgpu::wgpu::AdapterInfo,
+);
 
 /// A wgpu device without a window, on the adapter wgpu picks (`WGPU_BACKEND` chooses the API).
 fn headless() -> crate::error::Result<Headless> {
     use eframe::egui_wgpu::wgpu;
-    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions { power_preference: wgpu::PowerPreference::HighPerformance, ..Default::default() })).map_err(|e| crate::error::StudioError::invalid(format!("no wgpu adapter: {e}")))?;
+    let instance =
+        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        ..Default::default()
+    }))
+    .map_err(|e| crate::error::StudioError::invalid(format!("no wgpu adapter: {e}")))?;
     let info = adapter.get_info();
-    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())).map_err(|e| crate::error::StudioError::invalid(format!("no device on {}: {e}", info.name)))?;
+    let (device, queue) = pollster::block_on(
+        adapter.request_device(&wgpu::DeviceDescriptor::default()),
+    )
+    .map_err(|e| crate::error::StudioError::invalid(format!("no device on {}: {e}", info.name)))?;
     Ok((device, queue, info))
 }
 
@@ -185,9 +272,18 @@ pub fn viewport_row() -> String {
         Err(e) => return format!("| viewport frame rate | | {e} |\n"),
     };
     // The shipped meta-SDF meshed finely enough for about 50k triangles.
-    let sdf = avatar_neural::siren_eval::SirenEval::of(&avatar_neural::MetaModel::shipped().static_siren());
-    let options = avatar_core::mesh::extract::ExtractOptions::new(glam::Vec3::splat(-1.0), glam::Vec3::splat(1.0), 230);
-    let mesh = match avatar_core::mesh::extract::extract(|p: &[glam::Vec3]| sdf.sdf(&p.iter().map(|q| q.to_array()).collect::<Vec<_>>()), &options) {
+    let sdf = avatar_neural::siren_eval::SirenEval::of(
+        &avatar_neural::MetaModel::shipped().static_siren(),
+    );
+    let options = avatar_core::mesh::extract::ExtractOptions::new(
+        glam::Vec3::splat(-1.0),
+        glam::Vec3::splat(1.0),
+        230,
+    );
+    let mesh = match avatar_core::mesh::extract::extract(
+        |p: &[glam::Vec3]| sdf.sdf(&p.iter().map(|q| q.to_array()).collect::<Vec<_>>()),
+        &options,
+    ) {
         Ok(e) => e.mesh,
         Err(e) => return format!("| viewport frame rate | | meshing failed: {e} |\n"),
     };
@@ -199,11 +295,27 @@ pub fn viewport_row() -> String {
     if let Some((lo, hi)) = scene.bounds() {
         camera.frame(lo, hi);
     }
-    let mut resources = ViewportResources::new(&device, wgpu::TextureFormat::Rgba8Unorm, info.device_type == wgpu::DeviceType::Cpu);
+    let mut resources = ViewportResources::new(
+        &device,
+        wgpu::TextureFormat::Rgba8Unorm,
+        info.device_type == wgpu::DeviceType::Cpu,
+    );
     let mut frame = |yaw: f32| {
         camera.yaw = yaw; // a turning camera: nothing is cached between frames but the buffers
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench frame") });
-        resources.render(&device, &queue, &mut encoder, &scene, &camera.matrices(size[0] as f32 / size[1] as f32), Shading::Lit, 3.0, size, crate::studio::project::default_light(), crate::studio::viewport::MSAA);
+        let mut encoder = device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench frame") });
+        resources.render(
+            &device,
+            &queue,
+            &mut encoder,
+            &scene,
+            &camera.matrices(size[0] as f32 / size[1] as f32),
+            Shading::Lit,
+            3.0,
+            size,
+            crate::studio::project::default_light(),
+            crate::studio::viewport::MSAA,
+        );
         queue.submit([encoder.finish()]);
         device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ())
     };

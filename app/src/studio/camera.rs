@@ -19,7 +19,13 @@ pub struct OrbitCamera {
 
 impl Default for OrbitCamera {
     fn default() -> Self {
-        OrbitCamera { target: [0.0, 0.0, 0.0], yaw: 0.35, pitch: 0.12, distance: 3.0, fov_deg: 35.0 }
+        OrbitCamera {
+            target: [0.0, 0.0, 0.0],
+            yaw: 0.35,
+            pitch: 0.12,
+            distance: 3.0,
+            fov_deg: 35.0,
+        }
     }
 }
 
@@ -71,14 +77,23 @@ impl OrbitCamera {
     }
 
     pub fn eye(&self) -> Vec3 {
-        let dir = Vec3::new(self.pitch.cos() * self.yaw.sin(), self.pitch.sin(), self.pitch.cos() * self.yaw.cos());
+        let dir = Vec3::new(
+            self.pitch.cos() * self.yaw.sin(),
+            self.pitch.sin(),
+            self.pitch.cos() * self.yaw.cos(),
+        );
         self.target() + dir * self.distance
     }
 
     pub fn matrices(&self, aspect: f32) -> CameraMatrices {
         let view = Mat4::look_at_rh(self.eye(), self.target(), Vec3::Y);
         let near = (self.distance * 0.01).max(0.005);
-        let proj = Mat4::perspective_rh(self.fov_deg.to_radians(), aspect.max(0.01), near, self.distance * 20.0 + 10.0);
+        let proj = Mat4::perspective_rh(
+            self.fov_deg.to_radians(),
+            aspect.max(0.01),
+            near,
+            self.distance * 20.0 + 10.0,
+        );
         CameraMatrices { view, proj }
     }
 
@@ -129,7 +144,10 @@ impl OrbitCamera {
         if response.dragged_by(egui::PointerButton::Primary) && !shift {
             let d = response.drag_delta();
             self.orbit(Vec2::new(d.x, d.y));
-        } else if response.dragged_by(egui::PointerButton::Secondary) || response.dragged_by(egui::PointerButton::Middle) || (shift && response.dragged_by(egui::PointerButton::Primary)) {
+        } else if response.dragged_by(egui::PointerButton::Secondary)
+            || response.dragged_by(egui::PointerButton::Middle)
+            || (shift && response.dragged_by(egui::PointerButton::Primary))
+        {
             let d = response.drag_delta();
             self.pan(Vec2::new(d.x, d.y), rect.height());
         }
@@ -138,7 +156,10 @@ impl OrbitCamera {
             if scroll.abs() > 0.0 {
                 let factor = (-scroll * 0.002).exp();
                 let ndc = response.hover_pos().map_or(Vec2::ZERO, |p| {
-                    Vec2::new((p.x - rect.center().x) / (rect.width() * 0.5), -(p.y - rect.center().y) / (rect.height() * 0.5))
+                    Vec2::new(
+                        (p.x - rect.center().x) / (rect.width() * 0.5),
+                        -(p.y - rect.center().y) / (rect.height() * 0.5),
+                    )
                 });
                 self.zoom_to(factor, ndc, rect.width() / rect.height().max(1.0));
             }
@@ -165,7 +186,9 @@ mod tests {
     #[test]
     fn presets_look_along_the_axes() {
         let mut c = OrbitCamera::default();
-        for (p, dir) in [(Preset::Front, Vec3::Z), (Preset::Side, Vec3::X), (Preset::Back, -Vec3::Z)] {
+        for (p, dir) in
+            [(Preset::Front, Vec3::Z), (Preset::Side, Vec3::X), (Preset::Back, -Vec3::Z)]
+        {
             p.apply(&mut c);
             assert!(((c.eye() - c.target()).normalize() - dir).length() < 1e-5, "{p:?}");
         }

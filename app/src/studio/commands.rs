@@ -2,15 +2,15 @@
 //! done ([`StudioApp::apply`]). Work that takes time starts a background task here; its result
 //! is taken in `background.rs`.
 
-use crate::studio::avatar::{canonical_of, load_avatar, StudioAvatar};
+use crate::studio::avatar::{StudioAvatar, canonical_of, load_avatar};
 use crate::studio::avatar_job::FitJob;
-use crate::studio::fit_config::FitConfig;
 use crate::studio::camera::Preset;
-use crate::studio::capture_view::{load_capture, LoadedCapture};
-use crate::studio::scan::{fitting_beside, is_scan, scan_capture};
+use crate::studio::capture_view::{LoadedCapture, load_capture};
+use crate::studio::fit_config::FitConfig;
 use crate::studio::path_dialog::PathDialog;
 use crate::studio::posing::sdf_normals;
-use crate::studio::project::{MotionState, Project, ViewMode, DEMO, PROJECT_EXTENSION};
+use crate::studio::project::{DEMO, MotionState, PROJECT_EXTENSION, Project, ViewMode};
+use crate::studio::scan::{fitting_beside, is_scan, scan_capture};
 use crate::studio::settings::{DialogAnswer, PathPurpose, Settings};
 use crate::studio::state::{AvatarReady, JobView, StudioApp};
 use crate::studio::tasks::Task;
@@ -57,7 +57,9 @@ impl Command {
     /// The command a path answers.
     pub fn answer(purpose: PathPurpose, path: PathBuf) -> Command {
         match purpose {
-            PathPurpose::OpenCapture | PathPurpose::OpenScan => Command::OpenCapture(path.display().to_string()),
+            PathPurpose::OpenCapture | PathPurpose::OpenScan => {
+                Command::OpenCapture(path.display().to_string())
+            }
             PathPurpose::OpenProject => Command::OpenProject(path),
             PathPurpose::SaveProject => Command::SaveProject(path),
             PathPurpose::OpenAvatar => Command::OpenAvatar(path),
@@ -143,8 +145,13 @@ impl StudioApp {
                 DialogAnswer::Unavailable => self.native_dialogs_failed = true,
             }
         }
-        let folder = self.project_path.as_ref().and_then(|p| p.parent().map(Path::to_path_buf)).filter(|p| p.is_dir());
-        let folder = folder.or_else(|| std::env::current_dir().ok()).unwrap_or_else(|| PathBuf::from("/"));
+        let folder = self
+            .project_path
+            .as_ref()
+            .and_then(|p| p.parent().map(Path::to_path_buf))
+            .filter(|p| p.is_dir());
+        let folder =
+            folder.or_else(|| std::env::current_dir().ok()).unwrap_or_else(|| PathBuf::from("/"));
         self.path_dialog = Some(PathDialog::new(request, folder));
     }
 
@@ -162,7 +169,10 @@ impl StudioApp {
         } else if !p.exists() {
             self.fail(format!("{}: no such file or folder", p.display()));
         } else {
-            self.fail(format!("{}: not a capture folder, scan (OBJ), project, avatar or motion", p.display()));
+            self.fail(format!(
+                "{}: not a capture folder, scan (OBJ), project, avatar or motion",
+                p.display()
+            ));
         }
     }
 
@@ -172,16 +182,21 @@ impl StudioApp {
     /// cache first) in the background.
     fn open_capture(&mut self, source: String) {
         let src = source.clone();
-        let task = Task::spawn("capture loader", self.wake(), move |_| -> crate::error::Result<LoadedCapture> {
-            let path = PathBuf::from(&src);
-            if src != DEMO && is_scan(&path) {
-                let mut c = load_capture(&scan_capture(&path)?)?;
-                c.name = path.file_name().map_or(src.clone(), |n| n.to_string_lossy().into_owned());
-                return Ok(c);
-            }
-            let dir = if src == DEMO { crate::studio::demo::demo_capture_dir()? } else { path };
-            load_capture(&dir)
-        });
+        let task = Task::spawn(
+            "capture loader",
+            self.wake(),
+            move |_| -> crate::error::Result<LoadedCapture> {
+                let path = PathBuf::from(&src);
+                if src != DEMO && is_scan(&path) {
+                    let mut c = load_capture(&scan_capture(&path)?)?;
+                    c.name =
+                        path.file_name().map_or(src.clone(), |n| n.to_string_lossy().into_owned());
+                    return Ok(c);
+                }
+                let dir = if src == DEMO { crate::studio::demo::demo_capture_dir()? } else { path };
+                load_capture(&dir)
+            },
+        );
         self.tasks.capture = Some((source, task));
     }
 
@@ -202,21 +217,36 @@ impl StudioApp {
         let resolution = self.settings.fit.final_resolution;
         let path = path.to_path_buf();
         self.info(format!("Opening the avatar {}…", path.display()));
-        self.spawn_avatar_work(move || load_avatar(&path, resolution).map(|a| (a, Some(path.clone()))).map_err(|e| e.context(format!("Could not open the avatar {}", path.display()))));
+        self.spawn_avatar_work(move || {
+            load_avatar(&path, resolution)
+                .map(|a| (a, Some(path.clone())))
+                .map_err(|e| e.context(format!("Could not open the avatar {}", path.display())))
+        });
     }
 
-    fn spawn_avatar_work(&mut self, get: impl FnOnce() -> crate::error::Result<(Arc<dyn StudioAvatar>, Option<PathBuf>)> + Send + 'static) {
+    fn spawn_avatar_work(
+        &mut self,
+        get: impl FnOnce() -> crate::error::Result<(Arc<dyn StudioAvatar>, Option<PathBuf>)>
+        + Send
+        + 'static,
+    ) {
         let task = Task::spawn("avatar mesher", self.wake(), move |_| {
             let (avatar, path) = get()?;
             let betas = avatar.source().betas().to_vec();
-            let mesh = canonical_of(avatar.as_ref(), &betas).map_err(|e| e.context("Could not mesh the avatar"))?;
+            let mesh = canonical_of(avatar.as_ref(), &betas)
+                .map_err(|e| e.context("Could not mesh the avatar"))?;
             // The SDF's gradient at the rest pose, once, turned by the skinning at each pose (exact
             // for a pose-independent surface; the slider's quick normals for the meta avatar).
             let rest = avatar_core::body::BodyParams { betas, ..Default::default() };
             let normals = match &mesh.smoother {
                 // A smoothed surface keeps its own normals (the SDF's gradient has the noise).
                 Some(_) => Some(Arc::new(mesh.mesh.vertex_normals())),
-                None => Some(Arc::new(sdf_normals(avatar.source(), &rest, &mesh.mesh.positions, &mesh.mesh.vertex_normals())?)),
+                None => Some(Arc::new(sdf_normals(
+                    avatar.source(),
+                    &rest,
+                    &mesh.mesh.positions,
+                    &mesh.mesh.vertex_normals(),
+                )?)),
             };
             Ok(AvatarReady { avatar, path, mesh: Arc::new(mesh), normals })
         });
@@ -268,7 +298,9 @@ impl StudioApp {
         };
         if self.job.is_none() {
             let ctx = self.ctx.clone();
-            self.watch_fit(FitJob::start(capture.dir.clone(), config, move || ctx.request_repaint()));
+            self.watch_fit(FitJob::start(capture.dir.clone(), config, move || {
+                ctx.request_repaint()
+            }));
         }
     }
 
@@ -290,15 +322,24 @@ impl StudioApp {
         let Some(avatar) = self.avatar.clone() else {
             return self.fail("Fit or open an avatar before exporting".into());
         };
-        if let Err(e) = self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(&path, &["glb"]) {
+        if let Err(e) =
+            self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(&path, &["glb"])
+        {
             return self.fail(format!("Export failed: {e}"));
         }
         let clip = self.timeline.clip.clone();
-        let options = avatar_core::export::ExportOptions { color: self.view.material, ..Default::default() };
+        let options =
+            avatar_core::export::ExportOptions { color: self.view.material, ..Default::default() };
         let task = Task::spawn("export", self.wake(), move |_| -> crate::error::Result<String> {
             let e = avatar_core::export::export_glb(avatar.source(), &clip, &options)?;
             avatar_core::io::write_bytes_atomic(&path, &e.glb)?;
-            Ok(format!("Exported {} ({} frames, {} vertices, {:.2} MB)", path.display(), e.frames, e.rest.positions.len(), e.glb.len() as f64 / 1e6))
+            Ok(format!(
+                "Exported {} ({} frames, {} vertices, {:.2} MB)",
+                path.display(),
+                e.frames,
+                e.rest.positions.len(),
+                e.glb.len() as f64 / 1e6
+            ))
         });
         self.tasks.export = Some(task);
         self.info("Exporting…");
@@ -309,12 +350,16 @@ impl StudioApp {
         let Some(p) = &self.posed else {
             return self.fail("Nothing posed yet".into());
         };
-        if let Err(e) = self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(path, &["obj"]) {
+        if let Err(e) =
+            self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(path, &["obj"])
+        {
             return self.fail(format!("Could not write the OBJ: {e}"));
         }
         let mesh = avatar_core::mesh::TriMesh::new(p.positions.clone(), p.faces.to_vec());
         match avatar_core::mesh::io::write_obj(path, &mesh) {
-            Ok(()) => self.info(format!("Wrote {} ({} vertices)", path.display(), mesh.positions.len())),
+            Ok(()) => {
+                self.info(format!("Wrote {} ({} vertices)", path.display(), mesh.positions.len()))
+            }
             Err(e) => self.fail(format!("Could not write the OBJ: {e}")),
         }
     }
@@ -328,16 +373,27 @@ impl StudioApp {
             speed: self.timeline.speed,
             offsets: self.timeline.offsets.to_vec(),
         };
-        Project::new(self.capture_source.clone(), self.avatar_path.as_ref().map(|p| p.display().to_string()), self.view.clone(), motion)
+        Project::new(
+            self.capture_source.clone(),
+            self.avatar_path.as_ref().map(|p| p.display().to_string()),
+            self.view.clone(),
+            motion,
+        )
     }
 
     /// Save the session; an unsaved avatar is saved beside the project first.
     pub fn save_project_to(&mut self, path: &Path) {
-        if let Err(e) = self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(path, &["json"]) {
+        if let Err(e) =
+            self.inputs().maybe_file(self.avatar_path.as_ref()).check_file(path, &["json"])
+        {
             return self.fail(format!("Could not save the project: {e}"));
         }
         if self.avatar.is_some() && !self.avatar_saved {
-            let stem = path.file_name().and_then(|n| n.to_str()).map(|n| n.trim_end_matches(".studio.json").trim_end_matches(".json").to_string()).unwrap_or_else(|| "avatar".into());
+            let stem = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .map(|n| n.trim_end_matches(".studio.json").trim_end_matches(".json").to_string())
+                .unwrap_or_else(|| "avatar".into());
             let avatar_path = path.with_file_name(format!("{stem}.avatar"));
             self.save_avatar_to(&avatar_path);
             if !self.avatar_saved {
@@ -346,7 +402,10 @@ impl StudioApp {
         }
         match self.project().save(path) {
             Ok(()) => {
-                Settings::push_recent(&mut self.settings.recent_projects, &path.display().to_string());
+                Settings::push_recent(
+                    &mut self.settings.recent_projects,
+                    &path.display().to_string(),
+                );
                 self.project_path = Some(path.to_path_buf());
                 self.info(format!("Saved the project {}", path.display()));
             }

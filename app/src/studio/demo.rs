@@ -37,7 +37,8 @@ pub fn demo_capture_dir() -> crate::error::Result<PathBuf> {
             continue;
         }
         if let Some(parent) = path.parent() {
-            std::fs::create_dir_all(parent).map_err(|e| crate::error::StudioError::io(parent, e))?;
+            std::fs::create_dir_all(parent)
+                .map_err(|e| crate::error::StudioError::io(parent, e))?;
         }
         avatar_core::io::write_bytes_atomic(&path, bytes)?;
     }
@@ -46,5 +47,6 @@ pub fn demo_capture_dir() -> crate::error::Result<PathBuf> {
 
 /// Whether `dir` is the demo capture.
 pub fn is_demo(dir: &std::path::Path) -> bool {
-    dir.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("demo-")) && dir.parent() == Some(cache_dir().as_path())
+    dir.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("demo-"))
+        && dir.parent() == Some(cache_dir().as_path())
 }

@@ -99,7 +99,16 @@ impl FitConfig {
     /// Seconds on two cores: for tests and a quick look. The MetaAvatar starts from the
     /// meta-model, so a few small steps already give a body-shaped, posable avatar.
     pub fn tiny() -> Self {
-        FitConfig { frames: 4, steps: 20, batch: 300, off_surface: 300, preview_every: 10, preview_resolution: 40, final_resolution: 96, ..FitConfig::default() }
+        FitConfig {
+            frames: 4,
+            steps: 20,
+            batch: 300,
+            off_surface: 300,
+            preview_every: 10,
+            preview_resolution: 40,
+            final_resolution: 96,
+            ..FitConfig::default()
+        }
     }
 
     /// A rough static SDF from scratch in seconds.
@@ -122,7 +131,13 @@ impl FitConfig {
     /// The fit's options: `fit`'s defaults with this budget (steps, points, seed; the static
     /// SDF's rate).
     pub fn fit_options(&self) -> HyperFitOptions {
-        let options = HyperFitOptions { steps: self.steps, surface_per_pose: self.batch, off_per_pose: self.off_surface, seed: self.seed, ..HyperFitOptions::default() };
+        let options = HyperFitOptions {
+            steps: self.steps,
+            surface_per_pose: self.batch,
+            off_per_pose: self.off_surface,
+            seed: self.seed,
+            ..HyperFitOptions::default()
+        };
         match self.kind {
             AvatarKind::MetaAvatar => options,
             AvatarKind::StaticSdf => HyperFitOptions { lr_sdf: self.learning_rate, ..options },
@@ -134,7 +149,10 @@ impl FitConfig {
     pub fn fit_kind<'a>(&self, model: &'a MetaModel) -> FitKind<'a> {
         match self.kind {
             AvatarKind::MetaAvatar => FitKind::Meta(Init::MetaLearned(model)),
-            AvatarKind::StaticSdf => FitKind::Static { siren: SirenConfig { hidden: self.hidden, layers: self.layers }, init: None },
+            AvatarKind::StaticSdf => FitKind::Static {
+                siren: SirenConfig { hidden: self.hidden, layers: self.layers },
+                init: None,
+            },
         }
     }
 }

@@ -29,18 +29,28 @@ impl StudioApp {
             Some(PlaybackMeasure::Baking) => {
                 let baked = self.posed.as_ref().is_some_and(|p| p.id == 0); // a baked frame is shown
                 if !self.bakes.baking() && baked && self.timeline.playing {
-                    self.playback_measure = Some(PlaybackMeasure::Counting { start: Instant::now(), cpu: cpu_seconds(), drawn: self.frames_drawn, shown: 0, last: frame });
+                    self.playback_measure = Some(PlaybackMeasure::Counting {
+                        start: Instant::now(),
+                        cpu: cpu_seconds(),
+                        drawn: self.frames_drawn,
+                        shown: 0,
+                        last: frame,
+                    });
                 }
             }
             Some(PlaybackMeasure::Counting { start, cpu, drawn, shown, last }) => {
                 let shown = shown + usize::from(frame != last);
                 let s = start.elapsed().as_secs_f64();
                 if s < SECONDS {
-                    self.playback_measure = Some(PlaybackMeasure::Counting { start, cpu, drawn, shown, last: frame });
+                    self.playback_measure =
+                        Some(PlaybackMeasure::Counting { start, cpu, drawn, shown, last: frame });
                     return;
                 }
                 let frames = self.frames_drawn - drawn;
-                let px = self.viewport_rect.map(|r| r.size() * self.ctx.pixels_per_point()).unwrap_or_default();
+                let px = self
+                    .viewport_rect
+                    .map(|r| r.size() * self.ctx.pixels_per_point())
+                    .unwrap_or_default();
                 let vertices = self.posed.as_ref().map_or(0, |p| p.positions.len());
                 eprintln!(
                     "timing: playback of the baked {} clip ({vertices} vertices): {frames} frames drawn in {s:.1} s ({:.1} fps), {shown} clip frames shown ({:.1} a second; the clip has {:.0} fps), viewport {:.0} x {:.0} px, {:.0} ms of CPU (all threads) a frame",
@@ -64,7 +74,9 @@ impl StudioApp {
 fn cpu_seconds() -> f64 {
     let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
     // The fields after the command's closing parenthesis; utime and stime are the 12th and 13th.
-    let fields: Vec<&str> = stat.rsplit_once(')').map_or("", |(_, r)| r).split_whitespace().collect();
-    let ticks: f64 = fields.get(11..13).map_or(0.0, |f| f.iter().filter_map(|v| v.parse::<f64>().ok()).sum());
+    let fields: Vec<&str> =
+        stat.rsplit_once(')').map_or("", |(_, r)| r).split_whitespace().collect();
+    let ticks: f64 =
+        fields.get(11..13).map_or(0.0, |f| f.iter().filter_map(|v| v.parse::<f64>().ok()).sum());
     ticks / 100.0 // USER_HZ
 }

@@ -20,8 +20,8 @@ pub mod capture_view;
 pub mod commands;
 pub mod demo;
 pub mod fit_config;
-pub mod panels;
 mod measure;
+pub mod panels;
 pub mod path_dialog;
 pub mod playback;
 pub mod posing;
@@ -45,7 +45,11 @@ use eframe::egui;
 /// no GPU), 1280 x 800, persistence on.
 pub fn native_options() -> eframe::NativeOptions {
     eframe::NativeOptions {
-        viewport: egui::ViewportBuilder::default().with_title("Avatar Studio").with_inner_size([1280.0, 800.0]).with_min_inner_size([800.0, 500.0]).with_app_id("avatar-studio"),
+        viewport: egui::ViewportBuilder::default()
+            .with_title("Avatar Studio")
+            .with_inner_size([1280.0, 800.0])
+            .with_min_inner_size([800.0, 500.0])
+            .with_app_id("avatar-studio"),
         renderer: eframe::Renderer::Wgpu,
         persist_window: true,
         ..Default::default()
@@ -54,6 +58,12 @@ pub fn native_options() -> eframe::NativeOptions {
 
 /// Open the studio window (blocks until it closes).
 pub fn run(options: StudioOptions) -> crate::error::Result<()> {
-    eframe::run_native("Avatar Studio", native_options(), Box::new(move |cc| Ok(Box::new(StudioApp::new(cc, options)))))
-        .map_err(|e| crate::error::StudioError::invalid(format!("could not open the studio window: {e}")))
+    eframe::run_native(
+        "Avatar Studio",
+        native_options(),
+        Box::new(move |cc| Ok(Box::new(StudioApp::new(cc, options)))),
+    )
+    .map_err(|e| {
+        crate::error::StudioError::invalid(format!("could not open the studio window: {e}"))
+    })
 }

@@ -35,8 +35,20 @@ struct Entry {
 
 impl PathDialog {
     pub fn new(request: PathRequest, folder: PathBuf) -> PathDialog {
-        let name = if request.kind == PathKind::SaveFile { request.default_name.clone() } else { String::new() };
-        let mut d = PathDialog { request, folder: PathBuf::new(), folder_field: String::new(), name, entries: Vec::new(), listing_error: None, problem: None };
+        let name = if request.kind == PathKind::SaveFile {
+            request.default_name.clone()
+        } else {
+            String::new()
+        };
+        let mut d = PathDialog {
+            request,
+            folder: PathBuf::new(),
+            folder_field: String::new(),
+            name,
+            entries: Vec::new(),
+            listing_error: None,
+            problem: None,
+        };
         d.go_to(folder);
         d
     }
@@ -62,8 +74,12 @@ impl PathDialog {
     pub fn answer(&self) -> crate::error::Result<PathBuf> {
         let name = self.name.trim();
         match self.request.kind {
-            PathKind::Folder => Ok(if name.is_empty() { self.folder.clone() } else { self.folder.join(name) }),
-            PathKind::OpenFile | PathKind::SaveFile if name.is_empty() => Err(StudioError::invalid("Type a file name or pick one from the list")),
+            PathKind::Folder => {
+                Ok(if name.is_empty() { self.folder.clone() } else { self.folder.join(name) })
+            }
+            PathKind::OpenFile | PathKind::SaveFile if name.is_empty() => {
+                Err(StudioError::invalid("Type a file name or pick one from the list"))
+            }
             PathKind::OpenFile => {
                 let p = self.folder.join(name);
                 if p.is_file() { Ok(p) } else { Err(StudioError::file(&p, "no such file")) }
@@ -89,12 +105,18 @@ impl PathDialog {
             ui.heading(self.request.title);
             ui.horizontal(|ui| {
                 let l = ui.label("Folder");
-                let field = ui.add(egui::TextEdit::singleline(&mut self.folder_field).desired_width(300.0)).labelled_by(l.id);
+                let field = ui
+                    .add(egui::TextEdit::singleline(&mut self.folder_field).desired_width(300.0))
+                    .labelled_by(l.id);
                 let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
                 if ui.button("Go").clicked() || enter {
                     self.go_to(PathBuf::from(self.folder_field.trim()));
                 }
-                if ui.add_enabled(self.folder.parent().is_some(), egui::Button::new("Up")).on_hover_text("The parent folder").clicked() {
+                if ui
+                    .add_enabled(self.folder.parent().is_some(), egui::Button::new("Up"))
+                    .on_hover_text("The parent folder")
+                    .clicked()
+                {
                     if let Some(p) = self.folder.parent() {
                         self.go_to(p.to_path_buf());
                     }
@@ -105,21 +127,33 @@ impl PathDialog {
             }
             let mut go = None;
             let mut pick = None;
-            egui::ScrollArea::vertical().max_height(220.0).auto_shrink([false, false]).show(ui, |ui| {
-                if self.entries.is_empty() && self.listing_error.is_none() {
-                    ui.weak(if self.request.kind == PathKind::Folder { "No folders here" } else { "No matching files here" });
-                }
-                for e in &self.entries {
-                    let label = if e.dir { format!("[folder] {}", e.name) } else { e.name.clone() };
-                    let r = ui.selectable_label(!e.dir && self.name == e.name, label);
-                    if r.clicked() {
-                        if e.dir { go = Some(self.folder.join(&e.name)) } else { pick = Some((e.name.clone(), r.double_clicked())) }
+            egui::ScrollArea::vertical().max_height(220.0).auto_shrink([false, false]).show(
+                ui,
+                |ui| {
+                    if self.entries.is_empty() && self.listing_error.is_none() {
+                        ui.weak(if self.request.kind == PathKind::Folder {
+                            "No folders here"
+                        } else {
+                            "No matching files here"
+                        });
                     }
-                    if r.double_clicked() && !e.dir {
-                        pick = Some((e.name.clone(), true));
+                    for e in &self.entries {
+                        let label =
+                            if e.dir { format!("[folder] {}", e.name) } else { e.name.clone() };
+                        let r = ui.selectable_label(!e.dir && self.name == e.name, label);
+                        if r.clicked() {
+                            if e.dir {
+                                go = Some(self.folder.join(&e.name))
+                            } else {
+                                pick = Some((e.name.clone(), r.double_clicked()))
+                            }
+                        }
+                        if r.double_clicked() && !e.dir {
+                            pick = Some((e.name.clone(), true));
+                        }
                     }
-                }
-            });
+                },
+            );
             if let Some(f) = go {
                 self.go_to(f);
             }
@@ -131,13 +165,18 @@ impl PathDialog {
             if self.request.kind != PathKind::Folder {
                 ui.horizontal(|ui| {
                     let l = ui.label("File name");
-                    let r = ui.add(egui::TextEdit::singleline(&mut self.name).desired_width(300.0)).labelled_by(l.id);
+                    let r = ui
+                        .add(egui::TextEdit::singleline(&mut self.name).desired_width(300.0))
+                        .labelled_by(l.id);
                     accept |= r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
                 });
             }
             if let Ok(p) = self.answer() {
                 if self.request.kind == PathKind::SaveFile && p.exists() {
-                    ui.colored_label(crate::studio::style::WARN, format!("{} exists and will be replaced", p.display()));
+                    ui.colored_label(
+                        crate::studio::style::WARN,
+                        format!("{} exists and will be replaced", p.display()),
+                    );
                 }
             }
             if let Some(p) = &self.problem {
@@ -180,12 +219,19 @@ fn list(folder: &Path, extensions: &[&str], folders_only: bool) -> std::io::Resu
             continue;
         }
         let dir = e.path().is_dir();
-        let admitted = dir || (!folders_only && (extensions.is_empty() || extensions.iter().any(|x| name.to_ascii_lowercase().ends_with(&format!(".{x}")))));
+        let admitted = dir
+            || (!folders_only
+                && (extensions.is_empty()
+                    || extensions
+                        .iter()
+                        .any(|x| name.to_ascii_lowercase().ends_with(&format!(".{x}")))));
         if admitted {
             out.push(Entry { name, dir });
         }
     }
-    out.sort_by(|a, b| b.dir.cmp(&a.dir).then_with(|| a.name.to_lowercase().cmp(&b.name.to_lowercase())));
+    out.sort_by(|a, b| {
+        b.dir.cmp(&a.dir).then_with(|| a.name.to_lowercase().cmp(&b.name.to_lowercase()))
+    });
     Ok(out)
 }
 
@@ -205,11 +251,13 @@ mod tests {
         let names: Vec<_> = d.entries.iter().map(|e| e.name.as_str()).collect();
         assert_eq!(names, ["captures", "b.avatar"]);
         assert!(d.answer().is_err(), "nothing picked yet");
-        let mut s = PathDialog::new(PathPurpose::ExportGlb.request("walk.glb"), dir.path().to_path_buf());
+        let mut s =
+            PathDialog::new(PathPurpose::ExportGlb.request("walk.glb"), dir.path().to_path_buf());
         assert_eq!(s.answer().unwrap(), dir.path().join("walk.glb"));
         s.name = "captures".into();
         assert!(s.answer().unwrap_err().to_string().contains("is a folder"));
-        let mut missing = PathDialog::new(PathPurpose::SaveAvatar.request("a.avatar"), dir.path().join("nope"));
+        let mut missing =
+            PathDialog::new(PathPurpose::SaveAvatar.request("a.avatar"), dir.path().join("nope"));
         assert!(missing.listing_error.is_some());
         assert!(missing.answer().unwrap_err().to_string().contains("no such folder"));
         missing.go_to(dir.path().to_path_buf());

@@ -3,7 +3,7 @@
 //! cached per posable (avatar, body or partial result) and per clip with its joint offsets.
 
 use crate::error::StudioError;
-use crate::studio::posing::{pose, Posable, PoseRequest, PosedMesh};
+use crate::studio::posing::{Posable, PoseRequest, PosedMesh, pose};
 use crate::studio::tasks::{Task, Wake};
 use avatar_core::body::{BodyModel, BodyParams};
 use std::sync::Arc;
@@ -22,8 +22,18 @@ pub struct BakeKey {
 }
 
 impl BakeKey {
-    pub fn new(posable: &Posable, clip_source: &str, frames: usize, offsets: &[[f32; 3]]) -> BakeKey {
-        BakeKey { canonical: Arc::as_ptr(posable.canonical()) as usize, clip: clip_source.to_string(), frames, offsets: offsets.iter().flatten().map(|v| v.to_bits()).collect() }
+    pub fn new(
+        posable: &Posable,
+        clip_source: &str,
+        frames: usize,
+        offsets: &[[f32; 3]],
+    ) -> BakeKey {
+        BakeKey {
+            canonical: Arc::as_ptr(posable.canonical()) as usize,
+            clip: clip_source.to_string(),
+            frames,
+            offsets: offsets.iter().flatten().map(|v| v.to_bits()).collect(),
+        }
     }
 }
 
@@ -56,8 +66,18 @@ impl Bakes {
 
     /// Start baking `params` (one per frame) unless that bake exists or runs; a bake of another
     /// key still running is cancelled.
-    pub fn start(&mut self, key: BakeKey, posable: Posable, body: Arc<BodyModel>, params: Vec<BodyParams>, wake: Wake) {
-        if self.get(&key).is_some() || self.failed.contains(&key) || self.running.as_ref().is_some_and(|(k, _)| *k == key) {
+    pub fn start(
+        &mut self,
+        key: BakeKey,
+        posable: Posable,
+        body: Arc<BodyModel>,
+        params: Vec<BodyParams>,
+        wake: Wake,
+    ) {
+        if self.get(&key).is_some()
+            || self.failed.contains(&key)
+            || self.running.as_ref().is_some_and(|(k, _)| *k == key)
+        {
             return;
         }
         let n = params.len();
@@ -69,7 +89,12 @@ impl Bakes {
                 if cx.cancelled() {
                     return Err(StudioError::invalid("cancelled"));
                 }
-                let mut m = pose(&PoseRequest { id: 0, params, posable: posable.clone(), body: body.clone() })?;
+                let mut m = pose(&PoseRequest {
+                    id: 0,
+                    params,
+                    posable: posable.clone(),
+                    body: body.clone(),
+                })?;
                 if let Some(first) = frames.first() {
                     m.faces = first.faces.clone(); // one copy of the triangles for the whole clip
                 }

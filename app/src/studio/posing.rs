@@ -4,9 +4,9 @@
 //! (a result is shown rather than dropped while nothing newer is ready).
 
 use crate::studio::avatar::{CanonicalMesh, StudioAvatar};
-use crate::studio::tasks::{take_done, Task, TaskError, Wake};
-use avatar_core::body::{blend_transform, BodyModel, BodyParams, NUM_JOINTS};
-use avatar_core::avatar::{AvatarSource, PoseSurface, PROJECTION_STEPS};
+use crate::studio::tasks::{Task, TaskError, Wake, take_done};
+use avatar_core::avatar::{AvatarSource, PROJECTION_STEPS, PoseSurface};
+use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, blend_transform};
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -22,8 +22,15 @@ use std::sync::Arc;
 #[derive(Clone)]
 pub enum Posable {
     Mesh(Arc<CanonicalMesh>),
-    Smooth { mesh: Arc<CanonicalMesh>, normals: Arc<Vec<Vec3>> },
-    PoseDependent { avatar: Arc<dyn StudioAvatar>, reference: Arc<CanonicalMesh>, rest_normals: Option<Arc<Vec<Vec3>>> },
+    Smooth {
+        mesh: Arc<CanonicalMesh>,
+        normals: Arc<Vec<Vec3>>,
+    },
+    PoseDependent {
+        avatar: Arc<dyn StudioAvatar>,
+        reference: Arc<CanonicalMesh>,
+        rest_normals: Option<Arc<Vec<Vec3>>>,
+    },
 }
 
 impl Posable {
@@ -38,7 +45,9 @@ impl Posable {
     /// The same posable with the best normals (the pose's SDF gradient): for baking.
     pub fn exact(self) -> Posable {
         match self {
-            Posable::PoseDependent { avatar, reference, .. } => Posable::PoseDependent { avatar, reference, rest_normals: None },
+            Posable::PoseDependent { avatar, reference, .. } => {
+                Posable::PoseDependent { avatar, reference, rest_normals: None }
+            }
             p => p,
         }
     }
@@ -98,7 +107,8 @@ impl PoseWorker {
         if self.running.is_none() {
             if let Some(req) = self.queued.take() {
                 let id = req.id;
-                self.running = Some((id, Task::spawn("pose worker", self.wake.clone(), move |_| pose(&req))));
+                self.running =
+                    Some((id, Task::spawn("pose worker", self.wake.clone(), move |_| pose(&req))));
             }
         }
     }
@@ -123,9 +133,19 @@ impl PoseWorker {
 
 /// Unit normals of canonical points from the SDF's gradient at a pose (central differences);
 /// where the gradient vanishes, `fallback`'s normal is kept.
-pub fn sdf_normals(source: &dyn AvatarSource, params: &BodyParams, points: &[Vec3], fallback: &[Vec3]) -> crate::error::Result<Vec<Vec3>> {
+pub fn sdf_normals(
+    source: &dyn AvatarSource,
+    params: &BodyParams,
+    points: &[Vec3],
+    fallback: &[Vec3],
+) -> crate::error::Result<Vec<Vec3>> {
     const H: f32 = 1e-3;
-    let probe: Vec<Vec3> = points.iter().flat_map(|&p| [Vec3::X, Vec3::Y, Vec3::Z].into_iter().flat_map(move |a| [p + a * H, p - a * H])).collect();
+    let probe: Vec<Vec3> = points
+        .iter()
+        .flat_map(|&p| {
+            [Vec3::X, Vec3::Y, Vec3::Z].into_iter().flat_map(move |a| [p + a * H, p - a * H])
+        })
+        .collect();
     let f = source.sdf(params, &probe)?;
     Ok(f.chunks_exact(6)
         .zip(fallback)
@@ -143,23 +163,44 @@ pub fn pose(req: &PoseRequest) -> crate::error::Result<PosedMesh> {
     let posed_body = req.body.pose(&req.params);
     let bones = &posed_body.bones;
     let owned;
-    let (canonical, normals): (&CanonicalMesh, Option<std::borrow::Cow<[Vec3]>>) = match &req.posable {
+    let (canonical, normals): (&CanonicalMesh, Option<std::borrow::Cow<[Vec3]>>) = match &req
+        .posable
+    {
         Posable::Mesh(m) => (m, None),
         Posable::Smooth { mesh, normals } => (mesh, Some(std::borrow::Cow::Borrowed(&normals[..]))),
         Posable::PoseDependent { avatar, reference, rest_normals } => {
             // The exporter's recipe and Newton steps, so the studio shows what the export holds.
-            let surface = PoseSurface::project(avatar.source(), &req.params, &reference.mesh.positions, &reference.weights, reference.smoother.as_deref(), PROJECTION_STEPS)?;
+            let surface = PoseSurface::project(
+                avatar.source(),
+                &req.params,
+                &reference.mesh.positions,
+                &reference.weights,
+                reference.smoother.as_deref(),
+                PROJECTION_STEPS,
+            )?;
             let n = match rest_normals {
                 // A smoothed surface's own normals: the SDF's gradient would show the noise the
                 // smoothing took off.
-                _ if reference.smoother.is_some() => std::borrow::Cow::Owned(avatar_core::mesh::vertex_normals(&surface.points, &reference.mesh.faces)),
+                _ if reference.smoother.is_some() => std::borrow::Cow::Owned(
+                    avatar_core::mesh::vertex_normals(&surface.points, &reference.mesh.faces),
+                ),
                 Some(n) => std::borrow::Cow::Borrowed(&n[..]),
                 None => {
-                    let fallback = avatar_core::mesh::vertex_normals(&surface.points, &reference.mesh.faces);
-                    std::borrow::Cow::Owned(sdf_normals(avatar.source(), &req.params, &surface.points, &fallback)?)
+                    let fallback =
+                        avatar_core::mesh::vertex_normals(&surface.points, &reference.mesh.faces);
+                    std::borrow::Cow::Owned(sdf_normals(
+                        avatar.source(),
+                        &req.params,
+                        &surface.points,
+                        &fallback,
+                    )?)
                 }
             };
-            owned = CanonicalMesh { mesh: avatar_core::mesh::TriMesh::new(surface.points, reference.mesh.faces.clone()), weights: surface.weights, smoother: None };
+            owned = CanonicalMesh {
+                mesh: avatar_core::mesh::TriMesh::new(surface.points, reference.mesh.faces.clone()),
+                weights: surface.weights,
+                smoother: None,
+            };
             (&owned, Some(n))
         }
     };
@@ -168,7 +209,16 @@ pub fn pose(req: &PoseRequest) -> crate::error::Result<PosedMesh> {
         (m.transform_point3(*p), m)
     };
     let (positions, normals) = match normals {
-        None => (canonical.mesh.positions.par_iter().zip(&canonical.weights).map(|x| skin(x).0).collect(), None),
+        None => (
+            canonical
+                .mesh
+                .positions
+                .par_iter()
+                .zip(&canonical.weights)
+                .map(|x| skin(x).0)
+                .collect(),
+            None,
+        ),
         Some(n) => {
             let (p, n): (Vec<Vec3>, Vec<Vec3>) = canonical
                 .mesh
@@ -184,7 +234,14 @@ pub fn pose(req: &PoseRequest) -> crate::error::Result<PosedMesh> {
             (p, Some(n))
         }
     };
-    Ok(PosedMesh { id: req.id, positions, normals, faces: Arc::new(canonical.mesh.faces.clone()), joints: posed_body.posed_joints(), seconds: t.elapsed().as_secs_f64() })
+    Ok(PosedMesh {
+        id: req.id,
+        positions,
+        normals,
+        faces: Arc::new(canonical.mesh.faces.clone()),
+        joints: posed_body.posed_joints(),
+        seconds: t.elapsed().as_secs_f64(),
+    })
 }
 
 #[cfg(test)]
@@ -231,6 +288,10 @@ mod tests {
         let flat = avatar_core::mesh::vertex_normals(&posed.positions, &posed.faces);
         let n = posed.normals.unwrap();
         let agree = n.iter().zip(&flat).filter(|(a, b)| a.dot(**b) > 0.99).count();
-        assert!(agree as f32 > 0.95 * n.len() as f32, "{agree} of {} normals follow the turned mesh", n.len());
+        assert!(
+            agree as f32 > 0.95 * n.len() as f32,
+            "{agree} of {} normals follow the turned mesh",
+            n.len()
+        );
     }
 }

@@ -49,7 +49,15 @@ pub fn default_light() -> [f32; 3] {
 
 impl Default for ViewState {
     fn default() -> Self {
-        ViewState { mode: ViewMode::Posed, skeleton: false, shading: Shading::Lit, camera: OrbitCamera::default(), selected_frame: 0, material: default_material(), light: default_light() }
+        ViewState {
+            mode: ViewMode::Posed,
+            skeleton: false,
+            shading: Shading::Lit,
+            camera: OrbitCamera::default(),
+            selected_frame: 0,
+            material: default_material(),
+            light: default_light(),
+        }
     }
 }
 
@@ -78,8 +86,20 @@ pub struct Project {
 pub const DEMO: &str = "demo";
 
 impl Project {
-    pub fn new(capture: Option<String>, avatar: Option<String>, view: ViewState, motion: MotionState) -> Project {
-        Project { format: PROJECT_FORMAT.into(), version: PROJECT_VERSION, capture, avatar, view, motion }
+    pub fn new(
+        capture: Option<String>,
+        avatar: Option<String>,
+        view: ViewState,
+        motion: MotionState,
+    ) -> Project {
+        Project {
+            format: PROJECT_FORMAT.into(),
+            version: PROJECT_VERSION,
+            capture,
+            avatar,
+            view,
+            motion,
+        }
     }
 
     pub fn save(&self, path: &Path) -> Result<()> {
@@ -87,19 +107,31 @@ impl Project {
         let base = path.parent().unwrap_or(Path::new("."));
         p.capture = p.capture.map(|c| relative_to(&c, base));
         p.avatar = p.avatar.map(|a| relative_to(&a, base));
-        let text = serde_json::to_string_pretty(&p).map_err(|e| StudioError::file(path, e.to_string()))?;
+        let text =
+            serde_json::to_string_pretty(&p).map_err(|e| StudioError::file(path, e.to_string()))?;
         avatar_core::io::write_bytes_atomic(path, text.as_bytes())?;
         Ok(())
     }
 
     pub fn load(path: &Path) -> Result<Project> {
-        let text = std::fs::read_to_string(path).map_err(|e| StudioError::file(path, e.to_string()))?;
-        let mut p: Project = serde_json::from_str(&text).map_err(|e| StudioError::file(path, format!("not a studio project: {e}")))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| StudioError::file(path, e.to_string()))?;
+        let mut p: Project = serde_json::from_str(&text)
+            .map_err(|e| StudioError::file(path, format!("not a studio project: {e}")))?;
         if p.format != PROJECT_FORMAT {
-            return Err(StudioError::file(path, format!("not a studio project (format {:?})", p.format)));
+            return Err(StudioError::file(
+                path,
+                format!("not a studio project (format {:?})", p.format),
+            ));
         }
         if p.version > PROJECT_VERSION {
-            return Err(StudioError::file(path, format!("project version {} is newer than this build reads ({PROJECT_VERSION})", p.version)));
+            return Err(StudioError::file(
+                path,
+                format!(
+                    "project version {} is newer than this build reads ({PROJECT_VERSION})",
+                    p.version
+                ),
+            ));
         }
         let base = path.parent().unwrap_or(Path::new("."));
         p.capture = p.capture.map(|c| absolute_from(&c, base));
@@ -138,7 +170,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("me.avatar"), b"x").unwrap();
         let avatar = dir.path().join("me.avatar").to_string_lossy().into_owned();
-        let p = Project::new(Some(DEMO.into()), Some(avatar.clone()), ViewState::default(), MotionState { clip: "walk".into(), frame: 7, speed: 0.5, offsets: vec![] });
+        let p = Project::new(
+            Some(DEMO.into()),
+            Some(avatar.clone()),
+            ViewState::default(),
+            MotionState { clip: "walk".into(), frame: 7, speed: 0.5, offsets: vec![] },
+        );
         let path = dir.path().join("session.studio.json");
         p.save(&path).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
@@ -146,7 +183,10 @@ mod tests {
         let back = Project::load(&path).unwrap();
         assert_eq!(back.motion, p.motion);
         assert_eq!(back.view, p.view);
-        assert_eq!(PathBuf::from(back.avatar.unwrap()).canonicalize().unwrap(), PathBuf::from(avatar).canonicalize().unwrap());
+        assert_eq!(
+            PathBuf::from(back.avatar.unwrap()).canonicalize().unwrap(),
+            PathBuf::from(avatar).canonicalize().unwrap()
+        );
     }
 
     #[test]

@@ -4,9 +4,9 @@
 //! its fitting (paths, sizes, modification times), so reopening a scan does not import it again
 //! and an edited scan is imported afresh.
 
-use crate::studio::demo::cache_dir;
 use crate::error::{Context, Result, StudioError};
-use avatar_core::capture::scan::{import_scan, ScanViews};
+use crate::studio::demo::cache_dir;
+use avatar_core::capture::scan::{ScanViews, import_scan};
 use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 
@@ -19,7 +19,13 @@ pub fn is_scan(path: &Path) -> bool {
 /// beside it, in the order they are looked for.
 pub fn fitting_names(scan: &Path) -> Vec<String> {
     let stem = scan.file_stem().and_then(|s| s.to_str()).unwrap_or("scan");
-    vec![format!("{stem}.pose.json"), format!("{stem}.fitting.json"), format!("{stem}.json"), "pose.json".into(), "fitting.json".into()]
+    vec![
+        format!("{stem}.pose.json"),
+        format!("{stem}.fitting.json"),
+        format!("{stem}.json"),
+        "pose.json".into(),
+        "fitting.json".into(),
+    ]
 }
 
 /// The scan's body fitting: the first of [`fitting_names`] that exists in the scan's folder.
@@ -33,7 +39,8 @@ pub fn fitting_beside(scan: &Path) -> Result<PathBuf> {
 
 /// Identity of a file's version: its full path, size and modification time.
 fn hash_file(path: &Path, h: &mut impl Hasher) -> Result<()> {
-    let meta = std::fs::metadata(path).map_err(|e| StudioError::file(path, format!("cannot read it: {e}")))?;
+    let meta = std::fs::metadata(path)
+        .map_err(|e| StudioError::file(path, format!("cannot read it: {e}")))?;
     std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()).hash(h);
     meta.len().hash(h);
     meta.modified().ok().hash(h);
@@ -59,13 +66,21 @@ pub fn scan_capture(scan: &Path) -> Result<PathBuf> {
     }
     // Imported beside its final name and renamed into place: an interrupted import leaves no
     // half capture under the final name.
-    std::fs::create_dir_all(&root).map_err(|e| StudioError::file(&root, format!("cannot create the cache folder: {e}")))?;
+    std::fs::create_dir_all(&root)
+        .map_err(|e| StudioError::file(&root, format!("cannot create the cache folder: {e}")))?;
     let tmp = root.join(format!(".scan-{key:016x}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
-    let imported = import_scan(scan, &fitting, &tmp, avatar_core::body::open_body_ref(), &ScanViews::default());
+    let imported = import_scan(
+        scan,
+        &fitting,
+        &tmp,
+        avatar_core::body::open_body_ref(),
+        &ScanViews::default(),
+    );
     if let Err(e) = imported {
         let _ = std::fs::remove_dir_all(&tmp);
-        return Err(e).context(format!("Could not turn the scan {} into a capture", scan.display()));
+        return Err(e)
+            .context(format!("Could not turn the scan {} into a capture", scan.display()));
     }
     if std::fs::rename(&tmp, &dir).is_err() {
         // Another studio imported the same scan meanwhile: use its capture.
@@ -88,10 +103,17 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let scan = dir.path().join("person.obj");
         let e = fitting_beside(&scan).unwrap_err().to_string();
-        assert!(e.contains("person.obj") && e.contains("person.pose.json") && e.contains("pose.json"), "{e}");
+        assert!(
+            e.contains("person.obj") && e.contains("person.pose.json") && e.contains("pose.json"),
+            "{e}"
+        );
         std::fs::write(dir.path().join("pose.json"), "{}").unwrap();
         assert_eq!(fitting_beside(&scan).unwrap(), dir.path().join("pose.json"));
         std::fs::write(dir.path().join("person.json"), "{}").unwrap();
-        assert_eq!(fitting_beside(&scan).unwrap(), dir.path().join("person.json"), "the scan's own fitting first");
+        assert_eq!(
+            fitting_beside(&scan).unwrap(),
+            dir.path().join("person.json"),
+            "the scan's own fitting first"
+        );
     }
 }

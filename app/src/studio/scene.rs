@@ -48,7 +48,11 @@ impl StudioApp {
     pub(crate) fn posable(&self) -> Option<Posable> {
         let (shown, mesh) = self.shown()?;
         Some(match (shown, &self.avatar, &self.avatar_normals) {
-            (Shown::Avatar, Some(a), n) if a.pose_dependent() => Posable::PoseDependent { avatar: a.clone(), reference: mesh, rest_normals: n.clone() },
+            (Shown::Avatar, Some(a), n) if a.pose_dependent() => Posable::PoseDependent {
+                avatar: a.clone(),
+                reference: mesh,
+                rest_normals: n.clone(),
+            },
             (Shown::Avatar, _, Some(n)) => Posable::Smooth { mesh, normals: n.clone() },
             _ => Posable::Mesh(mesh),
         })
@@ -60,7 +64,9 @@ impl StudioApp {
         let body = self.body();
         match self.view.mode {
             ViewMode::Capture => {
-                if let Some(f) = self.capture.as_ref().and_then(|c| c.frames.get(self.view.selected_frame)) {
+                if let Some(f) =
+                    self.capture.as_ref().and_then(|c| c.frames.get(self.view.selected_frame))
+                {
                     s.add_lit_points(&f.points, &f.normals, [0.35, 0.85, 0.95], 1.0);
                     if let Some(params) = &f.params {
                         // The fitting the avatar refined this frame to, when it did.
@@ -75,8 +81,15 @@ impl StudioApp {
             }
             ViewMode::Canonical => {
                 if let Some((shown, m)) = self.shown() {
-                    let normals = (shown == Shown::Avatar).then_some(self.avatar_normals.as_deref()).flatten();
-                    s.add_mesh_with_normals(&m.mesh.positions, normals.map(|n| &n[..]), &m.mesh.faces, self.color(shown));
+                    let normals = (shown == Shown::Avatar)
+                        .then_some(self.avatar_normals.as_deref())
+                        .flatten();
+                    s.add_mesh_with_normals(
+                        &m.mesh.positions,
+                        normals.map(|n| &n[..]),
+                        &m.mesh.faces,
+                        self.color(shown),
+                    );
                 }
                 if self.view.skeleton {
                     s.add_skeleton(&body.rest_joints(&self.betas()), &SMPL_PARENTS, SKELETON_COLOR);
@@ -92,15 +105,22 @@ impl StudioApp {
                 }
             }
         }
-        let (lo, hi) = s.bounds().unwrap_or((Vec3::new(-0.5, -1.0, -0.5), Vec3::new(0.5, 1.0, 0.5)));
+        let (lo, hi) =
+            s.bounds().unwrap_or((Vec3::new(-0.5, -1.0, -0.5), Vec3::new(0.5, 1.0, 0.5)));
         let center = (lo + hi) * 0.5;
         s.add_grid(Vec3::new(center.x, 0.0, center.z), lo.y - 0.01, 1.5, 0.25);
         s
     }
 
     /// The open avatar's refined fitting of a capture frame given `params` (pose refinement).
-    pub fn refined_fitting(&self, params: &avatar_core::body::BodyParams) -> Option<&avatar_core::body::BodyParams> {
-        avatar_neural::avatar::refined_poses::refined_for(self.avatar.as_ref()?.refined_poses(), params)
+    pub fn refined_fitting(
+        &self,
+        params: &avatar_core::body::BodyParams,
+    ) -> Option<&avatar_core::body::BodyParams> {
+        avatar_neural::avatar::refined_poses::refined_for(
+            self.avatar.as_ref()?.refined_poses(),
+            params,
+        )
     }
 
     /// Frame the subject (F).

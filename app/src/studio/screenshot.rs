@@ -5,18 +5,27 @@ use crate::error::StudioError;
 use crate::studio::state::{Status, StudioApp};
 use eframe::egui;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
 
 const PENDING: u8 = 1;
 const SAVED: u8 = 2;
 const FAILED: u8 = 3;
 
 /// Encode and write (atomically) an egui image as PNG, cropped to `crop` (pixels) if given.
-pub fn save_png(image: &egui::ColorImage, crop: Option<egui::Rect>, path: &Path) -> crate::error::Result<()> {
+pub fn save_png(
+    image: &egui::ColorImage,
+    crop: Option<egui::Rect>,
+    path: &Path,
+) -> crate::error::Result<()> {
     let [w, h] = image.size;
     let (x0, y0, x1, y1) = match crop {
-        Some(r) => ((r.min.x.max(0.0) as usize).min(w), (r.min.y.max(0.0) as usize).min(h), (r.max.x.max(0.0) as usize).min(w), (r.max.y.max(0.0) as usize).min(h)),
+        Some(r) => (
+            (r.min.x.max(0.0) as usize).min(w),
+            (r.min.y.max(0.0) as usize).min(h),
+            (r.max.x.max(0.0) as usize).min(w),
+            (r.max.y.max(0.0) as usize).min(h),
+        ),
         None => (0, 0, w, h),
     };
     if x1 <= x0 || y1 <= y0 {
@@ -26,22 +35,33 @@ pub fn save_png(image: &egui::ColorImage, crop: Option<egui::Rect>, path: &Path)
     for y in y0..y1 {
         for x in x0..x1 {
             let c = image.pixels[y * w + x];
-            buf.put_pixel((x - x0) as u32, (y - y0) as u32, image::Rgba([c.r(), c.g(), c.b(), 255]));
+            buf.put_pixel(
+                (x - x0) as u32,
+                (y - y0) as u32,
+                image::Rgba([c.r(), c.g(), c.b(), 255]),
+            );
         }
     }
     let mut bytes = Vec::new();
-    buf.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png).map_err(|e| StudioError::file(path, format!("cannot encode the PNG: {e}")))?;
+    buf.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .map_err(|e| StudioError::file(path, format!("cannot encode the PNG: {e}")))?;
     avatar_core::io::write_bytes_atomic(path, &bytes)?;
     Ok(())
 }
 
 /// Where P saves screenshots: `AVATAR_STUDIO_SCREENSHOT_DIR`, else the current folder.
 pub fn default_screenshot_dir() -> PathBuf {
-    std::env::var_os("AVATAR_STUDIO_SCREENSHOT_DIR").filter(|v| !v.is_empty()).map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."))
+    std::env::var_os("AVATAR_STUDIO_SCREENSHOT_DIR")
+        .filter(|v| !v.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("."))
 }
 
 fn screenshot_path(dir: &Path) -> PathBuf {
-    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0);
     let mut path = dir.join(format!("avatar-studio-{secs}.png"));
     let mut n = 1;
     while path.exists() {
@@ -56,7 +76,12 @@ impl StudioApp {
     pub fn screenshot_viewport(&mut self) {
         let path = screenshot_path(&self.screenshot_dir);
         let ppp = self.ctx.pixels_per_point();
-        let crop = self.viewport_rect.map(|r| egui::Rect::from_min_max((r.min.to_vec2() * ppp).to_pos2(), (r.max.to_vec2() * ppp).to_pos2()));
+        let crop = self.viewport_rect.map(|r| {
+            egui::Rect::from_min_max(
+                (r.min.to_vec2() * ppp).to_pos2(),
+                (r.max.to_vec2() * ppp).to_pos2(),
+            )
+        });
         let p = path.clone();
         self.ctx.request_screenshot(move |img| {
             if let Err(e) = save_png(&img, crop, &p) {
@@ -72,13 +97,23 @@ impl StudioApp {
             if !self.first_frame_reported {
                 self.first_frame_reported = true;
                 if self.options.timing {
-                    eprintln!("timing: first frame {:.3} s after start", t0.elapsed().as_secs_f64());
+                    eprintln!(
+                        "timing: first frame {:.3} s after start",
+                        t0.elapsed().as_secs_f64()
+                    );
                 }
             }
-            if !self.ready_reported && self.capture.is_some() && self.posed.is_some() && !self.busy() {
+            if !self.ready_reported
+                && self.capture.is_some()
+                && self.posed.is_some()
+                && !self.busy()
+            {
                 self.ready_reported = true;
                 if self.options.timing {
-                    eprintln!("timing: demo loaded and posed {:.3} s after start", t0.elapsed().as_secs_f64());
+                    eprintln!(
+                        "timing: demo loaded and posed {:.3} s after start",
+                        t0.elapsed().as_secs_f64()
+                    );
                 }
             }
         }
@@ -91,7 +126,9 @@ impl StudioApp {
                     let s = state.clone();
                     let ctx = self.ctx.clone();
                     self.ctx.request_screenshot(move |img| {
-                        let ok = save_png(&img, None, &path).map_err(|e| eprintln!("screenshot: {e}")).is_ok();
+                        let ok = save_png(&img, None, &path)
+                            .map_err(|e| eprintln!("screenshot: {e}"))
+                            .is_ok();
                         s.store(if ok { SAVED } else { FAILED }, Ordering::SeqCst);
                         ctx.request_repaint();
                     });

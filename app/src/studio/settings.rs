@@ -25,7 +25,16 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Self {
-        Settings { recent_captures: Vec::new(), recent_projects: Vec::new(), fit: FitConfig::default(), shading: Shading::Lit, point_size: 3.0, skeleton: false, material: avatar_core::export::DEFAULT_COLOR, light: crate::studio::project::default_light() }
+        Settings {
+            recent_captures: Vec::new(),
+            recent_projects: Vec::new(),
+            fit: FitConfig::default(),
+            shading: Shading::Lit,
+            point_size: 3.0,
+            skeleton: false,
+            material: avatar_core::export::DEFAULT_COLOR,
+            light: crate::studio::project::default_light(),
+        }
     }
 }
 
@@ -101,13 +110,17 @@ impl Dialogs for RfdDialogs {
         let chosen = match r.kind {
             PathKind::Folder => d.pick_folder(),
             PathKind::OpenFile => d.add_filter(r.filter.0, r.filter.1).pick_file(),
-            PathKind::SaveFile => d.set_file_name(&r.default_name).add_filter(r.filter.0, r.filter.1).save_file(),
+            PathKind::SaveFile => {
+                d.set_file_name(&r.default_name).add_filter(r.filter.0, r.filter.1).save_file()
+            }
         };
         match chosen {
             Some(p) => DialogAnswer::Chosen(p),
             // Without a portal rfd returns at once with nothing (and logs); no person cancels
             // a dialog that fast.
-            None if t.elapsed() < std::time::Duration::from_millis(400) => DialogAnswer::Unavailable,
+            None if t.elapsed() < std::time::Duration::from_millis(400) => {
+                DialogAnswer::Unavailable
+            }
             None => DialogAnswer::Cancelled,
         }
     }
@@ -144,14 +157,22 @@ impl PathPurpose {
     /// The request shown for this purpose; `default_name` is proposed when saving.
     pub fn request(self, default_name: impl Into<String>) -> PathRequest {
         use PathKind::*;
-        let (title, kind, filter): (&'static str, PathKind, (&'static str, &'static [&'static str])) = match self {
+        let (title, kind, filter): (
+            &'static str,
+            PathKind,
+            (&'static str, &'static [&'static str]),
+        ) = match self {
             PathPurpose::OpenCapture => ("Open a capture folder", Folder, ("Capture folder", &[])),
             PathPurpose::OpenScan => ("Open a 3D scan", OpenFile, ("OBJ scan", &["obj"])),
             PathPurpose::OpenProject => ("Open a project", OpenFile, ("Studio project", &["json"])),
-            PathPurpose::SaveProject => ("Save the project", SaveFile, ("Studio project", &["json"])),
+            PathPurpose::SaveProject => {
+                ("Save the project", SaveFile, ("Studio project", &["json"]))
+            }
             PathPurpose::OpenAvatar => ("Open an avatar", OpenFile, ("Avatar", &["avatar"])),
             PathPurpose::SaveAvatar => ("Save the avatar", SaveFile, ("Avatar", &["avatar"])),
-            PathPurpose::OpenMotion => ("Open a motion", OpenFile, ("Motion", &["json", "npz", "bvh"])),
+            PathPurpose::OpenMotion => {
+                ("Open a motion", OpenFile, ("Motion", &["json", "npz", "bvh"]))
+            }
             PathPurpose::ExportGlb => ("Export animated glTF", SaveFile, ("glTF binary", &["glb"])),
             PathPurpose::ExportObj => ("Export the posed mesh", SaveFile, ("OBJ", &["obj"])),
         };

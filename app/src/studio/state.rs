@@ -5,8 +5,8 @@
 
 use crate::studio::avatar::{CanonicalMesh, StudioAvatar};
 use crate::studio::avatar_job::FitJob;
-use crate::studio::fit_config::FitConfig;
 use crate::studio::capture_view::LoadedCapture;
+use crate::studio::fit_config::FitConfig;
 use crate::studio::path_dialog::PathDialog;
 use crate::studio::playback::Bakes;
 use crate::studio::posing::{PoseWorker, PosedMesh};
@@ -15,7 +15,7 @@ use crate::studio::settings::{Dialogs, Settings};
 use crate::studio::tasks::Task;
 use crate::studio::timeline::Timeline;
 use crate::studio::viewport::Scene;
-use avatar_core::body::{open_body_ref, BodyModel};
+use avatar_core::body::{BodyModel, open_body_ref};
 use eframe::egui;
 use glam::Vec3;
 use std::path::PathBuf;
@@ -81,7 +81,9 @@ impl JobView {
     }
 
     pub fn seconds_left(&self) -> Option<f64> {
-        (self.step > 0 && self.steps > 0).then(|| self.elapsed_s * (self.steps - self.step.min(self.steps)) as f64 / self.step as f64)
+        (self.step > 0 && self.steps > 0).then(|| {
+            self.elapsed_s * (self.steps - self.step.min(self.steps)) as f64 / self.step as f64
+        })
     }
 }
 
@@ -192,7 +194,13 @@ impl StudioApp {
     /// True while anything runs in the background or a pose is on its way.
     pub fn busy(&self) -> bool {
         let t = &self.tasks;
-        t.capture.is_some() || t.avatar.is_some() || t.export.is_some() || self.job.is_some() || self.bakes.baking() || self.pose_needed || self.poser.busy()
+        t.capture.is_some()
+            || t.avatar.is_some()
+            || t.export.is_some()
+            || self.job.is_some()
+            || self.bakes.baking()
+            || self.pose_needed
+            || self.poser.busy()
     }
 
     pub fn body(&self) -> Arc<BodyModel> {
@@ -202,7 +210,10 @@ impl StudioApp {
         {
             return Arc::new(a.source().body().clone());
         }
-        self.capture.as_ref().map(|c| c.body.clone()).unwrap_or_else(|| Arc::new(open_body_ref().clone()))
+        self.capture
+            .as_ref()
+            .map(|c| c.body.clone())
+            .unwrap_or_else(|| Arc::new(open_body_ref().clone()))
     }
 
     /// The shape posed and shown: the avatar's own, else the capture's.

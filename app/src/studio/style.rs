@@ -24,13 +24,19 @@ pub fn apply(ctx: &egui::Context, backdrop: bool) {
         v.selection.bg_fill = egui::Color32::from_rgb(40, 82, 140);
         v.selection.stroke = egui::Stroke::new(1.0, ACCENT);
         v.hyperlink_color = ACCENT;
-        v.widgets.noninteractive.bg_stroke = egui::Stroke::new(1.0, egui::Color32::from_rgb(45, 48, 54));
+        v.widgets.noninteractive.bg_stroke =
+            egui::Stroke::new(1.0, egui::Color32::from_rgb(45, 48, 54));
     });
 }
 
 /// A section heading in a side panel.
 pub fn heading(ui: &mut egui::Ui, text: &str) {
     ui.add_space(4.0);
-    ui.label(egui::RichText::new(text.to_uppercase()).small().strong().color(egui::Color32::from_rgb(150, 158, 172)));
+    ui.label(
+        egui::RichText::new(text.to_uppercase())
+            .small()
+            .strong()
+            .color(egui::Color32::from_rgb(150, 158, 172)),
+    );
     ui.add_space(1.0);
 }

@@ -4,8 +4,8 @@
 
 pub use crate::error::TaskError;
 use crossbeam_channel::{Receiver, Sender};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Called after every event and at the end (the studio asks egui for a repaint).
 pub type Wake = Arc<dyn Fn() + Send + Sync>;
@@ -43,7 +43,11 @@ pub struct Task<T, E = ()> {
 }
 
 impl<T: Send + 'static, E: Send + 'static> Task<T, E> {
-    pub fn spawn(name: &'static str, wake: Wake, work: impl FnOnce(&TaskContext<E>) -> crate::error::Result<T> + Send + 'static) -> Task<T, E> {
+    pub fn spawn(
+        name: &'static str,
+        wake: Wake,
+        work: impl FnOnce(&TaskContext<E>) -> crate::error::Result<T> + Send + 'static,
+    ) -> Task<T, E> {
         let (event_tx, events) = crossbeam_channel::unbounded();
         let (result_tx, result) = crossbeam_channel::bounded(1);
         let cancel = Arc::new(AtomicBool::new(false));
@@ -132,7 +136,9 @@ mod tests {
         assert_eq!(wait(&t).unwrap(), 42);
         assert_eq!(t.drain_events(), vec![0, 1, 2]);
         assert!(wakes.load(Ordering::SeqCst) >= 4, "every event and the end wake the UI");
-        let t: Task<()> = Task::spawn("reader", wake.clone(), |_| Err(StudioError::invalid("no such file").context("reading x.json")));
+        let t: Task<()> = Task::spawn("reader", wake.clone(), |_| {
+            Err(StudioError::invalid("no such file").context("reading x.json"))
+        });
         assert_eq!(wait(&t).unwrap_err().to_string(), "reading x.json: no such file");
         let t: Task<()> = Task::spawn("crasher", wake, |_| panic!("bug"));
         assert!(matches!(wait(&t), Err(TaskError::Panicked("crasher"))));

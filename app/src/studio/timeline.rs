@@ -2,7 +2,7 @@
 //! for the major joints. Pure state and one small panel.
 
 use avatar_core::body::{BodyParams, JOINT_NAMES, NUM_JOINTS};
-use avatar_core::motion::{clip_by_name, clip_names, MotionClip};
+use avatar_core::motion::{MotionClip, clip_by_name, clip_names};
 use eframe::egui;
 use glam::{EulerRot, Quat, Vec3};
 use std::path::Path;
@@ -24,7 +24,14 @@ pub struct Timeline {
 
 impl Timeline {
     pub fn new(clip: MotionClip, source: impl Into<String>) -> Timeline {
-        Timeline { clip, clip_source: source.into(), frame: 0.0, playing: false, speed: 1.0, offsets: [[0.0; 3]; NUM_JOINTS] }
+        Timeline {
+            clip,
+            clip_source: source.into(),
+            frame: 0.0,
+            playing: false,
+            speed: 1.0,
+            offsets: [[0.0; 3]; NUM_JOINTS],
+        }
     }
 
     pub fn library(name: &str) -> Option<Timeline> {
@@ -55,7 +62,8 @@ impl Timeline {
             return false;
         }
         let before = self.current_frame();
-        self.frame = (self.frame + dt * self.clip.fps * self.speed).rem_euclid(self.frames() as f32);
+        self.frame =
+            (self.frame + dt * self.clip.fps * self.speed).rem_euclid(self.frames() as f32);
         self.current_frame() != before
     }
 
@@ -69,7 +77,12 @@ impl Timeline {
         let mut p = self.clip.frames.get(f).cloned().unwrap_or_default();
         for (j, o) in self.offsets.iter().enumerate() {
             if o.iter().any(|v| *v != 0.0) {
-                let q = Quat::from_euler(EulerRot::XYZ, o[0].to_radians(), o[1].to_radians(), o[2].to_radians());
+                let q = Quat::from_euler(
+                    EulerRot::XYZ,
+                    o[0].to_radians(),
+                    o[1].to_radians(),
+                    o[2].to_radians(),
+                );
                 p.pose[j] = (Quat::from_scaled_axis(p.pose[j]) * q).to_scaled_axis();
             }
         }
@@ -121,13 +134,24 @@ pub fn timeline_bar(ui: &mut egui::Ui, t: &mut Timeline) -> TimelineActions {
         let n = t.frames();
         let mut f = t.current_frame();
         ui.spacing_mut().slider_width = (ui.available_width() - 400.0).max(120.0);
-        let r = ui.add(egui::Slider::new(&mut f, 0..=n - 1).text("frame").clamping(egui::SliderClamping::Always));
+        let r = ui.add(
+            egui::Slider::new(&mut f, 0..=n - 1)
+                .text("frame")
+                .clamping(egui::SliderClamping::Always),
+        );
         if r.changed() {
             t.set_frame(f);
             t.playing = false;
             a.changed = true;
         }
-        ui.label(egui::RichText::new(format!("{:.2} s", t.current_frame() as f32 / t.clip.fps.max(1e-3))).monospace().weak());
+        ui.label(
+            egui::RichText::new(format!(
+                "{:.2} s",
+                t.current_frame() as f32 / t.clip.fps.max(1e-3)
+            ))
+            .monospace()
+            .weak(),
+        );
         ui.separator();
         let speed_label = ui.label("speed");
         egui::ComboBox::from_id_salt("speed")
@@ -141,18 +165,21 @@ pub fn timeline_bar(ui: &mut egui::Ui, t: &mut Timeline) -> TimelineActions {
             .response
             .labelled_by(speed_label.id);
         let clip_label = ui.label("clip");
-        egui::ComboBox::from_id_salt("clip").width(110.0).selected_text(t.clip.name.clone()).show_ui(ui, |ui| {
-            for name in clip_names() {
-                if ui.selectable_label(t.clip.name == name, name).clicked() {
-                    a.library = Some(name.to_string());
+        egui::ComboBox::from_id_salt("clip")
+            .width(110.0)
+            .selected_text(t.clip.name.clone())
+            .show_ui(ui, |ui| {
+                for name in clip_names() {
+                    if ui.selectable_label(t.clip.name == name, name).clicked() {
+                        a.library = Some(name.to_string());
+                    }
                 }
-            }
-            if ui.button("Open motion file…").clicked() {
-                a.open_file = true;
-            }
-        })
-        .response
-        .labelled_by(clip_label.id);
+                if ui.button("Open motion file…").clicked() {
+                    a.open_file = true;
+                }
+            })
+            .response
+            .labelled_by(clip_label.id);
     });
     a
 }
@@ -164,7 +191,15 @@ pub fn joint_controls(ui: &mut egui::Ui, t: &mut Timeline) -> bool {
         for &j in &MAJOR_JOINTS {
             let l = ui.label(pretty_joint(JOINT_NAMES[j]));
             for (k, axis) in ["x", "y", "z"].iter().enumerate() {
-                let r = ui.add(egui::DragValue::new(&mut t.offsets[j][k]).range(-120.0..=120.0).speed(0.5).suffix("°").prefix(*axis)).labelled_by(l.id);
+                let r = ui
+                    .add(
+                        egui::DragValue::new(&mut t.offsets[j][k])
+                            .range(-120.0..=120.0)
+                            .speed(0.5)
+                            .suffix("°")
+                            .prefix(*axis),
+                    )
+                    .labelled_by(l.id);
                 changed |= r.changed();
             }
             ui.end_row();

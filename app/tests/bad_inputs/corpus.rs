@@ -3,7 +3,7 @@
 //! that are inputs, each with the command that reads it and the file its error must name.
 
 use super::fixtures::*;
-use serde_json::{json, Value};
+use serde_json::{Value, json};
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 
@@ -64,16 +64,22 @@ fn weights_variants(bytes: &[u8]) -> Vec<(&'static str, Vec<u8>)> {
         ("padded", with(&|b| b.extend([0; 4]))),
         ("bit-flip-magic", with(&|b| b[0] ^= 0x10)),
         ("header-length-huge", with(&|b| b[8..16].copy_from_slice(&u64::MAX.to_le_bytes()))),
-        ("header-length-beyond", with(&|b| {
-            let n = b.len() as u64;
-            b[8..16].copy_from_slice(&n.to_le_bytes())
-        })),
+        (
+            "header-length-beyond",
+            with(&|b| {
+                let n = b.len() as u64;
+                b[8..16].copy_from_slice(&n.to_le_bytes())
+            }),
+        ),
         ("bit-flip-header-brace", with(&|b| b[16] ^= 0x01)),
         ("weight-nan", with(&|b| b[16 + len..20 + len].copy_from_slice(&f32::NAN.to_le_bytes()))),
-        ("weight-inf", with(&|b| {
-            let n = b.len();
-            b[n - 4..].copy_from_slice(&f32::INFINITY.to_le_bytes())
-        })),
+        (
+            "weight-inf",
+            with(&|b| {
+                let n = b.len();
+                b[n - 4..].copy_from_slice(&f32::INFINITY.to_le_bytes())
+            }),
+        ),
     ]
 }
 
@@ -82,7 +88,10 @@ fn split_weights(path: &Path) -> (Value, Vec<f32>) {
     let b = std::fs::read(path).unwrap();
     let len = u64::from_le_bytes(b[8..16].try_into().unwrap()) as usize;
     let header = serde_json::from_slice(&b[16..16 + len]).unwrap();
-    (header, b[16 + len..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect())
+    (
+        header,
+        b[16 + len..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect(),
+    )
 }
 
 /// A PNG of the given header with one empty IDAT: the size is all a reader may look at.
@@ -149,10 +158,12 @@ impl<'a> Corpus<'a> {
     fn capture(&self, name: &str, edit: impl FnOnce(&Path, Value) -> Value) -> PathBuf {
         let dir = self.bad.join(name);
         write_capture(&dir, 2);
-        let manifest: Value = serde_json::from_slice(&std::fs::read(dir.join("capture.json")).unwrap()).unwrap();
+        let manifest: Value =
+            serde_json::from_slice(&std::fs::read(dir.join("capture.json")).unwrap()).unwrap();
         let manifest = edit(&dir, manifest);
         if !manifest.is_null() {
-            std::fs::write(dir.join("capture.json"), serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
+            std::fs::write(dir.join("capture.json"), serde_json::to_vec_pretty(&manifest).unwrap())
+                .unwrap();
         }
         dir
     }
@@ -169,9 +180,14 @@ impl<'a> Corpus<'a> {
     }
 
     fn avatars(&mut self) {
-        for (kind, base) in [("static", self.f.static_avatar.clone()), ("meta", self.f.meta_avatar.clone())] {
+        for (kind, base) in
+            [("static", self.f.static_avatar.clone()), ("meta", self.f.meta_avatar.clone())]
+        {
             let bytes = std::fs::read(&base).unwrap();
-            let mut files: Vec<(String, PathBuf)> = weights_variants(&bytes).into_iter().map(|(n, b)| (n.to_string(), self.file(&format!("{kind}-{n}.avatar"), &b))).collect();
+            let mut files: Vec<(String, PathBuf)> = weights_variants(&bytes)
+                .into_iter()
+                .map(|(n, b)| (n.to_string(), self.file(&format!("{kind}-{n}.avatar"), &b)))
+                .collect();
             let (header, weights) = split_weights(&base);
             let mut edits: Vec<(&str, &str, Option<Value>)> = vec![
                 ("betas-1e30", "betas/0", Some(json!(1e30))),
@@ -195,7 +211,11 @@ impl<'a> Corpus<'a> {
                 ("format", "format", Some(json!("something-else"))),
                 ("version-2", "version", Some(json!(2))),
                 ("no-betas", "betas", None),
-                ("partial-not-partial", "partial", Some(json!({"steps_done": 5, "steps_requested": 5}))),
+                (
+                    "partial-not-partial",
+                    "partial",
+                    Some(json!({"steps_done": 5, "steps_requested": 5})),
+                ),
                 ("kind-model", "kind", Some(json!("meta-model"))),
             ];
             if kind == "static" {
@@ -227,9 +247,29 @@ impl<'a> Corpus<'a> {
             for (i, (n, p)) in files.into_iter().enumerate() {
                 // Alternate the two commands that read avatars.
                 let args = if i % 2 == 0 {
-                    os(&[&"pose", &p, &"--motion", &"walk", &"--frames", &"1", &"--resolution", &"16", &"--out", &self.out(&format!("{kind}-{n}"))])
+                    os(&[
+                        &"pose",
+                        &p,
+                        &"--motion",
+                        &"walk",
+                        &"--frames",
+                        &"1",
+                        &"--resolution",
+                        &"16",
+                        &"--out",
+                        &self.out(&format!("{kind}-{n}")),
+                    ])
                 } else {
-                    os(&[&"export", &p, &"--motion", &"walk", &"--frames", &"2", &"--out", &self.out(&format!("{kind}-{n}.glb"))])
+                    os(&[
+                        &"export",
+                        &p,
+                        &"--motion",
+                        &"walk",
+                        &"--frames",
+                        &"2",
+                        &"--out",
+                        &self.out(&format!("{kind}-{n}.glb")),
+                    ])
                 };
                 self.push(format!("avatar {kind} {n}"), args, Some(p));
             }
@@ -238,14 +278,21 @@ impl<'a> Corpus<'a> {
 
     fn models(&mut self) {
         let bytes = std::fs::read(&self.f.model).unwrap();
-        let mut files: Vec<(String, PathBuf)> = weights_variants(&bytes).into_iter().map(|(n, b)| (n.to_string(), self.file(&format!("model-{n}.bin"), &b))).collect();
+        let mut files: Vec<(String, PathBuf)> = weights_variants(&bytes)
+            .into_iter()
+            .map(|(n, b)| (n.to_string(), self.file(&format!("model-{n}.bin"), &b)))
+            .collect();
         let (header, weights) = split_weights(&self.f.model);
         let edits: Vec<(&str, &str, Option<Value>)> = vec![
             ("kind-avatar", "kind", Some(json!("meta-hyper"))),
             ("kind-static", "kind", Some(json!("static-sdf"))),
             ("format-avatar", "format", Some(json!("avatar-studio-avatar"))),
             ("version-9", "version", Some(json!(9))),
-            ("hyper-params-off", "hyper_params", Some(json!(header["hyper_params"].as_u64().unwrap() + 1))),
+            (
+                "hyper-params-off",
+                "hyper_params",
+                Some(json!(header["hyper_params"].as_u64().unwrap() + 1)),
+            ),
             ("static-params-0", "static_params", Some(json!(0))),
             ("hidden-0", "config/siren/hidden", Some(json!(0))),
             ("head-1e6", "config/head_hidden", Some(json!(1_000_000))),
@@ -261,7 +308,18 @@ impl<'a> Corpus<'a> {
         // An avatar given as a model.
         files.push(("an-avatar".into(), self.f.meta_avatar.clone()));
         for (i, (n, p)) in files.into_iter().enumerate() {
-            let mut args = os(&[&"fit", &self.f.capture, &"--model", &p, &"--steps", &"1", &"--frames", &"1", &"--out", &self.out(&format!("model-{n}.avatar"))]);
+            let mut args = os(&[
+                &"fit",
+                &self.f.capture,
+                &"--model",
+                &p,
+                &"--steps",
+                &"1",
+                &"--frames",
+                &"1",
+                &"--out",
+                &self.out(&format!("model-{n}.avatar")),
+            ]);
             if i % 3 == 2 {
                 args.push("--static".into());
             }
@@ -270,14 +328,30 @@ impl<'a> Corpus<'a> {
     }
 
     fn captures(&mut self) {
-        let add = |c: &mut Self, name: &str, names: &str, edit: Box<dyn FnOnce(&Path, Value) -> Value>| {
+        let add = |c: &mut Self,
+                   name: &str,
+                   names: &str,
+                   edit: Box<dyn FnOnce(&Path, Value) -> Value>| {
             let dir = c.capture(name, edit);
             let named = dir.join(names);
             let i = c.cases.len();
             let args = if i % 2 == 0 {
-                os(&[&"canonicalize", &dir, &"--no-cache", &"--out", &c.out(&format!("cap-{name}.ply"))])
+                os(&[
+                    &"canonicalize",
+                    &dir,
+                    &"--no-cache",
+                    &"--out",
+                    &c.out(&format!("cap-{name}.ply")),
+                ])
             } else {
-                os(&[&"fit", &dir, &"--steps", &"1", &"--out", &c.out(&format!("cap-{name}.avatar"))])
+                os(&[
+                    &"fit",
+                    &dir,
+                    &"--steps",
+                    &"1",
+                    &"--out",
+                    &c.out(&format!("cap-{name}.avatar")),
+                ])
             };
             c.push(format!("capture {name}"), args, Some(named));
         };
@@ -290,7 +364,13 @@ impl<'a> Corpus<'a> {
             ("fx-string", "intrinsics/fx", Some(json!("250"))),
             ("width-0", "intrinsics/width", Some(json!(0))),
             ("width-100000", "intrinsics/width", Some(json!(100_000))),
-            ("huge-image", "intrinsics", Some(json!({"fx": 250.0, "fy": 250.0, "cx": 125.0, "cy": 125.0, "width": 8000, "height": 8000}))),
+            (
+                "huge-image",
+                "intrinsics",
+                Some(
+                    json!({"fx": 250.0, "fy": 250.0, "cx": 125.0, "cy": 125.0, "width": 8000, "height": 8000}),
+                ),
+            ),
             ("depth-scale-0", "depth_scale", Some(json!(0.0))),
             ("depth-scale-negative", "depth_scale", Some(json!(-1000.0))),
             ("depth-scale-null", "depth_scale", Some(Value::Null)),
@@ -304,7 +384,12 @@ impl<'a> Corpus<'a> {
         for (n, path, value) in manifest_edits {
             add(self, n, "capture.json", Box::new(move |_, m| set(&m, path, value)));
         }
-        add(self, "body-model-passwd", "capture.json", Box::new(|_, m| set(&m, "body_model", Some(json!("/etc/passwd")))));
+        add(
+            self,
+            "body-model-passwd",
+            "capture.json",
+            Box::new(|_, m| set(&m, "body_model", Some(json!("/etc/passwd")))),
+        );
         let smpl_1e300 = {
             let mut e = smpl_entries();
             let nv = open_body_lowpoly_vertices();
@@ -313,21 +398,43 @@ impl<'a> Corpus<'a> {
             e[0] = ("v_template", npy("<f8", &[nv, 3], &f64s(&t)));
             e
         };
-        add(self, "body-model-1e300", "smpl.npz", Box::new(move |d, m| {
-            write_npz(&d.join("smpl.npz"), &smpl_1e300, false);
-            set(&m, "body_model", Some(json!("smpl.npz")))
-        }));
-        for (n, bytes) in [("empty", b"".to_vec()), ("not-json", b"depth images and poses".to_vec()), ("truncated", b"{\"format\": \"avatar-studio-capture\", \"version\": 1, \"intri".to_vec())] {
-            add(self, &format!("manifest-{n}"), "capture.json", Box::new(move |d, _| {
-                std::fs::write(d.join("capture.json"), &bytes).unwrap();
-                Value::Null
-            }));
+        add(
+            self,
+            "body-model-1e300",
+            "smpl.npz",
+            Box::new(move |d, m| {
+                write_npz(&d.join("smpl.npz"), &smpl_1e300, false);
+                set(&m, "body_model", Some(json!("smpl.npz")))
+            }),
+        );
+        for (n, bytes) in [
+            ("empty", b"".to_vec()),
+            ("not-json", b"depth images and poses".to_vec()),
+            (
+                "truncated",
+                b"{\"format\": \"avatar-studio-capture\", \"version\": 1, \"intri".to_vec(),
+            ),
+        ] {
+            add(
+                self,
+                &format!("manifest-{n}"),
+                "capture.json",
+                Box::new(move |d, _| {
+                    std::fs::write(d.join("capture.json"), &bytes).unwrap();
+                    Value::Null
+                }),
+            );
         }
-        add(self, "manifest-100mb", "capture.json", Box::new(|d, _| {
-            // Sparse: 100 MB of nothing, written instantly.
-            std::fs::File::create(d.join("capture.json")).unwrap().set_len(100 << 20).unwrap();
-            Value::Null
-        }));
+        add(
+            self,
+            "manifest-100mb",
+            "capture.json",
+            Box::new(|d, _| {
+                // Sparse: 100 MB of nothing, written instantly.
+                std::fs::File::create(d.join("capture.json")).unwrap().set_len(100 << 20).unwrap();
+                Value::Null
+            }),
+        );
         // Every frame broken the same way (one bad frame alone is skipped with a warning).
         let frame_edits: Vec<(&str, &str, Option<Value>)> = vec![
             ("pose-71", "pose", Some(json!(vec![0.0; 71]))),
@@ -337,65 +444,142 @@ impl<'a> Corpus<'a> {
             ("shape-1e30", "shape/0", Some(json!(1e30))),
             ("shape-1e4", "shape/0", Some(json!(1e4))),
             ("translation-1e9", "translation", Some(json!([1e9, 0.0, 0.0]))),
-            ("camera-scaled", "camera_to_world", Some(json!([2.0, 0, 0, 0, 0, 2.0, 0, 0, 0, 0, 2.0, 0, 0, 0, 0, 1.0]))),
+            (
+                "camera-scaled",
+                "camera_to_world",
+                Some(json!([2.0, 0, 0, 0, 0, 2.0, 0, 0, 0, 0, 2.0, 0, 0, 0, 0, 1.0])),
+            ),
             ("depth-missing", "depth", Some(json!("depth/none.png"))),
         ];
         for (n, path, value) in frame_edits {
-            add(self, n, "capture.json", Box::new(move |_, mut m| {
-                for i in 0..2 {
-                    m = set(&m, &format!("frames/{i}/{path}"), value.clone());
-                }
-                m
-            }));
+            add(
+                self,
+                n,
+                "capture.json",
+                Box::new(move |_, mut m| {
+                    for i in 0..2 {
+                        m = set(&m, &format!("frames/{i}/{path}"), value.clone());
+                    }
+                    m
+                }),
+            );
         }
         let depth0 = "depth/000000.png";
         type Png = Box<dyn Fn(&[u8]) -> Vec<u8>>;
         let pngs: Vec<(&str, Png)> = vec![
             ("png-truncated", Box::new(|b: &[u8]| b[..b.len() / 2].to_vec())),
             ("png-empty", Box::new(|_: &[u8]| Vec::new())),
-            ("png-bit-flip", Box::new(|b: &[u8]| {
-                let mut b = b.to_vec();
-                b[20] ^= 0x04; // inside IHDR: its CRC fails
-                b
-            })),
-            ("png-8bit", Box::new(|_: &[u8]| png_bytes(image::DynamicImage::ImageLuma8(image::GrayImage::from_pixel(250, 250, image::Luma([128])))))),
-            ("png-rgb", Box::new(|_: &[u8]| png_bytes(image::DynamicImage::ImageRgb8(image::RgbImage::new(250, 250))))),
-            ("png-300x300", Box::new(|_: &[u8]| png_bytes(image::DynamicImage::ImageLuma16(image::ImageBuffer::from_pixel(300, 300, image::Luma([2000u16])))))),
+            (
+                "png-bit-flip",
+                Box::new(|b: &[u8]| {
+                    let mut b = b.to_vec();
+                    b[20] ^= 0x04; // inside IHDR: its CRC fails
+                    b
+                }),
+            ),
+            (
+                "png-8bit",
+                Box::new(|_: &[u8]| {
+                    png_bytes(image::DynamicImage::ImageLuma8(image::GrayImage::from_pixel(
+                        250,
+                        250,
+                        image::Luma([128]),
+                    )))
+                }),
+            ),
+            (
+                "png-rgb",
+                Box::new(|_: &[u8]| {
+                    png_bytes(image::DynamicImage::ImageRgb8(image::RgbImage::new(250, 250)))
+                }),
+            ),
+            (
+                "png-300x300",
+                Box::new(|_: &[u8]| {
+                    png_bytes(image::DynamicImage::ImageLuma16(image::ImageBuffer::from_pixel(
+                        300,
+                        300,
+                        image::Luma([2000u16]),
+                    )))
+                }),
+            ),
             ("png-15000x15000-header", Box::new(|_: &[u8]| png_header_only(15000, 15000, 16, 0))),
-            ("png-all-zero", Box::new(|_: &[u8]| png_bytes(image::DynamicImage::ImageLuma16(image::ImageBuffer::new(250, 250))))),
-            ("png-65-metres", Box::new(|_: &[u8]| png_bytes(image::DynamicImage::ImageLuma16(image::ImageBuffer::from_pixel(250, 250, image::Luma([65535u16])))))),
+            (
+                "png-all-zero",
+                Box::new(|_: &[u8]| {
+                    png_bytes(image::DynamicImage::ImageLuma16(image::ImageBuffer::new(250, 250)))
+                }),
+            ),
+            (
+                "png-65-metres",
+                Box::new(|_: &[u8]| {
+                    png_bytes(image::DynamicImage::ImageLuma16(image::ImageBuffer::from_pixel(
+                        250,
+                        250,
+                        image::Luma([65535u16]),
+                    )))
+                }),
+            ),
             ("png-text", Box::new(|_: &[u8]| b"not an image".to_vec())),
         ];
         for (n, make) in pngs {
-            add(self, n, depth0, Box::new(move |d, m| {
+            add(
+                self,
+                n,
+                depth0,
+                Box::new(move |d, m| {
+                    for i in 0..2 {
+                        let p = d.join(m["frames"][i]["depth"].as_str().unwrap());
+                        let b = std::fs::read(&p).unwrap();
+                        std::fs::write(&p, make(&b)).unwrap();
+                    }
+                    m
+                }),
+            );
+        }
+        add(
+            self,
+            "depth-scale-1",
+            depth0,
+            Box::new(|_, m| set(&m, "depth_scale", Some(json!(1.0)))),
+        );
+        add(
+            self,
+            "mask-wrong-size",
+            "mask.png",
+            Box::new(|d, mut m| {
+                std::fs::write(
+                    d.join("mask.png"),
+                    png_bytes(image::DynamicImage::ImageLuma8(image::GrayImage::new(20, 20))),
+                )
+                .unwrap();
                 for i in 0..2 {
-                    let p = d.join(m["frames"][i]["depth"].as_str().unwrap());
-                    let b = std::fs::read(&p).unwrap();
-                    std::fs::write(&p, make(&b)).unwrap();
+                    m = set(&m, &format!("frames/{i}/mask"), Some(json!("mask.png")));
                 }
                 m
-            }));
-        }
-        add(self, "depth-scale-1", depth0, Box::new(|_, m| set(&m, "depth_scale", Some(json!(1.0)))));
-        add(self, "mask-wrong-size", "mask.png", Box::new(|d, mut m| {
-            std::fs::write(d.join("mask.png"), png_bytes(image::DynamicImage::ImageLuma8(image::GrayImage::new(20, 20)))).unwrap();
-            for i in 0..2 {
-                m = set(&m, &format!("frames/{i}/mask"), Some(json!("mask.png")));
-            }
-            m
-        }));
-        add(self, "mask-huge-header", "mask.png", Box::new(|d, mut m| {
-            std::fs::write(d.join("mask.png"), png_header_only(15000, 15000, 8, 0)).unwrap();
-            for i in 0..2 {
-                m = set(&m, &format!("frames/{i}/mask"), Some(json!("mask.png")));
-            }
-            m
-        }));
+            }),
+        );
+        add(
+            self,
+            "mask-huge-header",
+            "mask.png",
+            Box::new(|d, mut m| {
+                std::fs::write(d.join("mask.png"), png_header_only(15000, 15000, 8, 0)).unwrap();
+                for i in 0..2 {
+                    m = set(&m, &format!("frames/{i}/mask"), Some(json!("mask.png")));
+                }
+                m
+            }),
+        );
     }
 
     fn poses_and_motions(&mut self) {
         let pose: Value = serde_json::from_slice(&std::fs::read(&self.f.pose).unwrap()).unwrap();
-        let mut pose_files: Vec<(String, Vec<u8>)> = vec![("empty".into(), Vec::new()), ("not-json".into(), b"pose: 0".to_vec()), ("truncated".into(), b"{\"pose\": [0, 0,".to_vec())];
+        let mut pose_files: Vec<(String, Vec<u8>)> = vec![
+            ("empty".into(), Vec::new()),
+            ("not-json".into(), b"pose: 0".to_vec()),
+            ("truncated".into(), b"{\"pose\": [0, 0,".to_vec()),
+        ];
         let pose_edits: Vec<(&str, &str, Option<Value>)> = vec![
             ("pose-71", "pose", Some(json!(vec![0.0; 71]))),
             ("pose-string", "pose/3", Some(json!("x"))),
@@ -414,12 +598,22 @@ impl<'a> Corpus<'a> {
         }
         for (n, b) in pose_files {
             let p = self.file(&format!("pose-{n}.json"), &b);
-            let args = os(&[&"body", &"--pose", &p, &"--lowpoly", &"--out", &self.out(&format!("pose-{n}.obj"))]);
+            let args = os(&[
+                &"body",
+                &"--pose",
+                &p,
+                &"--lowpoly",
+                &"--out",
+                &self.out(&format!("pose-{n}.obj")),
+            ]);
             self.push(format!("pose {n}"), args, Some(p));
         }
 
         let clip: Value = serde_json::from_slice(&std::fs::read(&self.f.clip).unwrap()).unwrap();
-        let mut clip_files: Vec<(String, Vec<u8>)> = vec![("empty".into(), Vec::new()), ("truncated".into(), std::fs::read(&self.f.clip).unwrap()[..100].to_vec())];
+        let mut clip_files: Vec<(String, Vec<u8>)> = vec![
+            ("empty".into(), Vec::new()),
+            ("truncated".into(), std::fs::read(&self.f.clip).unwrap()[..100].to_vec()),
+        ];
         let clip_edits: Vec<(&str, &str, Option<Value>)> = vec![
             ("fps-1e-30", "fps", Some(json!(1e-30))),
             ("fps-0", "fps", Some(json!(0))),
@@ -438,13 +632,15 @@ impl<'a> Corpus<'a> {
         }
         for (n, b) in clip_files {
             let p = self.file(&format!("clip-{n}.json"), &b);
-            let args = os(&[&"export", &"--motion", &p, &"--out", &self.out(&format!("clip-{n}.glb"))]);
+            let args =
+                os(&[&"export", &"--motion", &p, &"--out", &self.out(&format!("clip-{n}.glb"))]);
             self.push(format!("motion clip {n}"), args, Some(p));
         }
 
         let base = amass_entries();
         let with = |key: &str, entry: Option<Vec<u8>>| -> Vec<(&'static str, Vec<u8>)> {
-            let mut e: Vec<(&'static str, Vec<u8>)> = base.iter().filter(|(k, _)| *k != key).cloned().collect();
+            let mut e: Vec<(&'static str, Vec<u8>)> =
+                base.iter().filter(|(k, _)| *k != key).cloned().collect();
             if let Some(b) = entry {
                 let k = base.iter().find(|(k, _)| *k == key).map(|(k, _)| *k).unwrap();
                 e.push((k, b));
@@ -476,13 +672,19 @@ impl<'a> Corpus<'a> {
         for (n, entries) in amass {
             let p = self.bad.join(format!("amass-{n}.npz"));
             write_npz(&p, &entries, false);
-            let args = os(&[&"export", &"--motion", &p, &"--out", &self.out(&format!("amass-{n}.glb"))]);
+            let args =
+                os(&[&"export", &"--motion", &p, &"--out", &self.out(&format!("amass-{n}.glb"))]);
             self.push(format!("AMASS {n}"), args, Some(p));
         }
         let whole = std::fs::read(&self.f.amass).unwrap();
-        for (n, b) in [("empty", Vec::new()), ("truncated", whole[..whole.len() / 2].to_vec()), ("text", b"poses".to_vec())] {
+        for (n, b) in [
+            ("empty", Vec::new()),
+            ("truncated", whole[..whole.len() / 2].to_vec()),
+            ("text", b"poses".to_vec()),
+        ] {
             let p = self.file(&format!("amass-{n}.npz"), &b);
-            let args = os(&[&"export", &"--motion", &p, &"--out", &self.out(&format!("amass-{n}.glb"))]);
+            let args =
+                os(&[&"export", &"--motion", &p, &"--out", &self.out(&format!("amass-{n}.glb"))]);
             self.push(format!("AMASS {n}"), args, Some(p));
         }
     }
@@ -491,7 +693,11 @@ impl<'a> Corpus<'a> {
         let base = smpl_entries();
         let nv = open_body_lowpoly_vertices();
         let replace = |key: &str, entry: Option<Vec<u8>>| -> Vec<(&'static str, Vec<u8>)> {
-            base.iter().filter_map(|(k, b)| if *k == key { entry.clone().map(|e| (*k, e)) } else { Some((*k, b.clone())) }).collect()
+            base.iter()
+                .filter_map(|(k, b)| {
+                    if *k == key { entry.clone().map(|e| (*k, e)) } else { Some((*k, b.clone())) }
+                })
+                .collect()
         };
         let template: Vec<f64> = open_body_lowpoly_template();
         let scaled = |s: f64, at: Option<(usize, f64)>| {
@@ -505,38 +711,93 @@ impl<'a> Corpus<'a> {
             ("template-1e300", replace("v_template", Some(scaled(1.0, Some((4, 1e300))))), false),
             ("template-mm", replace("v_template", Some(scaled(1000.0, None))), false),
             ("template-nan", replace("v_template", Some(scaled(1.0, Some((4, f64::NAN))))), false),
-            ("template-wrong-shape", replace("v_template", Some(npy("<f4", &[nv, 2], &f32s(&vec![0.0; nv * 2])))), false),
+            (
+                "template-wrong-shape",
+                replace("v_template", Some(npy("<f4", &[nv, 2], &f32s(&vec![0.0; nv * 2])))),
+                false,
+            ),
             ("no-template", replace("v_template", None), false),
-            ("shapedirs-wrong-shape", replace("shapedirs", Some(npy("<f4", &[nv, 3], &f32s(&vec![0.0; nv * 3])))), false),
-            ("kintree-smplh", replace("kintree_table", Some(npy("<f4", &[2, 52], &f32s(&[0.0; 104])))), false),
-            ("regressor-1e30", replace("J_regressor", Some(npy("<f4", &[24, nv], &f32s(&vec![1e30; 24 * nv])))), false),
-            ("weights-sum-2", replace("weights", Some(npy("<f4", &[nv, 24], &f32s(&vec![2.0 / 24.0; nv * 24])))), false),
-            ("faces-out-of-range", replace("f", Some(npy("<f4", &[1, 3], &f32s(&[0.0, 1.0, 1e7])))), false),
-            ("faces-fractional", replace("f", Some(npy("<f4", &[1, 3], &f32s(&[0.0, 0.5, 2.0])))), false),
-            ("template-float16", replace("v_template", Some(npy("<f2", &[nv, 3], &vec![0u8; nv * 6]))), false),
-            ("template-object", replace("v_template", Some(npy("|O", &[nv, 3], &[0u8; 16]))), false),
-            ("shapedirs-claim-1.5gb", replace("shapedirs", Some(npy("<f8", &[6890, 3, 10000], &[0u8; 64]))), false),
+            (
+                "shapedirs-wrong-shape",
+                replace("shapedirs", Some(npy("<f4", &[nv, 3], &f32s(&vec![0.0; nv * 3])))),
+                false,
+            ),
+            (
+                "kintree-smplh",
+                replace("kintree_table", Some(npy("<f4", &[2, 52], &f32s(&[0.0; 104])))),
+                false,
+            ),
+            (
+                "regressor-1e30",
+                replace("J_regressor", Some(npy("<f4", &[24, nv], &f32s(&vec![1e30; 24 * nv])))),
+                false,
+            ),
+            (
+                "weights-sum-2",
+                replace("weights", Some(npy("<f4", &[nv, 24], &f32s(&vec![2.0 / 24.0; nv * 24])))),
+                false,
+            ),
+            (
+                "faces-out-of-range",
+                replace("f", Some(npy("<f4", &[1, 3], &f32s(&[0.0, 1.0, 1e7])))),
+                false,
+            ),
+            (
+                "faces-fractional",
+                replace("f", Some(npy("<f4", &[1, 3], &f32s(&[0.0, 0.5, 2.0])))),
+                false,
+            ),
+            (
+                "template-float16",
+                replace("v_template", Some(npy("<f2", &[nv, 3], &vec![0u8; nv * 6]))),
+                false,
+            ),
+            (
+                "template-object",
+                replace("v_template", Some(npy("|O", &[nv, 3], &[0u8; 16]))),
+                false,
+            ),
+            (
+                "shapedirs-claim-1.5gb",
+                replace("shapedirs", Some(npy("<f8", &[6890, 3, 10000], &[0u8; 64]))),
+                false,
+            ),
         ];
         for (n, entries, deflate) in models {
             let p = self.bad.join(format!("smpl-{n}.npz"));
             write_npz(&p, &entries, deflate);
-            let args = os(&[&"body", &"--model", &p, &"--out", &self.out(&format!("smpl-{n}.obj"))]);
+            let args =
+                os(&[&"body", &"--model", &p, &"--out", &self.out(&format!("smpl-{n}.obj"))]);
             self.push(format!("SMPL npz {n}"), args, Some(p));
         }
         // Zip bombs: 1.5 GB of zero float64s deflated to 1.5 MB, refused from the npy header
         // before inflating; and 16 M values (under the size cap) of the wrong shape for this body,
         // inflated (128 MB at most), then refused.
-        for (n, shape) in [("zip-bomb-1.5gb", vec![6890usize, 3, 9070]), ("zip-bomb-under-cap", vec![(1 << 24) / 3, 3])] {
+        for (n, shape) in [
+            ("zip-bomb-1.5gb", vec![6890usize, 3, 9070]),
+            ("zip-bomb-under-cap", vec![(1 << 24) / 3, 3]),
+        ] {
             let p = self.bad.join(format!("smpl-{n}.npz"));
             let bytes = 8 * shape.iter().product::<usize>();
-            write_npz_with_zeros(&p, &replace("shapedirs", None), false, Some(("shapedirs", npy("<f8", &shape, &[]), bytes)));
-            let args = os(&[&"body", &"--model", &p, &"--out", &self.out(&format!("smpl-{n}.obj"))]);
+            write_npz_with_zeros(
+                &p,
+                &replace("shapedirs", None),
+                false,
+                Some(("shapedirs", npy("<f8", &shape, &[]), bytes)),
+            );
+            let args =
+                os(&[&"body", &"--model", &p, &"--out", &self.out(&format!("smpl-{n}.obj"))]);
             self.push(format!("SMPL npz {n}"), args, Some(p));
         }
         let whole = std::fs::read(&self.f.smpl).unwrap();
-        for (n, b) in [("empty", Vec::new()), ("truncated", whole[..whole.len() / 2].to_vec()), ("passwd-like", b"root:x:0:0:root:/root:/bin/bash\n".to_vec())] {
+        for (n, b) in [
+            ("empty", Vec::new()),
+            ("truncated", whole[..whole.len() / 2].to_vec()),
+            ("passwd-like", b"root:x:0:0:root:/root:/bin/bash\n".to_vec()),
+        ] {
             let p = self.file(&format!("smpl-{n}.npz"), &b);
-            let args = os(&[&"body", &"--model", &p, &"--out", &self.out(&format!("smpl-{n}.obj"))]);
+            let args =
+                os(&[&"body", &"--model", &p, &"--out", &self.out(&format!("smpl-{n}.obj"))]);
             self.push(format!("SMPL npz {n}"), args, Some(p));
         }
     }
@@ -566,7 +827,8 @@ impl<'a> Corpus<'a> {
             d
         };
         for (n, path, value) in data_edits {
-            let d = write_data(n, &serde_json::to_vec(&set(&manifest, path, value)).unwrap(), &samples);
+            let d =
+                write_data(n, &serde_json::to_vec(&set(&manifest, path, value)).unwrap(), &samples);
             dirs.push((n.into(), d, "meta-data.json"));
         }
         let mut nan = samples.clone();
@@ -583,7 +845,17 @@ impl<'a> Corpus<'a> {
             dirs.push((n.into(), d, named));
         }
         for (n, d, named) in dirs {
-            let args = os(&[&"meta-train", &"--data", &d, &"--sdf-iterations", &"1", &"--hyper-iterations", &"1", &"--out", &self.out(&format!("train-{n}"))]);
+            let args = os(&[
+                &"meta-train",
+                &"--data",
+                &d,
+                &"--sdf-iterations",
+                &"1",
+                &"--hyper-iterations",
+                &"1",
+                &"--out",
+                &self.out(&format!("train-{n}")),
+            ]);
             self.push(format!("meta-training data {n}"), args, Some(d.join(named)));
         }
 
@@ -596,7 +868,12 @@ impl<'a> Corpus<'a> {
             ("hyper-too-few-weights", checkpoint_header("hyper"), vec![0.01; sdf], false),
             ("sdf-too-many-weights", checkpoint_header("sdf"), vec![0.01; sdf + hyper], false),
             ("unknown-stage", checkpoint_header("polish"), vec![0.01; sdf], false),
-            ("nan-weights", checkpoint_header("sdf"), [vec![0.01; sdf - 1], vec![f32::NAN]].concat(), false),
+            (
+                "nan-weights",
+                checkpoint_header("sdf"),
+                [vec![0.01; sdf - 1], vec![f32::NAN]].concat(),
+                false,
+            ),
             ("other-options", other, vec![0.01; sdf], false),
             ("truncated", checkpoint_header("hyper"), vec![0.01; sdf + hyper], true),
         ];
@@ -609,7 +886,17 @@ impl<'a> Corpus<'a> {
                 let b = std::fs::read(&ck).unwrap();
                 std::fs::write(&ck, &b[..b.len() - 1000]).unwrap();
             }
-            let args = os(&[&"meta-train", &"--data", &self.f.meta_data, &"--sdf-iterations", &"1", &"--hyper-iterations", &"1", &"--out", &run]);
+            let args = os(&[
+                &"meta-train",
+                &"--data",
+                &self.f.meta_data,
+                &"--sdf-iterations",
+                &"1",
+                &"--hyper-iterations",
+                &"1",
+                &"--out",
+                &run,
+            ]);
             self.push(format!("meta-train checkpoint {n}"), args, Some(ck));
         }
     }
@@ -633,31 +920,177 @@ impl<'a> Corpus<'a> {
         std::fs::copy(&f.model, run.join("meta-model.bin")).unwrap();
         let o = |n: &str| self.out(n);
         let cases: Vec<(&str, Vec<OsString>, Option<PathBuf>)> = vec![
-            ("fit over capture.json", os(&[&"fit", cap, &"--out", &cap.join("capture.json")]), Some(cap.join("capture.json"))),
-            ("fit over its model", os(&[&"fit", cap, &"--model", &f.model, &"--out", &f.model]), Some(f.model.clone())),
-            ("fit over its model (.avatar name)", os(&[&"fit", cap, &"--model", &model_avatar, &"--out", &model_avatar]), Some(model_avatar.clone())),
-            ("canonicalize over a depth image", os(&[&"canonicalize", cap, &"--out", &cap.join("depth/000001.png")]), Some(cap.join("depth/000001.png"))),
-            ("canonicalize over a capture file", os(&[&"canonicalize", &cap_extra, &"--out", &cap_extra.join("points.ply")]), Some(cap_extra.join("points.ply"))),
-            ("canonicalize into the capture folder", os(&[&"canonicalize", cap, &"--out", cap]), Some(cap.clone())),
-            ("export over its avatar", os(&[&"export", &f.static_avatar, &"--motion", &"walk", &"--out", &f.static_avatar]), Some(f.static_avatar.clone())),
-            ("export over its clip", os(&[&"export", &f.static_avatar, &"--motion", &f.clip, &"--out", &f.clip]), Some(f.clip.clone())),
-            ("export over a hard link of its clip", os(&[&"export", &f.static_avatar, &"--motion", &f.clip, &"--out", &hard]), Some(hard.clone())),
-            ("export as .fbx", os(&[&"export", &"--motion", &"walk", &"--out", &o("anim.fbx")]), Some(o("anim.fbx"))),
-            ("export frames over a file", os(&[&"export", &f.static_avatar, &"--motion", &"walk", &"--format", &"obj", &"--out", &f.clip]), Some(f.clip.clone())),
-            ("body over its pose", os(&[&"body", &"--pose", &f.pose, &"--out", &f.pose]), Some(f.pose.clone())),
-            ("body over a link to its pose", os(&[&"body", &"--pose", &f.pose, &"--out", &link]), Some(link.clone())),
-            ("body over its model", os(&[&"body", &"--model", &f.smpl, &"--out", &f.smpl]), Some(f.smpl.clone())),
+            (
+                "fit over capture.json",
+                os(&[&"fit", cap, &"--out", &cap.join("capture.json")]),
+                Some(cap.join("capture.json")),
+            ),
+            (
+                "fit over its model",
+                os(&[&"fit", cap, &"--model", &f.model, &"--out", &f.model]),
+                Some(f.model.clone()),
+            ),
+            (
+                "fit over its model (.avatar name)",
+                os(&[&"fit", cap, &"--model", &model_avatar, &"--out", &model_avatar]),
+                Some(model_avatar.clone()),
+            ),
+            (
+                "canonicalize over a depth image",
+                os(&[&"canonicalize", cap, &"--out", &cap.join("depth/000001.png")]),
+                Some(cap.join("depth/000001.png")),
+            ),
+            (
+                "canonicalize over a capture file",
+                os(&[&"canonicalize", &cap_extra, &"--out", &cap_extra.join("points.ply")]),
+                Some(cap_extra.join("points.ply")),
+            ),
+            (
+                "canonicalize into the capture folder",
+                os(&[&"canonicalize", cap, &"--out", cap]),
+                Some(cap.clone()),
+            ),
+            (
+                "export over its avatar",
+                os(&[
+                    &"export",
+                    &f.static_avatar,
+                    &"--motion",
+                    &"walk",
+                    &"--out",
+                    &f.static_avatar,
+                ]),
+                Some(f.static_avatar.clone()),
+            ),
+            (
+                "export over its clip",
+                os(&[&"export", &f.static_avatar, &"--motion", &f.clip, &"--out", &f.clip]),
+                Some(f.clip.clone()),
+            ),
+            (
+                "export over a hard link of its clip",
+                os(&[&"export", &f.static_avatar, &"--motion", &f.clip, &"--out", &hard]),
+                Some(hard.clone()),
+            ),
+            (
+                "export as .fbx",
+                os(&[&"export", &"--motion", &"walk", &"--out", &o("anim.fbx")]),
+                Some(o("anim.fbx")),
+            ),
+            (
+                "export frames over a file",
+                os(&[
+                    &"export",
+                    &f.static_avatar,
+                    &"--motion",
+                    &"walk",
+                    &"--format",
+                    &"obj",
+                    &"--out",
+                    &f.clip,
+                ]),
+                Some(f.clip.clone()),
+            ),
+            (
+                "body over its pose",
+                os(&[&"body", &"--pose", &f.pose, &"--out", &f.pose]),
+                Some(f.pose.clone()),
+            ),
+            (
+                "body over a link to its pose",
+                os(&[&"body", &"--pose", &f.pose, &"--out", &link]),
+                Some(link.clone()),
+            ),
+            (
+                "body over its model",
+                os(&[&"body", &"--model", &f.smpl, &"--out", &f.smpl]),
+                Some(f.smpl.clone()),
+            ),
             ("body as .stl", os(&[&"body", &"--out", &o("body.stl")]), Some(o("body.stl"))),
-            ("pose over its avatar", os(&[&"pose", &f.static_avatar, &"--motion", &"walk", &"--out", &f.static_avatar]), Some(f.static_avatar.clone())),
-            ("meta-train over --sdf-from", os(&[&"meta-train", &"--data", &f.meta_data, &"--sdf-from", &run.join("meta-model.bin"), &"--out", &run]), Some(run.join("meta-model.bin"))),
-            ("eval over its model", os(&[&"eval", &"--rows", &"meta", &"--model", &f.model, &"--out", &f.model]), Some(f.model.clone())),
-            ("eval markdown over its report", os(&[&"eval", &"--out", &o("r.json"), &"--markdown", &o("r.json")]), Some(o("r.json"))),
-            ("synth over a file", os(&[&"synth", &"--clips", &f.clip, &"--out", &f.clip]), Some(f.clip.clone())),
-            ("synth contact sheet over its clip", os(&[&"synth", &"--clips", &f.clip, &"--out", &o("synth"), &"--contact-sheet", &f.clip]), Some(f.clip.clone())),
-            ("bench report as .json", os(&[&"bench", &"--only", &"none", &"--out", &f.clip]), Some(f.clip.clone())),
-            ("pose --resolution 0", os(&[&"pose", &f.static_avatar, &"--motion", &"walk", &"--resolution", &"0", &"--out", &o("p0")]), None),
-            ("pose --resolution 100000", os(&[&"pose", &f.static_avatar, &"--motion", &"walk", &"--resolution", &"100000", &"--out", &o("p1")]), None),
-            ("canonicalize --field-cells 4096", os(&[&"canonicalize", cap, &"--field-cells", &"4096", &"--out", &o("c.ply")]), None),
+            (
+                "pose over its avatar",
+                os(&[&"pose", &f.static_avatar, &"--motion", &"walk", &"--out", &f.static_avatar]),
+                Some(f.static_avatar.clone()),
+            ),
+            (
+                "meta-train over --sdf-from",
+                os(&[
+                    &"meta-train",
+                    &"--data",
+                    &f.meta_data,
+                    &"--sdf-from",
+                    &run.join("meta-model.bin"),
+                    &"--out",
+                    &run,
+                ]),
+                Some(run.join("meta-model.bin")),
+            ),
+            (
+                "eval over its model",
+                os(&[&"eval", &"--rows", &"meta", &"--model", &f.model, &"--out", &f.model]),
+                Some(f.model.clone()),
+            ),
+            (
+                "eval markdown over its report",
+                os(&[&"eval", &"--out", &o("r.json"), &"--markdown", &o("r.json")]),
+                Some(o("r.json")),
+            ),
+            (
+                "synth over a file",
+                os(&[&"synth", &"--clips", &f.clip, &"--out", &f.clip]),
+                Some(f.clip.clone()),
+            ),
+            (
+                "synth contact sheet over its clip",
+                os(&[
+                    &"synth",
+                    &"--clips",
+                    &f.clip,
+                    &"--out",
+                    &o("synth"),
+                    &"--contact-sheet",
+                    &f.clip,
+                ]),
+                Some(f.clip.clone()),
+            ),
+            (
+                "bench report as .json",
+                os(&[&"bench", &"--only", &"none", &"--out", &f.clip]),
+                Some(f.clip.clone()),
+            ),
+            (
+                "pose --resolution 0",
+                os(&[
+                    &"pose",
+                    &f.static_avatar,
+                    &"--motion",
+                    &"walk",
+                    &"--resolution",
+                    &"0",
+                    &"--out",
+                    &o("p0"),
+                ]),
+                None,
+            ),
+            (
+                "pose --resolution 100000",
+                os(&[
+                    &"pose",
+                    &f.static_avatar,
+                    &"--motion",
+                    &"walk",
+                    &"--resolution",
+                    &"100000",
+                    &"--out",
+                    &o("p1"),
+                ]),
+                None,
+            ),
+            (
+                "canonicalize --field-cells 4096",
+                os(&[&"canonicalize", cap, &"--field-cells", &"4096", &"--out", &o("c.ply")]),
+                None,
+            ),
         ];
         for (n, args, names) in cases {
             self.push(format!("output: {n}"), args, names);
@@ -670,5 +1103,10 @@ fn open_body_lowpoly_vertices() -> usize {
 }
 
 fn open_body_lowpoly_template() -> Vec<f64> {
-    avatar_core::body::open_body_lowpoly_ref().v_template.iter().flat_map(|v| v.to_array()).map(|x| x as f64).collect()
+    avatar_core::body::open_body_lowpoly_ref()
+        .v_template
+        .iter()
+        .flat_map(|v| v.to_array())
+        .map(|x| x as f64)
+        .collect()
 }

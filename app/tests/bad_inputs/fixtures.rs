@@ -2,16 +2,16 @@
 //! shipped): the bases the corpus and the fuzz test corrupt. Each is checked to load first, so a
 //! refusal comes from the corruption, not from a broken base.
 
-use avatar_core::body::{open_body_lowpoly_ref, open_body_ref, SMPL_PARENTS};
+use avatar_core::body::{SMPL_PARENTS, open_body_lowpoly_ref, open_body_ref};
 use avatar_core::canonical::Normalisation;
 use avatar_core::motion::MotionClip;
+use avatar_neural::avatar::meta_avatar::{META_AVATAR_KIND, MetaAvatarHeader};
+use avatar_neural::avatar::static_avatar::{AVATAR_FORMAT, AvatarHeader};
 use avatar_neural::encoder::PoseEncoding;
-use avatar_neural::meta_training::MetaOptions;
-use avatar_neural::avatar::meta_avatar::{MetaAvatarHeader, META_AVATAR_KIND};
-use avatar_neural::meta_data::{Group, Manifest, MetaDataConfig, DATA_FORMAT, DATA_VERSION};
 use avatar_neural::flat_params::flatten;
-use avatar_neural::avatar::static_avatar::{AvatarHeader, AVATAR_FORMAT};
-use avatar_neural::{weights_file, HyperConfig, MetaModel, SirenConfig};
+use avatar_neural::meta_data::{DATA_FORMAT, DATA_VERSION, Group, Manifest, MetaDataConfig};
+use avatar_neural::meta_training::MetaOptions;
+use avatar_neural::{HyperConfig, MetaModel, SirenConfig, weights_file};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -32,7 +32,12 @@ pub struct Fixtures {
 }
 
 pub fn small_config() -> HyperConfig {
-    HyperConfig { siren: SirenConfig { hidden: 16, layers: 2 }, head_hidden: 8, rank: Some(2), encoding: PoseEncoding::Hierarchical }
+    HyperConfig {
+        siren: SirenConfig { hidden: 16, layers: 2 },
+        head_hidden: 8,
+        rank: Some(2),
+        encoding: PoseEncoding::Hierarchical,
+    }
 }
 
 pub fn demo_betas() -> Vec<f32> {
@@ -131,16 +136,26 @@ pub fn write_npz(path: &Path, entries: &[(&str, Vec<u8>)], deflate: bool) {
 
 /// The same, plus one deflated entry of a header followed by `zeros` zero bytes, streamed (a zip
 /// bomb: the test process never holds the inflated size).
-pub fn write_npz_with_zeros(path: &Path, entries: &[(&str, Vec<u8>)], deflate: bool, zeros: Option<(&str, Vec<u8>, usize)>) {
-    use npyz::zip::{write::FileOptions, CompressionMethod, ZipWriter};
+pub fn write_npz_with_zeros(
+    path: &Path,
+    entries: &[(&str, Vec<u8>)],
+    deflate: bool,
+    zeros: Option<(&str, Vec<u8>, usize)>,
+) {
+    use npyz::zip::{CompressionMethod, ZipWriter, write::FileOptions};
     let mut zip = ZipWriter::new(std::fs::File::create(path).unwrap());
     let method = if deflate { CompressionMethod::Deflated } else { CompressionMethod::Stored };
     for (name, bytes) in entries {
-        zip.start_file(format!("{name}.npy"), FileOptions::default().compression_method(method)).unwrap();
+        zip.start_file(format!("{name}.npy"), FileOptions::default().compression_method(method))
+            .unwrap();
         zip.write_all(bytes).unwrap();
     }
     if let Some((name, header, n)) = zeros {
-        zip.start_file(format!("{name}.npy"), FileOptions::default().compression_method(CompressionMethod::Deflated)).unwrap();
+        zip.start_file(
+            format!("{name}.npy"),
+            FileOptions::default().compression_method(CompressionMethod::Deflated),
+        )
+        .unwrap();
         zip.write_all(&header).unwrap();
         let chunk = vec![0u8; 1 << 20];
         for start in (0..n).step_by(chunk.len()) {
@@ -171,7 +186,8 @@ pub fn smpl_entries() -> Vec<(&'static str, Vec<u8>)> {
         }
     }
     let weights: Vec<f32> = b.weights.iter().flatten().copied().collect();
-    let kintree: Vec<f32> = SMPL_PARENTS.iter().map(|&p| p as f32).chain((0..24).map(|j| j as f32)).collect();
+    let kintree: Vec<f32> =
+        SMPL_PARENTS.iter().map(|&p| p as f32).chain((0..24).map(|j| j as f32)).collect();
     let faces: Vec<f32> = b.faces.iter().flatten().map(|&i| i as f32).collect();
     vec![
         ("v_template", npy("<f4", &[nv, 3], &f32s(&template))),
@@ -201,7 +217,12 @@ pub fn meta_manifest() -> Manifest {
     Manifest {
         format: DATA_FORMAT.into(),
         version: DATA_VERSION,
-        config: MetaDataConfig { subjects: 1, poses_per_group: 2, points_per_pose: 4, ..MetaDataConfig::default() },
+        config: MetaDataConfig {
+            subjects: 1,
+            poses_per_group: 2,
+            points_per_pose: 4,
+            ..MetaDataConfig::default()
+        },
         groups: vec![Group {
             subject: 1,
             outfit: "longsleeve_trousers".into(),
@@ -239,14 +260,16 @@ pub fn checkpoint_header(stage: &str) -> serde_json::Value {
 pub fn write_capture(dir: &Path, frames: usize) {
     let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
     std::fs::create_dir_all(dir.join("depth")).unwrap();
-    let mut manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(demo.join("capture.json")).unwrap()).unwrap();
+    let mut manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(demo.join("capture.json")).unwrap()).unwrap();
     let kept: Vec<serde_json::Value> = manifest["frames"].as_array().unwrap()[..frames].to_vec();
     for f in &kept {
         let name = f["depth"].as_str().unwrap();
         std::fs::copy(demo.join(name), dir.join(name)).unwrap();
     }
     manifest["frames"] = serde_json::Value::Array(kept);
-    std::fs::write(dir.join("capture.json"), serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
+    std::fs::write(dir.join("capture.json"), serde_json::to_vec_pretty(&manifest).unwrap())
+        .unwrap();
 }
 
 impl Fixtures {
@@ -268,13 +291,29 @@ impl Fixtures {
         weights_file::write(&f.meta_avatar, &meta_header(), &meta_weights()).unwrap();
         let (c, d) = (small_config(), avatar_neural::cpu_device());
         let siren = c.siren.init(1, &d);
-        MetaModel::from_parts(c, &c.init(siren.clone(), 1, &d), &siren, "bad-input corpus base".into()).save(&f.model).unwrap();
+        MetaModel::from_parts(
+            c,
+            &c.init(siren.clone(), 1, &d),
+            &siren,
+            "bad-input corpus base".into(),
+        )
+        .save(&f.model)
+        .unwrap();
         MotionClip::new("three", 30.0, vec![Default::default(); 3]).save_json(&f.clip).unwrap();
         write_npz(&f.amass, &amass_entries(), false);
         write_npz(&f.smpl, &smpl_entries(), false);
-        std::fs::write(&f.pose, serde_json::json!({"pose": vec![0.0; 72], "betas": [0.2, 0.1], "trans": [0, 0, 0]}).to_string()).unwrap();
+        std::fs::write(
+            &f.pose,
+            serde_json::json!({"pose": vec![0.0; 72], "betas": [0.2, 0.1], "trans": [0, 0, 0]})
+                .to_string(),
+        )
+        .unwrap();
         std::fs::create_dir_all(&f.meta_data).unwrap();
-        std::fs::write(f.meta_data.join("meta-data.json"), serde_json::to_vec_pretty(&meta_manifest()).unwrap()).unwrap();
+        std::fs::write(
+            f.meta_data.join("meta-data.json"),
+            serde_json::to_vec_pretty(&meta_manifest()).unwrap(),
+        )
+        .unwrap();
         std::fs::write(f.meta_data.join("samples.bin"), f32s(&meta_samples(2, 4))).unwrap();
         f
     }

@@ -8,7 +8,7 @@
 use super::fixtures::*;
 use super::snapshot;
 use avatar_core::body::BodyParams;
-use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 
 /// SplitMix64: a seeded generator with no dependency.
@@ -27,7 +27,27 @@ impl Rng {
     }
 }
 
-const EXTREMES: &[&str] = &["1e30", "-1e30", "0", "-1", "1e-30", "null", "4096", "1000000", "65536", "-0.0", "18446744073709551616", "3.5e38", "\"x\"", "[]", "{}", "true", "0.5", "72", "1e308"];
+const EXTREMES: &[&str] = &[
+    "1e30",
+    "-1e30",
+    "0",
+    "-1",
+    "1e-30",
+    "null",
+    "4096",
+    "1000000",
+    "65536",
+    "-0.0",
+    "18446744073709551616",
+    "3.5e38",
+    "\"x\"",
+    "[]",
+    "{}",
+    "true",
+    "0.5",
+    "72",
+    "1e308",
+];
 
 /// Byte ranges of the numbers in a JSON text.
 fn numbers(text: &[u8]) -> Vec<(usize, usize)> {
@@ -37,7 +57,9 @@ fn numbers(text: &[u8]) -> Vec<(usize, usize)> {
         let c = text[i];
         if c.is_ascii_digit() || (c == b'-' && text.get(i + 1).is_some_and(u8::is_ascii_digit)) {
             let start = i;
-            while i < text.len() && matches!(text[i], b'0'..=b'9' | b'-' | b'+' | b'.' | b'e' | b'E') {
+            while i < text.len()
+                && matches!(text[i], b'0'..=b'9' | b'-' | b'+' | b'.' | b'e' | b'E')
+            {
                 i += 1;
             }
             out.push((start, i));
@@ -112,7 +134,8 @@ fn mutate_weights(rng: &mut Rng, b: &[u8]) -> Vec<u8> {
             let mut out = b.to_vec();
             let weights = (b.len() - 16 - len) / 4;
             let at = 16 + len + 4 * rng.below(weights);
-            let v = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e30, -1e30, 0.0, 1e-38][rng.below(7)];
+            let v =
+                [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e30, -1e30, 0.0, 1e-38][rng.below(7)];
             out[at..at + 4].copy_from_slice(&v.to_le_bytes());
             out
         }
@@ -133,20 +156,30 @@ impl Tally {
     }
 
     /// Load `path` with `load` (which also exercises an accepted file) and check the contract.
-    fn check(&mut self, case: usize, path: &Path, watch: &Path, load: &dyn Fn(&Path) -> Result<(), String>) {
+    fn check(
+        &mut self,
+        case: usize,
+        path: &Path,
+        watch: &Path,
+        load: &dyn Fn(&Path) -> Result<(), String>,
+    ) {
         let before = snapshot(watch);
         match catch_unwind(AssertUnwindSafe(|| load(path))) {
             Err(_) => self.failures.push(format!("{} case {case}: panic", self.kind)),
             Ok(Ok(())) => self.accepted += 1,
             Ok(Err(e)) => {
                 self.refused += 1;
-                if !e.contains(&*path.file_name().unwrap().to_string_lossy()) && !e.contains(&*watch.to_string_lossy()) {
-                    self.failures.push(format!("{} case {case}: the error names no file: {e}", self.kind));
+                if !e.contains(&*path.file_name().unwrap().to_string_lossy())
+                    && !e.contains(&*watch.to_string_lossy())
+                {
+                    self.failures
+                        .push(format!("{} case {case}: the error names no file: {e}", self.kind));
                 }
             }
         }
         if snapshot(watch) != before {
-            self.failures.push(format!("{} case {case}: a file changed or was left behind", self.kind));
+            self.failures
+                .push(format!("{} case {case}: a file changed or was left behind", self.kind));
         }
     }
 }
@@ -158,18 +191,36 @@ pub fn run(cases: usize, seed: u64) {
     let cap = dir.path().join("cap");
     write_capture(&cap, 1);
     let manifest = std::fs::read(cap.join("capture.json")).unwrap();
-    let avatars = [(dir.path().join("s.avatar"), static_header_bytes()), (dir.path().join("m.avatar"), meta_header_bytes())];
+    let avatars = [
+        (dir.path().join("s.avatar"), static_header_bytes()),
+        (dir.path().join("m.avatar"), meta_header_bytes()),
+    ];
     let model_path = dir.path().join("model.bin");
     let (c, d) = (small_config(), avatar_neural::cpu_device());
     let siren = c.siren.init(1, &d);
-    avatar_neural::MetaModel::from_parts(c, &c.init(siren.clone(), 1, &d), &siren, "fuzz base".into()).save(&model_path).unwrap();
+    avatar_neural::MetaModel::from_parts(
+        c,
+        &c.init(siren.clone(), 1, &d),
+        &siren,
+        "fuzz base".into(),
+    )
+    .save(&model_path)
+    .unwrap();
     let model = std::fs::read(&model_path).unwrap();
     let mut rng = Rng(seed);
     let mut tallies = [Tally::new("capture.json"), Tally::new(".avatar"), Tally::new("meta-model")];
 
-    let open_capture = |p: &Path| avatar_core::capture::Capture::open(p.parent().unwrap()).map(|_| ()).map_err(|e| e.to_string());
+    let open_capture = |p: &Path| {
+        avatar_core::capture::Capture::open(p.parent().unwrap())
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    };
     for case in 0..cases {
-        let text = if rng.below(2) == 0 { mutate_json(&mut rng, &manifest) } else { mutate_bytes(&mut rng, &manifest) };
+        let text = if rng.below(2) == 0 {
+            mutate_json(&mut rng, &manifest)
+        } else {
+            mutate_bytes(&mut rng, &manifest)
+        };
         let p = cap.join("capture.json");
         std::fs::write(&p, &text).unwrap();
         tallies[0].check(case, &p, &cap, &open_capture);
@@ -208,10 +259,21 @@ pub fn run(cases: usize, seed: u64) {
 
     let failures: Vec<&String> = tallies.iter().flat_map(|t| &t.failures).collect();
     for t in &tallies {
-        println!("fuzz {}: {cases} mutants, {} refused naming the file, {} accepted (still valid), {} failures", t.kind, t.refused, t.accepted, t.failures.len());
+        println!(
+            "fuzz {}: {cases} mutants, {} refused naming the file, {} accepted (still valid), {} failures",
+            t.kind,
+            t.refused,
+            t.accepted,
+            t.failures.len()
+        );
     }
     println!("fuzz: seed {seed}, {:.1} s", t.elapsed().as_secs_f64());
-    assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.iter().map(|s| s.as_str()).collect::<Vec<_>>().join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} failures:\n{}",
+        failures.len(),
+        failures.iter().map(|s| s.as_str()).collect::<Vec<_>>().join("\n")
+    );
 }
 
 fn static_header_bytes() -> Vec<u8> {

@@ -95,7 +95,12 @@ fn run(args: &[OsString], cache: &Path, index: usize) -> Run {
     let mut peak_mb = usage.ru_maxrss as f64 / 1024.0;
     if let Ok(text) = std::fs::read_to_string(&measured) {
         // GNU time writes "Command exited with non-zero status 1" before the figure.
-        peak_mb = text.lines().filter_map(|l| l.trim().parse::<f64>().ok()).next_back().unwrap_or(peak_mb * 1024.0) / 1024.0;
+        peak_mb = text
+            .lines()
+            .filter_map(|l| l.trim().parse::<f64>().ok())
+            .next_back()
+            .unwrap_or(peak_mb * 1024.0)
+            / 1024.0;
     }
     Run { code, stderr: reader.join().unwrap(), peak_mb, seconds: t.elapsed().as_secs_f64() }
 }
@@ -132,12 +137,19 @@ fn bad_input_corpus() {
     let (mut worst, mut worst_case) = (0.0f64, String::new());
     for (i, r) in &results {
         let case = &cases[*i];
-        let what = format!("{} ({})", case.name, case.args.iter().map(|a| a.to_string_lossy()).collect::<Vec<_>>().join(" "));
+        let what = format!(
+            "{} ({})",
+            case.name,
+            case.args.iter().map(|a| a.to_string_lossy()).collect::<Vec<_>>().join(" ")
+        );
         if r.peak_mb > worst {
             (worst, worst_case) = (r.peak_mb, case.name.clone());
         }
         if r.code != Some(1) {
-            failures.push(format!("{what}: exit {:?} (expected a refusal, exit 1): {}", r.code, r.stderr));
+            failures.push(format!(
+                "{what}: exit {:?} (expected a refusal, exit 1): {}",
+                r.code, r.stderr
+            ));
             continue;
         }
         if r.stderr.contains("panicked") || !r.stderr.contains("error:") {
@@ -157,7 +169,16 @@ fn bad_input_corpus() {
     if let Some(path) = std::env::var_os("AVATAR_STUDIO_CORPUS_REPORT") {
         let mut rows: Vec<String> = results
             .iter()
-            .map(|(i, r)| format!("{}\t{:?}\t{:.2}\t{:.0}\t{}", cases[*i].name, r.code, r.seconds, r.peak_mb, r.stderr.lines().next().unwrap_or("")))
+            .map(|(i, r)| {
+                format!(
+                    "{}\t{:?}\t{:.2}\t{:.0}\t{}",
+                    cases[*i].name,
+                    r.code,
+                    r.seconds,
+                    r.peak_mb,
+                    r.stderr.lines().next().unwrap_or("")
+                )
+            })
             .collect();
         rows.sort();
         std::fs::write(path, rows.join("\n") + "\n").unwrap();
@@ -173,7 +194,10 @@ fn bad_input_corpus() {
     for p in after.keys().filter(|p| !before.contains_key(*p)) {
         failures.push(format!("file left behind (an output or a temporary file): {}", p.display()));
     }
-    let slowest = results.iter().map(|(i, r)| (r.seconds, cases[*i].name.clone())).fold((0.0, String::new()), |a, b| if b.0 > a.0 { b } else { a });
+    let slowest = results
+        .iter()
+        .map(|(i, r)| (r.seconds, cases[*i].name.clone()))
+        .fold((0.0, String::new()), |a, b| if b.0 > a.0 { b } else { a });
     println!(
         "bad-input corpus: {} cases, {} refused cleanly, {} failures; peak memory {worst:.0} MB ({worst_case}); slowest {:.2} s ({}); {:.1} s in all",
         cases.len(),
@@ -188,7 +212,9 @@ fn bad_input_corpus() {
 
 #[test]
 fn mutation_fuzz() {
-    let cases = std::env::var("AVATAR_STUDIO_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(100);
-    let seed = std::env::var("AVATAR_STUDIO_FUZZ_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(19);
+    let cases =
+        std::env::var("AVATAR_STUDIO_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(100);
+    let seed =
+        std::env::var("AVATAR_STUDIO_FUZZ_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(19);
     fuzz::run(cases, seed);
 }

@@ -17,7 +17,8 @@ struct Metadata {
 fn build(bytes: &[u8], label: &str) -> BodyModel {
     // The embedded files are checked by the test suite; failing here is a build defect.
     let mut model = BodyModel::from_npz_bytes(bytes, label).expect("embedded open body is valid");
-    let meta: Metadata = serde_json::from_str(METADATA).expect("embedded open body metadata is valid");
+    let meta: Metadata =
+        serde_json::from_str(METADATA).expect("embedded open body metadata is valid");
     model.shape_names = meta.shape_names;
     model.shape_limits = meta.shape_limits;
     model

@@ -1,6 +1,6 @@
 //! Forward kinematics: joint rotations and rest joints -> rigid bone transforms (rest -> posed).
 
-use super::skeleton::{parent, NUM_JOINTS};
+use super::skeleton::{NUM_JOINTS, parent};
 use glam::{Affine3A, Mat3, Mat4, Vec3, Vec3A};
 
 /// The posed skeleton.
@@ -32,7 +32,11 @@ impl Bones {
 
 /// SMPL forward kinematics. `rotations[j]` is joint j's rotation relative to its parent
 /// (joint 0: global orientation about the root joint); `trans` is added at the end.
-pub fn forward_kinematics(rest_joints: &[Vec3; NUM_JOINTS], rotations: &[Mat3; NUM_JOINTS], trans: Vec3) -> Bones {
+pub fn forward_kinematics(
+    rest_joints: &[Vec3; NUM_JOINTS],
+    rotations: &[Mat3; NUM_JOINTS],
+    trans: Vec3,
+) -> Bones {
     let mut world = [Affine3A::IDENTITY; NUM_JOINTS];
     for j in 0..NUM_JOINTS {
         let local_offset = match parent(j) {
@@ -52,7 +56,10 @@ pub fn forward_kinematics(rest_joints: &[Vec3; NUM_JOINTS], rotations: &[Mat3; N
         let g = shift * world[j];
         world_out[j] = Mat4::from(g);
         // Rest -> posed: undo the rest joint position, then apply the joint's world frame.
-        let a = Affine3A { matrix3: g.matrix3, translation: g.translation - g.matrix3 * Vec3A::from(rest_joints[j]) };
+        let a = Affine3A {
+            matrix3: g.matrix3,
+            translation: g.translation - g.matrix3 * Vec3A::from(rest_joints[j]),
+        };
         transforms[j] = Mat4::from(a);
     }
     Bones { transforms, world: world_out, rest_joints: *rest_joints }

@@ -48,13 +48,18 @@ fn read_model<R: Read + Seek>(npz: &mut Npz<R>) -> Result<BodyModel> {
     if nj != NUM_JOINTS {
         return Err(bad(
             "kintree_table",
-            format!("{nj} joints; only SMPL's 24-joint skeleton is supported (SMPL-H/SMPL-X are not)"),
+            format!(
+                "{nj} joints; only SMPL's 24-joint skeleton is supported (SMPL-H/SMPL-X are not)"
+            ),
         ));
     }
     for j in 1..NUM_JOINTS {
         let parent = kintree.data[j];
         if parent != SMPL_PARENTS[j] as f64 {
-            return Err(bad("kintree_table", format!("joint {j} has parent {parent}, SMPL's is {}", SMPL_PARENTS[j])));
+            return Err(bad(
+                "kintree_table",
+                format!("joint {j} has parent {parent}, SMPL's is {}", SMPL_PARENTS[j]),
+            ));
         }
     }
 
@@ -70,8 +75,15 @@ fn read_model<R: Read + Seek>(npz: &mut Npz<R>) -> Result<BodyModel> {
         Some(a) => {
             check_metres(&a, "posedirs", &bad)?;
             match a.shape.as_slice() {
-                [n, 3, p] if *n == nv && *p == NUM_POSE_FEATURES => Some(vec3_blocks(&a, nv, NUM_POSE_FEATURES)),
-                s => return Err(bad("posedirs", format!("shape {s:?}, expected ({nv}, 3, {NUM_POSE_FEATURES})"))),
+                [n, 3, p] if *n == nv && *p == NUM_POSE_FEATURES => {
+                    Some(vec3_blocks(&a, nv, NUM_POSE_FEATURES))
+                }
+                s => {
+                    return Err(bad(
+                        "posedirs",
+                        format!("shape {s:?}, expected ({nv}, 3, {NUM_POSE_FEATURES})"),
+                    ));
+                }
             }
         }
     };
@@ -79,7 +91,10 @@ fn read_model<R: Read + Seek>(npz: &mut Npz<R>) -> Result<BodyModel> {
     let jreg = npz.require("J_regressor")?;
     check_finite(&jreg, "J_regressor", &bad)?;
     if jreg.shape != [NUM_JOINTS, nv] {
-        return Err(bad("J_regressor", format!("shape {:?}, expected (24, {nv}) dense", jreg.shape)));
+        return Err(bad(
+            "J_regressor",
+            format!("shape {:?}, expected (24, {nv}) dense", jreg.shape),
+        ));
     }
     let j_regressor: Vec<Vec<(u32, f32)>> = (0..NUM_JOINTS)
         .map(|j| {
@@ -95,7 +110,12 @@ fn read_model<R: Read + Seek>(npz: &mut Npz<R>) -> Result<BodyModel> {
         return Err(bad("J_regressor", format!("row {j} is all zeros")));
     }
     // Each joint is a weighted mean of vertices: rows sum to 1.
-    if let Some((j, sum)) = j_regressor.iter().map(|r| r.iter().map(|&(_, w)| w as f64).sum::<f64>()).enumerate().find(|(_, s)| (s - 1.0).abs() > 0.1) {
+    if let Some((j, sum)) = j_regressor
+        .iter()
+        .map(|r| r.iter().map(|&(_, w)| w as f64).sum::<f64>())
+        .enumerate()
+        .find(|(_, s)| (s - 1.0).abs() > 0.1)
+    {
         return Err(bad("J_regressor", format!("row {j} sums to {sum:.4}, expected 1")));
     }
 
@@ -169,7 +189,13 @@ fn check_finite(a: &Array, key: &str, bad: &dyn Fn(&str, String) -> Error) -> Re
 fn check_metres(a: &Array, key: &str, bad: &dyn Fn(&str, String) -> Error) -> Result<()> {
     check_finite(a, key, bad)?;
     match a.data.iter().position(|x| x.abs() > MAX_BODY_COORDINATE) {
-        Some(i) => Err(bad(key, format!("value {} at flat index {i} is beyond {MAX_BODY_COORDINATE} m: the model must be in metres", a.data[i]))),
+        Some(i) => Err(bad(
+            key,
+            format!(
+                "value {} at flat index {i} is beyond {MAX_BODY_COORDINATE} m: the model must be in metres",
+                a.data[i]
+            ),
+        )),
         None => Ok(()),
     }
 }

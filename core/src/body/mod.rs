@@ -14,9 +14,11 @@ pub mod skeleton;
 pub mod skinning;
 
 pub use embedded::{open_body, open_body_lowpoly, open_body_lowpoly_ref, open_body_ref};
-pub use kinematics::{forward_kinematics, Bones};
+pub use kinematics::{Bones, forward_kinematics};
 pub use model::{BodyModel, PosedBody};
-pub use params::{check_betas, BodyParams, MAX_ABS_BETA};
-pub use pose_jacobian::{pose_error, skinned_point_jacobian, PoseCorrection, POSE_DOF};
+pub use params::{BodyParams, MAX_ABS_BETA, check_betas};
+pub use pose_jacobian::{POSE_DOF, PoseCorrection, pose_error, skinned_point_jacobian};
 pub use skeleton::{BodyPart, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS};
-pub use skinning::{blend_transform, interpolate_weights, skin_normal, skin_point, unskin_point, Weights};
+pub use skinning::{
+    Weights, blend_transform, interpolate_weights, skin_normal, skin_point, unskin_point,
+};

@@ -1,10 +1,10 @@
 //! `BodyModel`: template, shape directions, optional pose correctives, joint regressor and
 //! skinning weights, posed by SMPL's recipe (shape, correctives, FK, LBS).
 
-use super::kinematics::{forward_kinematics, Bones};
+use super::kinematics::{Bones, forward_kinematics};
 use super::params::BodyParams;
 use super::skeleton::NUM_JOINTS;
-use super::skinning::{blend_transform, Weights};
+use super::skinning::{Weights, blend_transform};
 use crate::mesh::TriMesh;
 use glam::{Mat3, Vec3};
 

@@ -54,7 +54,10 @@ impl BodyParams {
     /// Build from a flat 72-vector of axis-angles.
     pub fn from_flat(pose: &[f32], betas: Vec<f32>, trans: Vec3) -> Result<Self> {
         if pose.len() != 3 * NUM_JOINTS {
-            return Err(Error::invalid(format!("pose has {} values, expected 72 (24 x 3 axis-angle)", pose.len())));
+            return Err(Error::invalid(format!(
+                "pose has {} values, expected 72 (24 x 3 axis-angle)",
+                pose.len()
+            )));
         }
         let mut p = [Vec3::ZERO; NUM_JOINTS];
         for (j, c) in p.iter_mut().enumerate() {
@@ -74,7 +77,10 @@ impl BodyParams {
     pub fn validate(&self) -> Result<()> {
         for (j, aa) in self.pose.iter().enumerate() {
             if !aa.is_finite() {
-                return Err(Error::invalid(format!("pose of joint {j} ({}) is not finite", super::JOINT_NAMES[j])));
+                return Err(Error::invalid(format!(
+                    "pose of joint {j} ({}) is not finite",
+                    super::JOINT_NAMES[j]
+                )));
             }
             if aa.length() > MAX_JOINT_ANGLE {
                 return Err(Error::invalid(format!(
@@ -92,15 +98,18 @@ impl BodyParams {
             return Err(Error::invalid("translation is not finite"));
         }
         if self.trans.length() > 1000.0 {
-            return Err(Error::invalid(format!("translation {} is over 1 km: wrong units?", self.trans)));
+            return Err(Error::invalid(format!(
+                "translation {} is over 1 km: wrong units?",
+                self.trans
+            )));
         }
         Ok(())
     }
 
     /// Parse the JSON pose format.
     pub fn from_json_str(text: &str) -> Result<Self> {
-        let file: ParamsFile =
-            serde_json::from_str(text).map_err(|e| Error::invalid(format!("not a valid pose JSON ({e})")))?;
+        let file: ParamsFile = serde_json::from_str(text)
+            .map_err(|e| Error::invalid(format!("not a valid pose JSON ({e})")))?;
         let pose: Vec<f32> = match file.pose {
             None => vec![0.0; 72],
             Some(value) => flatten_numbers(&value)?,
@@ -109,7 +118,9 @@ impl BodyParams {
         let trans = match file.trans {
             None => Vec3::ZERO,
             Some(t) if t.len() == 3 => Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32),
-            Some(t) => return Err(Error::invalid(format!("trans has {} values, expected 3", t.len()))),
+            Some(t) => {
+                return Err(Error::invalid(format!("trans has {} values, expected 3", t.len())));
+            }
         };
         Self::from_flat(&pose, betas, trans)
     }
@@ -124,10 +135,15 @@ impl BodyParams {
 /// Shape coefficients within [`MAX_ABS_BETA`] and at most [`MAX_BETAS`] of them (NaN refused).
 pub fn check_betas(betas: &[f32]) -> Result<()> {
     if betas.len() > MAX_BETAS {
-        return Err(Error::invalid(format!("{} shape coefficients, at most {MAX_BETAS} are read", betas.len())));
+        return Err(Error::invalid(format!(
+            "{} shape coefficients, at most {MAX_BETAS} are read",
+            betas.len()
+        )));
     }
     if let Some((i, b)) = betas.iter().enumerate().find(|(_, b)| !(b.abs() <= MAX_ABS_BETA)) {
-        return Err(Error::invalid(format!("shape coefficient {i} is {b}: not a plausible body shape (|beta| <= {MAX_ABS_BETA})")));
+        return Err(Error::invalid(format!(
+            "shape coefficient {i} is {b}: not a plausible body shape (|beta| <= {MAX_ABS_BETA})"
+        )));
     }
     Ok(())
 }
@@ -137,11 +153,16 @@ fn flatten_numbers(value: &serde_json::Value) -> Result<Vec<f32>> {
     fn walk(v: &serde_json::Value, out: &mut Vec<f32>) -> Result<()> {
         match v {
             serde_json::Value::Number(n) => {
-                out.push(n.as_f64().ok_or_else(|| Error::invalid("pose holds a non-numeric value"))? as f32);
+                out.push(
+                    n.as_f64().ok_or_else(|| Error::invalid("pose holds a non-numeric value"))?
+                        as f32,
+                );
                 Ok(())
             }
             serde_json::Value::Array(a) => a.iter().try_for_each(|x| walk(x, out)),
-            serde_json::Value::Null => Err(Error::invalid("pose holds null (NaN is not valid JSON; fix the fitting)")),
+            serde_json::Value::Null => {
+                Err(Error::invalid("pose holds null (NaN is not valid JSON; fix the fitting)"))
+            }
             _ => Err(Error::invalid("pose must be an array of numbers")),
         }
     }
@@ -157,10 +178,16 @@ mod tests {
     fn json_nested_and_flat_agree() {
         let mut nested = vec![vec![0.0f32; 3]; 24];
         nested[18] = vec![0.0, 1.2, 0.0];
-        let a = BodyParams::from_json_str(&serde_json::json!({"pose": nested, "trans": [0, 1, 0]}).to_string()).unwrap();
+        let a = BodyParams::from_json_str(
+            &serde_json::json!({"pose": nested, "trans": [0, 1, 0]}).to_string(),
+        )
+        .unwrap();
         let mut flat = vec![0.0f32; 72];
         flat[55] = 1.2;
-        let b = BodyParams::from_json_str(&serde_json::json!({"poses": flat, "transl": [0, 1, 0]}).to_string()).unwrap();
+        let b = BodyParams::from_json_str(
+            &serde_json::json!({"poses": flat, "transl": [0, 1, 0]}).to_string(),
+        )
+        .unwrap();
         assert_eq!(a, b);
         assert_eq!(a.pose[18], Vec3::new(0.0, 1.2, 0.0));
     }
@@ -171,7 +198,9 @@ mod tests {
         assert!(e.contains("72"), "{e}");
         let mut degrees = vec![0.0f32; 72];
         degrees[55] = 90.0;
-        let e = BodyParams::from_json_str(&serde_json::json!({ "pose": degrees }).to_string()).unwrap_err().to_string();
+        let e = BodyParams::from_json_str(&serde_json::json!({ "pose": degrees }).to_string())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("radians") && e.contains("left_elbow"), "{e}");
         let e = BodyParams::from_json_str(r#"{"pose": [null]}"#).unwrap_err().to_string();
         assert!(e.contains("null"), "{e}");

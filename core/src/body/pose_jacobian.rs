@@ -14,9 +14,9 @@
 //! parameterisation adds an error of order |d| / 2 in the derivative, which Gauss-Newton steps
 //! tolerate. A test checks both against finite differences of [`forward_kinematics`].
 
-use super::kinematics::{forward_kinematics, Bones};
+use super::kinematics::{Bones, forward_kinematics};
 use super::params::BodyParams;
-use super::skeleton::{parent, NUM_JOINTS};
+use super::skeleton::{NUM_JOINTS, parent};
 use super::skinning::Weights;
 use glam::{Mat3, Quat, Vec3};
 use serde::{Deserialize, Serialize};

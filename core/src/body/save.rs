@@ -14,7 +14,10 @@ impl BodyModel {
     pub fn save_npz(&self, path: impl AsRef<Path>) -> Result<()> {
         let path = path.as_ref();
         if self.is_frozen() {
-            return Err(Error::file(path, "a frozen body (one shape, no joint regressor) cannot be written as a body model"));
+            return Err(Error::file(
+                path,
+                "a frozen body (one shape, no joint regressor) cannot be written as a body model",
+            ));
         }
         let nv = self.num_vertices();
         let flat = |v: &[Vec3]| v.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>();
@@ -45,10 +48,18 @@ impl BodyModel {
             ("J_regressor", vec![NUM_JOINTS, nv], jreg),
             ("weights", vec![nv, NUM_JOINTS], self.weights.iter().flatten().copied().collect()),
             ("kintree_table", vec![2, NUM_JOINTS], kintree),
-            ("f", vec![self.faces.len(), 3], self.faces.iter().flatten().map(|&i| i as f32).collect()),
+            (
+                "f",
+                vec![self.faces.len(), 3],
+                self.faces.iter().flatten().map(|&i| i as f32).collect(),
+            ),
         ];
         if let Some(posedirs) = &self.posedirs {
-            arrays.push(("posedirs", vec![nv, 3, NUM_POSE_FEATURES], blocks(posedirs, NUM_POSE_FEATURES)));
+            arrays.push((
+                "posedirs",
+                vec![nv, 3, NUM_POSE_FEATURES],
+                blocks(posedirs, NUM_POSE_FEATURES),
+            ));
         }
         write_f32_npz(path, &arrays)
     }
@@ -56,7 +67,7 @@ impl BodyModel {
 
 #[cfg(test)]
 mod tests {
-    use crate::body::{open_body_lowpoly_ref, BodyModel, BodyParams};
+    use crate::body::{BodyModel, BodyParams, open_body_lowpoly_ref};
     use glam::Vec3;
 
     #[test]
@@ -66,12 +77,16 @@ mod tests {
         let path = dir.path().join("open_body_smpl.npz");
         body.save_npz(&path).unwrap();
         let back = BodyModel::load_npz(&path).unwrap();
-        assert_eq!((back.num_vertices(), back.num_betas, back.faces.clone()), (body.num_vertices(), body.num_betas, body.faces.clone()));
+        assert_eq!(
+            (back.num_vertices(), back.num_betas, back.faces.clone()),
+            (body.num_vertices(), body.num_betas, body.faces.clone())
+        );
         let mut p = BodyParams { betas: vec![0.5, -0.3, 0.2], ..Default::default() };
         p.pose[16] = Vec3::new(0.0, 0.0, -0.9);
         p.pose[2] = Vec3::new(-0.4, 0.1, 0.0);
         let (a, b) = (body.pose(&p), back.pose(&p));
-        let worst = a.vertices.iter().zip(&b.vertices).map(|(x, y)| x.distance(*y)).fold(0.0f32, f32::max);
+        let worst =
+            a.vertices.iter().zip(&b.vertices).map(|(x, y)| x.distance(*y)).fold(0.0f32, f32::max);
         assert!(worst < 1e-5, "{worst} m");
         assert!(body.frozen(&[]).save_npz(&path).unwrap_err().to_string().contains("frozen"));
     }

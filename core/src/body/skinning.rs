@@ -20,7 +20,9 @@ pub fn blend_transform(bones: &[Mat4; NUM_JOINTS], w: &Weights) -> Mat4 {
 /// The weights at a point of a triangle: its three vertices' `weights` (`face`: their indices)
 /// blended by the point's barycentric coordinates `b`.
 pub fn interpolate_weights(weights: &[Weights], face: [usize; 3], b: Vec3) -> Weights {
-    std::array::from_fn(|j| b.x * weights[face[0]][j] + b.y * weights[face[1]][j] + b.z * weights[face[2]][j])
+    std::array::from_fn(|j| {
+        b.x * weights[face[0]][j] + b.y * weights[face[1]][j] + b.z * weights[face[2]][j]
+    })
 }
 
 pub fn skin_point(bones: &[Mat4; NUM_JOINTS], w: &Weights, p: Vec3) -> Vec3 {

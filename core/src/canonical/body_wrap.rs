@@ -19,11 +19,11 @@
 //! out. The wrapped body is posed with the body's own skinning weights
 //! ([`BodyWrap::own_weights`]).
 
-use crate::body::{interpolate_weights, BodyModel, Weights};
+use crate::body::{BodyModel, Weights, interpolate_weights};
+use crate::mesh::TriMesh;
 use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
 use crate::mesh::topology::{compact, face_components};
-use crate::mesh::TriMesh;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -62,7 +62,17 @@ impl Default for WrapOptions {
         // The band reaches a loose polo (up to about 4 cm off the body); a step of 2 mm keeps
         // the search at 41 SDF values a vertex, the surface between two of them found by
         // linear interpolation (the SDF is close to linear over 2 mm).
-        WrapOptions { inside: 0.02, outside: 0.06, step: 0.002, far: 0.015, max_uncovered: 0.03, tight_outside: 0.035, seam: 0.03, min_piece_share: 0.02, thin: 0.03 }
+        WrapOptions {
+            inside: 0.02,
+            outside: 0.06,
+            step: 0.002,
+            far: 0.015,
+            max_uncovered: 0.03,
+            tight_outside: 0.035,
+            seam: 0.03,
+            min_piece_share: 0.02,
+            thin: 0.03,
+        }
     }
 }
 
@@ -111,8 +121,19 @@ impl BodyWrap {
     pub fn of_mesh(rest: TriMesh) -> BodyWrap {
         let normals = rest.vertex_normals();
         let bvh = Bvh::build(&rest);
-        let thickness = rest.positions.par_iter().zip(&normals).map(|(&x, &n)| thickness_at(&bvh, x, n)).collect();
-        BodyWrap { rest_area: rest.surface_area(), rest, normals, thickness, options: WrapOptions::default() }
+        let thickness = rest
+            .positions
+            .par_iter()
+            .zip(&normals)
+            .map(|(&x, &n)| thickness_at(&bvh, x, n))
+            .collect();
+        BodyWrap {
+            rest_area: rest.surface_area(),
+            rest,
+            normals,
+            thickness,
+            options: WrapOptions::default(),
+        }
     }
 
     pub fn vertex_count(&self) -> usize {
@@ -130,12 +151,35 @@ impl BodyWrap {
         let o = &self.options;
         let count = ((o.inside + outside) / o.step).round() as usize + 1;
         let steps: Vec<f32> = (0..count).map(|i| -o.inside + o.step * i as f32).collect();
-        let probes: Vec<Vec3> = self.rest.positions.iter().zip(&self.normals).flat_map(|(&x, &n)| steps.iter().map(move |&t| x + t * n)).collect();
+        let probes: Vec<Vec3> = self
+            .rest
+            .positions
+            .iter()
+            .zip(&self.normals)
+            .flat_map(|(&x, &n)| steps.iter().map(move |&t| x + t * n))
+            .collect();
         let values = sdf(&probes);
-        let offsets: Vec<Option<f32>> =
-            values.par_chunks(count).zip(&self.thickness).map(|(f, &thick)| if thick < o.thin { None } else { outward_crossing_nearest_zero(&steps, f) }).collect();
-        let positions = self.rest.positions.iter().zip(&self.normals).zip(&offsets).map(|((&x, &n), t)| x + t.unwrap_or(0.0) * n).collect();
-        Wrapped { mesh: TriMesh::new(positions, self.rest.faces.clone()), found: offsets.iter().map(Option::is_some).collect() }
+        let offsets: Vec<Option<f32>> = values
+            .par_chunks(count)
+            .zip(&self.thickness)
+            .map(
+                |(f, &thick)| {
+                    if thick < o.thin { None } else { outward_crossing_nearest_zero(&steps, f) }
+                },
+            )
+            .collect();
+        let positions = self
+            .rest
+            .positions
+            .iter()
+            .zip(&self.normals)
+            .zip(&offsets)
+            .map(|((&x, &n), t)| x + t.unwrap_or(0.0) * n)
+            .collect();
+        Wrapped {
+            mesh: TriMesh::new(positions, self.rest.faces.clone()),
+            found: offsets.iter().map(Option::is_some).collect(),
+        }
     }
 
     /// The share of `extracted`'s area farther than `options.far` from `wrapped`.
@@ -144,11 +188,7 @@ impl BodyWrap {
         let area = |f: usize| extracted.triangle_area(f) as f64;
         let total: f64 = (0..extracted.faces.len()).map(area).sum();
         let uncovered: f64 = (0..extracted.faces.len()).filter(|&f| far[f]).map(area).sum();
-        if total > 0.0 {
-            (uncovered / total) as f32
-        } else {
-            0.0
-        }
+        if total > 0.0 { (uncovered / total) as f32 } else { 0.0 }
     }
 
     /// Whether the wrapped body stands for `extracted` (tight clothing only).
@@ -165,17 +205,20 @@ impl BodyWrap {
         let o = &self.options;
         let bvh = Bvh::build(wrapped);
         let far = faces_far_from(&bvh, extracted, o.far);
-        let loose: Vec<[u32; 3]> = extracted.faces.iter().zip(&far).filter(|(_, f)| **f).map(|(f, _)| *f).collect();
+        let loose: Vec<[u32; 3]> =
+            extracted.faces.iter().zip(&far).filter(|(_, f)| **f).map(|(f, _)| *f).collect();
         let mut pieces = self.clothing_pieces(&compact(&extracted.positions, &loose), &bvh);
         // Border edges (one face) of the pieces: their vertices go onto the body nearby.
-        let mut edge_faces: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
+        let mut edge_faces: std::collections::HashMap<(u32, u32), u32> =
+            std::collections::HashMap::new();
         for f in &pieces.faces {
             for k in 0..3 {
                 let (a, b) = (f[k], f[(k + 1) % 3]);
                 *edge_faces.entry((a.min(b), a.max(b))).or_default() += 1;
             }
         }
-        let mut border: Vec<u32> = edge_faces.iter().filter(|(_, n)| **n == 1).flat_map(|(e, _)| [e.0, e.1]).collect();
+        let mut border: Vec<u32> =
+            edge_faces.iter().filter(|(_, n)| **n == 1).flat_map(|(e, _)| [e.0, e.1]).collect();
         border.sort_unstable();
         border.dedup();
         for v in border {
@@ -202,14 +245,22 @@ impl BodyWrap {
             let [a, b, c] = mesh.triangle(f);
             let area = mesh.triangle_area(f);
             piece_area[l as usize] += area;
-            let near_thin = wrapped.closest_point((a + b + c) / 3.0).is_some_and(|hit| self.rest.faces[hit.face as usize].iter().filter(|&&v| thin_vertex(v)).count() >= 2);
+            let near_thin = wrapped.closest_point((a + b + c) / 3.0).is_some_and(|hit| {
+                self.rest.faces[hit.face as usize].iter().filter(|&&v| thin_vertex(v)).count() >= 2
+            });
             if near_thin {
                 thin_area[l as usize] += area;
             }
         }
         let min_area = self.options.min_piece_share * self.rest_area;
         let clothing = |l: usize| piece_area[l] >= min_area && thin_area[l] <= 0.5 * piece_area[l];
-        let kept: Vec<[u32; 3]> = mesh.faces.iter().zip(&labels).filter(|(_, l)| clothing(**l as usize)).map(|(f, _)| *f).collect();
+        let kept: Vec<[u32; 3]> = mesh
+            .faces
+            .iter()
+            .zip(&labels)
+            .filter(|(_, l)| clothing(**l as usize))
+            .map(|(f, _)| *f)
+            .collect();
         compact(&mesh.positions, &kept)
     }
 
@@ -222,9 +273,17 @@ impl BodyWrap {
     ///
     /// Why not the field's weights: they are the body's diffused into a grid and read back by
     /// trilinear interpolation, smeared over a cell; the body's vertices have exact ones.
-    pub fn own_weights(&self, body_weights: &[Weights], mesh: &TriMesh, mut others: Vec<Weights>) -> Vec<Weights> {
+    pub fn own_weights(
+        &self,
+        body_weights: &[Weights],
+        mesh: &TriMesh,
+        mut others: Vec<Weights>,
+    ) -> Vec<Weights> {
         let (n, body_faces) = (self.vertex_count(), self.rest.faces.len());
-        let wrapped = body_weights.len() == n && mesh.positions.len() >= n && mesh.faces.len() >= body_faces && mesh.faces[..body_faces] == self.rest.faces[..];
+        let wrapped = body_weights.len() == n
+            && mesh.positions.len() >= n
+            && mesh.faces.len() >= body_faces
+            && mesh.faces[..body_faces] == self.rest.faces[..];
         if !wrapped || others.len() != mesh.positions.len() {
             return others;
         }
@@ -238,7 +297,10 @@ impl BodyWrap {
                     let hit = bvh.closest_point_within(mesh.positions[v], SEAM_TOLERANCE)?;
                     let [a, b, c] = body_part.triangle(hit.face as usize);
                     let face = self.rest.faces[hit.face as usize].map(|i| i as usize);
-                    Some((v, interpolate_weights(body_weights, face, barycentric(hit.point, a, b, c))))
+                    Some((
+                        v,
+                        interpolate_weights(body_weights, face, barycentric(hit.point, a, b, c)),
+                    ))
                 })
                 .collect();
             for (v, w) in seams {
@@ -294,7 +356,7 @@ fn outward_crossing_nearest_zero(steps: &[f32], f: &[f32]) -> Option<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::extract::{extract, ExtractOptions};
+    use crate::mesh::extract::{ExtractOptions, extract};
     use crate::synth::raster::tests::sphere;
 
     /// A 10 cm sphere with a finger: a 1 cm sphere at `x` on the +x axis, its vertices from the
@@ -322,7 +384,12 @@ mod tests {
         let w = wrap.wrap(|ps| ps.iter().map(|&p| p.length() - cloth(p)).collect());
         assert!(w.found.iter().all(|&f| f));
         for p in &w.mesh.positions {
-            assert!((p.length() - cloth(*p)).abs() < 3e-4, "{p} at {} m, cloth at {}", p.length(), cloth(*p));
+            assert!(
+                (p.length() - cloth(*p)).abs() < 3e-4,
+                "{p} at {} m, cloth at {}",
+                p.length(),
+                cloth(*p)
+            );
         }
     }
 
@@ -330,7 +397,9 @@ mod tests {
     fn a_surface_out_of_reach_leaves_the_body_where_it_is() {
         let wrap = body();
         // A blob 8 cm out (beyond the 6 cm band) over the +y cap, cloth 5 mm out elsewhere.
-        let w = wrap.wrap(|ps| ps.iter().map(|&p| p.length() - if p.y > 0.08 { 0.18 } else { 0.105 }).collect());
+        let w = wrap.wrap(|ps| {
+            ps.iter().map(|&p| p.length() - if p.y > 0.08 { 0.18 } else { 0.105 }).collect()
+        });
         for ((p, &found), rest) in w.mesh.positions.iter().zip(&w.found).zip(&wrap.rest.positions) {
             if rest.y > 0.085 {
                 assert!(!found);
@@ -353,7 +422,9 @@ mod tests {
         assert!(wrap.covers(&w.mesh, &extracted));
         // A "skirt": a flat disc 12 cm wide around the equator, 4 mm thick (a sheet far from
         // the body over most of its area), unioned with the tight cloth.
-        let skirt = |p: &Vec3| tight(p).min((p.y.abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - 0.22));
+        let skirt = |p: &Vec3| {
+            tight(p).min((p.y.abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - 0.22))
+        };
         let w = wrap.wrap(|ps| ps.iter().map(skirt).collect());
         let extracted = extract(|ps: &[Vec3]| ps.iter().map(skirt).collect(), &opts).unwrap().mesh;
         let share = wrap.uncovered_share(&w.mesh, &extracted);
@@ -380,15 +451,25 @@ mod tests {
         let pieces = &merged.positions[n..];
         assert!(!pieces.is_empty());
         // Every piece vertex is on the brim, and the brim reaches out to its rim.
-        assert!(pieces.iter().all(|p| brim(p).abs() < 0.004 || tight(p).abs() < 0.004), "a piece vertex off the brim");
+        assert!(
+            pieces.iter().all(|p| brim(p).abs() < 0.004 || tight(p).abs() < 0.004),
+            "a piece vertex off the brim"
+        );
         let reach = pieces.iter().map(|p| Vec3::new(p.x, 0.0, p.z).length()).fold(0f32, f32::max);
         assert!(reach > 0.21, "the brim reaches {reach} m");
         // Its inner border was put on the wrapped body: no piece vertex hangs in the gap
         // between 1 mm and 1.2 cm from the tight cloth near the brim's root.
-        let gap = pieces.iter().filter(|p| Vec3::new(p.x, 0.0, p.z).length() < 0.12 && tight(p) > 0.001 && tight(p) < 0.012).count();
+        let gap = pieces
+            .iter()
+            .filter(|p| {
+                Vec3::new(p.x, 0.0, p.z).length() < 0.12 && tight(p) > 0.001 && tight(p) < 0.012
+            })
+            .count();
         assert_eq!(gap, 0);
         // Every face index is valid.
-        assert!(merged.faces.iter().all(|f| f.iter().all(|&v| (v as usize) < merged.positions.len())));
+        assert!(
+            merged.faces.iter().all(|f| f.iter().all(|&v| (v as usize) < merged.positions.len()))
+        );
     }
 
     #[test]
@@ -419,7 +500,8 @@ mod tests {
         field[2] = 1.0;
         let weights = wrap.own_weights(&body_weights, &merged, vec![field; merged.positions.len()]);
         assert_eq!(&weights[..n], &body_weights[..]);
-        let bvh = Bvh::build(&TriMesh::new(merged.positions[..n].to_vec(), wrap.rest.faces.clone()));
+        let bvh =
+            Bvh::build(&TriMesh::new(merged.positions[..n].to_vec(), wrap.rest.faces.clone()));
         let (mut seam, mut free) = (0, 0);
         for (p, w) in merged.positions[n..].iter().zip(&weights[n..]) {
             if bvh.closest_point_within(*p, 1e-6).is_some() {
@@ -427,7 +509,13 @@ mod tests {
                 // rest point beneath it.
                 seam += 1;
                 let expected = 0.5 + 5.0 * p.y * 0.1 / p.length();
-                assert!(w[2] == 0.0 && (w[0] - expected).abs() < 0.003 && (w[0] + w[1] - 1.0).abs() < 1e-5, "seam vertex {p}: {:?}, expected {expected}", &w[..3]);
+                assert!(
+                    w[2] == 0.0
+                        && (w[0] - expected).abs() < 0.003
+                        && (w[0] + w[1] - 1.0).abs() < 1e-5,
+                    "seam vertex {p}: {:?}, expected {expected}",
+                    &w[..3]
+                );
             } else {
                 free += 1;
                 assert_eq!(*w, field);
@@ -446,7 +534,9 @@ mod tests {
         // the finger from the cloth to its tip (the SDF's guess of a hand).
         let (wrap, _) = body_with_finger(0.15);
         let tight = |p: &Vec3| p.length() - 0.108;
-        let brim = |p: &Vec3| (p.y.abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - 0.22).max(p.x + 0.02);
+        let brim = |p: &Vec3| {
+            (p.y.abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - 0.22).max(p.x + 0.02)
+        };
         let blob = |p: &Vec3| Vec3::new(p.x.clamp(0.09, 0.15) - p.x, p.y, p.z).length() - 0.025;
         let sdf = |p: &Vec3| tight(p).min(brim(p)).min(blob(p));
         let opts = ExtractOptions::new(Vec3::splat(-0.25), Vec3::splat(0.25), 96);
@@ -455,8 +545,17 @@ mod tests {
         let merged = wrap.with_loose_pieces(&w.mesh, &extracted);
         let pieces = &merged.positions[wrap.vertex_count()..];
         assert!(pieces.iter().any(|p| p.x < -0.2), "the brim is kept");
-        assert!(extracted.positions.iter().filter(|p| p.distance(Vec3::new(0.15, 0.0, 0.0)) < 0.03).count() > 50, "the extracted blob");
-        let near_finger = pieces.iter().filter(|p| p.distance(Vec3::new(0.15, 0.0, 0.0)) < 0.03).count();
+        assert!(
+            extracted
+                .positions
+                .iter()
+                .filter(|p| p.distance(Vec3::new(0.15, 0.0, 0.0)) < 0.03)
+                .count()
+                > 50,
+            "the extracted blob"
+        );
+        let near_finger =
+            pieces.iter().filter(|p| p.distance(Vec3::new(0.15, 0.0, 0.0)) < 0.03).count();
         assert_eq!(near_finger, 0, "no piece round the finger");
     }
 
@@ -468,14 +567,19 @@ mod tests {
         let wrap = body();
         assert!((wrap.rest_area - 0.1257).abs() < 0.002, "{}", wrap.rest_area);
         let tight = |p: &Vec3| p.length() - 0.108;
-        let disc = |p: &Vec3, y: f32, r: f32| ((p.y - y).abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - r);
+        let disc = |p: &Vec3, y: f32, r: f32| {
+            ((p.y - y).abs() - 0.002).max(Vec3::new(p.x, 0.0, p.z).length() - r)
+        };
         let sdf = |p: &Vec3| tight(p).min(disc(p, 0.16, 0.015)).min(disc(p, -0.16, 0.035));
         let mut opts = ExtractOptions::new(Vec3::splat(-0.25), Vec3::splat(0.25), 96);
         // (Fitted surfaces meet their fragments at the cloth; here they float beside it.)
         opts.largest_component_only = false;
         let w = wrap.wrap_within(|ps| ps.iter().map(sdf).collect(), wrap.options.tight_outside);
         let extracted = extract(|ps: &[Vec3]| ps.iter().map(sdf).collect(), &opts).unwrap().mesh;
-        assert!(extracted.positions.iter().filter(|p| p.y > 0.15).count() > 20, "the fragment is extracted");
+        assert!(
+            extracted.positions.iter().filter(|p| p.y > 0.15).count() > 20,
+            "the fragment is extracted"
+        );
         let merged = wrap.with_loose_pieces(&w.mesh, &extracted);
         let pieces = &merged.positions[wrap.vertex_count()..];
         assert_eq!(pieces.iter().filter(|p| p.y > 0.14).count(), 0, "the fragment is dropped");
@@ -483,16 +587,27 @@ mod tests {
         let mut smaller = body();
         smaller.options.min_piece_share = 0.005;
         let merged = smaller.with_loose_pieces(&w.mesh, &extracted);
-        assert!(merged.positions[wrap.vertex_count()..].iter().any(|p| p.y > 0.14), "kept at a lower share");
+        assert!(
+            merged.positions[wrap.vertex_count()..].iter().any(|p| p.y > 0.14),
+            "kept at a lower share"
+        );
     }
 
     #[test]
     fn a_body_too_thin_to_resolve_is_not_wrapped() {
         let (wrap, base) = body_with_finger(0.14);
         // A blob 2 cm round the small sphere (the SDF's guess of a finger), cloth 5 mm out elsewhere.
-        let w = wrap.wrap(|ps| ps.iter().map(|&p| (p.length() - 0.105).min(p.distance(Vec3::new(0.14, 0.0, 0.0)) - 0.02)).collect());
+        let w = wrap.wrap(|ps| {
+            ps.iter()
+                .map(|&p| (p.length() - 0.105).min(p.distance(Vec3::new(0.14, 0.0, 0.0)) - 0.02))
+                .collect()
+        });
         for v in base as usize..w.mesh.positions.len() {
-            assert!(!w.found[v], "vertex {v} thickness {} normal {}", wrap.thickness[v], wrap.normals[v]);
+            assert!(
+                !w.found[v],
+                "vertex {v} thickness {} normal {}",
+                wrap.thickness[v], wrap.normals[v]
+            );
             assert_eq!(w.mesh.positions[v], wrap.rest.positions[v]);
         }
         assert!(w.found[..base as usize].iter().filter(|&&f| f).count() > base as usize * 9 / 10);

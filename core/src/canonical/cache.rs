@@ -15,7 +15,9 @@ const TOP: usize = 6;
 
 /// Default cache folder: `$XDG_CACHE_HOME/avatar-studio/fields` or `~/.cache/avatar-studio/fields`.
 pub fn default_cache_dir() -> Option<PathBuf> {
-    let base = std::env::var_os("XDG_CACHE_HOME").map(PathBuf::from).or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
+    let base = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
     Some(base.join("avatar-studio").join("fields"))
 }
 
@@ -40,14 +42,25 @@ fn key(rest: &[Vec3], body: &BodyModel, options: &FieldOptions) -> u64 {
     for w in &body.weights {
         w.map(f32::to_bits).hash(&mut h);
     }
-    (options.cells_along_height, options.margin.to_bits(), options.fixed_band.to_bits(), options.smoothing_iterations).hash(&mut h);
+    (
+        options.cells_along_height,
+        options.margin.to_bits(),
+        options.fixed_band.to_bits(),
+        options.smoothing_iterations,
+    )
+        .hash(&mut h);
     VERSION.hash(&mut h);
     h.finish()
 }
 
 /// The field for this body shape: from the cache when present and valid, else built and cached.
 /// Returns the field and a warning when a cache file had to be discarded.
-pub fn cached_field(body: &BodyModel, rest: &[Vec3], options: &FieldOptions, cache_dir: Option<&Path>) -> Result<(SkinningField, Option<String>)> {
+pub fn cached_field(
+    body: &BodyModel,
+    rest: &[Vec3],
+    options: &FieldOptions,
+    cache_dir: Option<&Path>,
+) -> Result<(SkinningField, Option<String>)> {
     let Some(dir) = cache_dir else {
         return Ok((SkinningField::build(body, rest, options)?, None));
     };
@@ -56,7 +69,9 @@ pub fn cached_field(body: &BodyModel, rest: &[Vec3], options: &FieldOptions, cac
     if path.exists() {
         match read_field(&path) {
             Ok(f) => return Ok((f, None)),
-            Err(e) => warning = Some(format!("discarded a bad skinning-field cache ({e}); rebuilding")),
+            Err(e) => {
+                warning = Some(format!("discarded a bad skinning-field cache ({e}); rebuilding"))
+            }
         }
     }
     let built = SkinningField::build(body, rest, options)?;
@@ -115,7 +130,11 @@ fn decode(bytes: &[u8], path: &Path) -> Result<SkinningField> {
     let origin = Vec3::new(f32_at(20), f32_at(24), f32_at(28));
     let cell = f32_at(32);
     let n = dims.iter().product::<usize>();
-    if dims.iter().any(|&d| d < 2 || d > 4096) || !(cell > 0.0) || !origin.is_finite() || bytes.len() != 36 + n * TOP * 3 {
+    if dims.iter().any(|&d| d < 2 || d > 4096)
+        || !(cell > 0.0)
+        || !origin.is_finite()
+        || bytes.len() != 36 + n * TOP * 3
+    {
         return Err(bad("truncated or inconsistent skinning-field cache"));
     }
     let mut weights = vec![0f32; n * NUM_JOINTS];

@@ -2,8 +2,8 @@
 //! choosing one root, and the 2 cm reprojection filter.
 
 use super::field::SkinningField;
-use super::root_finding::{find_roots, forward_point, start_bones, Root, RootOptions};
-use crate::body::{blend_transform, Bones, NUM_JOINTS};
+use super::root_finding::{Root, RootOptions, find_roots, forward_point, start_bones};
+use crate::body::{Bones, NUM_JOINTS, blend_transform};
 use crate::mesh::TriMesh;
 use crate::mesh::point_index::PointIndex;
 use glam::{Mat3, Vec3};
@@ -90,7 +90,14 @@ pub fn canonicalize_points(
             Some((x, nc, (reprojected - p).length() <= REPROJECTION_THRESHOLD))
         })
         .collect();
-    let mut frame = CanonicalFrame { points: Vec::new(), normals: Vec::new(), source: Vec::new(), unsolved: 0, dropped: 0, bones: bones.clone() };
+    let mut frame = CanonicalFrame {
+        points: Vec::new(),
+        normals: Vec::new(),
+        source: Vec::new(),
+        unsolved: 0,
+        dropped: 0,
+        bones: bones.clone(),
+    };
     for (i, r) in results.into_iter().enumerate() {
         match r {
             None => frame.unsolved += 1,
@@ -107,6 +114,10 @@ pub fn canonicalize_points(
 
 /// Forward skinning of a canonical mesh with the field (points and face topology).
 pub fn forward_skin_mesh(field: &SkinningField, bones: &Bones, canonical: &TriMesh) -> TriMesh {
-    let positions = canonical.positions.par_iter().map(|&x| forward_point(field, &bones.transforms, x)).collect();
+    let positions = canonical
+        .positions
+        .par_iter()
+        .map(|&x| forward_point(field, &bones.transforms, x))
+        .collect();
     TriMesh::new(positions, canonical.faces.clone())
 }

@@ -6,7 +6,7 @@
 //! field is clamped to [0, 1] and renormalised. Stored on a regular grid and queried
 //! trilinearly.
 
-use crate::body::{interpolate_weights, BodyModel, Weights, NUM_JOINTS};
+use crate::body::{BodyModel, NUM_JOINTS, Weights, interpolate_weights};
 use crate::error::{Error, Result};
 use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
@@ -34,10 +34,20 @@ impl FieldOptions {
     /// Refuse grids that cannot be built (checked before anything is allocated).
     pub fn validate(&self) -> Result<()> {
         if !FIELD_CELLS.contains(&self.cells_along_height) {
-            return Err(Error::invalid(format!("skinning field of {} cells along the height is out of range ({} to {})", self.cells_along_height, FIELD_CELLS.start(), FIELD_CELLS.end())));
+            return Err(Error::invalid(format!(
+                "skinning field of {} cells along the height is out of range ({} to {})",
+                self.cells_along_height,
+                FIELD_CELLS.start(),
+                FIELD_CELLS.end()
+            )));
         }
-        if !(0.0..=2.0).contains(&self.margin) || !(0.0..=100.0).contains(&self.fixed_band) || self.smoothing_iterations > 10_000 {
-            return Err(Error::invalid("skinning field options out of range (margin 0-2 m, band 0-100 cells, at most 10000 iterations)"));
+        if !(0.0..=2.0).contains(&self.margin)
+            || !(0.0..=100.0).contains(&self.fixed_band)
+            || self.smoothing_iterations > 10_000
+        {
+            return Err(Error::invalid(
+                "skinning field options out of range (margin 0-2 m, band 0-100 cells, at most 10000 iterations)",
+            ));
         }
         Ok(())
     }
@@ -45,7 +55,12 @@ impl FieldOptions {
 
 impl Default for FieldOptions {
     fn default() -> Self {
-        FieldOptions { cells_along_height: 128, margin: 0.35, fixed_band: 1.5, smoothing_iterations: 24 }
+        FieldOptions {
+            cells_along_height: 128,
+            margin: 0.35,
+            fixed_band: 1.5,
+            smoothing_iterations: 24,
+        }
     }
 }
 
@@ -63,12 +78,18 @@ impl SkinningField {
     pub fn build(body: &BodyModel, rest: &[Vec3], options: &FieldOptions) -> Result<SkinningField> {
         options.validate()?;
         if rest.len() != body.weights.len() {
-            return Err(Error::invalid(format!("{} rest vertices for {} skinning weights", rest.len(), body.weights.len())));
+            return Err(Error::invalid(format!(
+                "{} rest vertices for {} skinning weights",
+                rest.len(),
+                body.weights.len()
+            )));
         }
         let (lo, hi) = crate::mesh::bounds(rest).ok_or_else(|| Error::invalid("empty body"))?;
         let extent = hi - lo;
         if !extent.is_finite() || extent.max_element() > 10.0 || extent.y <= 0.0 {
-            return Err(Error::invalid(format!("the shaped body spans {extent} m: not a plausible person (shape coefficients out of range?)")));
+            return Err(Error::invalid(format!(
+                "the shaped body spans {extent} m: not a plausible person (shape coefficients out of range?)"
+            )));
         }
         let (lo, hi) = (lo - Vec3::splat(options.margin), hi + Vec3::splat(options.margin));
         let cell = (hi.y - lo.y) / options.cells_along_height.max(8) as f32;
@@ -80,14 +101,16 @@ impl SkinningField {
         //    (exactly the body's weights on the surface, constant along the normal).
         let mut dist = vec![0f32; n];
         let mut weights = vec![0f32; n * NUM_JOINTS];
-        weights.par_chunks_mut(NUM_JOINTS).zip(dist.par_iter_mut()).enumerate().for_each(|(i, (w, d))| {
-            let p = node_position(lo, cell, dims, i);
-            let hit = bvh.closest_point(p).expect("non-empty body");
-            *d = hit.distance;
-            let f = mesh.faces[hit.face as usize].map(|k| k as usize);
-            let b = barycentric(hit.point, rest[f[0]], rest[f[1]], rest[f[2]]);
-            w.copy_from_slice(&interpolate_weights(&body.weights, f, b));
-        });
+        weights.par_chunks_mut(NUM_JOINTS).zip(dist.par_iter_mut()).enumerate().for_each(
+            |(i, (w, d))| {
+                let p = node_position(lo, cell, dims, i);
+                let hit = bvh.closest_point(p).expect("non-empty body");
+                *d = hit.distance;
+                let f = mesh.faces[hit.face as usize].map(|k| k as usize);
+                let b = barycentric(hit.point, rest[f[0]], rest[f[1]], rest[f[2]]);
+                w.copy_from_slice(&interpolate_weights(&body.weights, f, b));
+            },
+        );
         // 2. Diffuse away from the surface (6-neighbour Jacobi), near-surface nodes fixed.
         let fixed: Vec<bool> = dist.iter().map(|&d| d <= options.fixed_band * cell).collect();
         let mut next = weights.clone();
@@ -137,7 +160,11 @@ impl SkinningField {
     }
 
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        let size = Vec3::new((self.dims[0] - 1) as f32, (self.dims[1] - 1) as f32, (self.dims[2] - 1) as f32) * self.cell;
+        let size = Vec3::new(
+            (self.dims[0] - 1) as f32,
+            (self.dims[1] - 1) as f32,
+            (self.dims[2] - 1) as f32,
+        ) * self.cell;
         (self.origin, self.origin + size)
     }
 
@@ -151,14 +178,18 @@ impl SkinningField {
         let g = ((p - self.origin) / self.cell).max(Vec3::ZERO);
         let mut out = [0f32; NUM_JOINTS];
         let i0 = [0, 1, 2].map(|a| (g[a].floor() as usize).min(self.dims[a] - 2));
-        let t = Vec3::new(g.x - i0[0] as f32, g.y - i0[1] as f32, g.z - i0[2] as f32).clamp(Vec3::ZERO, Vec3::ONE);
+        let t = Vec3::new(g.x - i0[0] as f32, g.y - i0[1] as f32, g.z - i0[2] as f32)
+            .clamp(Vec3::ZERO, Vec3::ONE);
         for corner in 0..8 {
             let o = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
-            let w = (if o[0] == 1 { t.x } else { 1.0 - t.x }) * (if o[1] == 1 { t.y } else { 1.0 - t.y }) * (if o[2] == 1 { t.z } else { 1.0 - t.z });
+            let w = (if o[0] == 1 { t.x } else { 1.0 - t.x })
+                * (if o[1] == 1 { t.y } else { 1.0 - t.y })
+                * (if o[2] == 1 { t.z } else { 1.0 - t.z });
             if w == 0.0 {
                 continue;
             }
-            let k = (i0[0] + o[0]) + self.dims[0] * ((i0[1] + o[1]) + self.dims[1] * (i0[2] + o[2]));
+            let k =
+                (i0[0] + o[0]) + self.dims[0] * ((i0[1] + o[1]) + self.dims[1] * (i0[2] + o[2]));
             for j in 0..NUM_JOINTS {
                 out[j] += w * self.weights[k * NUM_JOINTS + j];
             }
@@ -175,4 +206,3 @@ fn node_position(origin: Vec3, cell: f32, dims: [usize; 3], i: usize) -> Vec3 {
     let (x, y, z) = (i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1]));
     origin + Vec3::new(x as f32, y as f32, z as f32) * cell
 }
-

@@ -6,24 +6,30 @@ pub mod body_wrap;
 pub mod cache;
 pub mod canonicalize;
 pub mod field;
+pub mod garment_skinning;
 pub mod normalise;
+pub mod offset_smoothing;
 pub mod report;
 pub mod root_finding;
-pub mod garment_skinning;
-pub mod offset_smoothing;
 pub mod sheets;
 pub mod shell;
 
 pub use body_wrap::{BodyWrap, SurfaceChoice, WrapOptions, Wrapped};
 pub use cache::{cached_field, default_cache_dir};
-pub use canonicalize::{canonicalize_points, choose_by_agreement, choose_nearest, forward_skin_mesh, CanonicalFrame, REPROJECTION_THRESHOLD};
-pub use field::{FieldOptions, SkinningField, FIELD_CELLS};
+pub use canonicalize::{
+    CanonicalFrame, REPROJECTION_THRESHOLD, canonicalize_points, choose_by_agreement,
+    choose_nearest, forward_skin_mesh,
+};
+pub use field::{FIELD_CELLS, FieldOptions, SkinningField};
+pub use garment_skinning::{
+    GarmentSkinner, GarmentSkinning, field_weights, forward_skin_with_weights, garment_weights,
+    inpaint_loose_weights,
+};
 pub use normalise::Normalisation;
-pub use garment_skinning::{field_weights, forward_skin_with_weights, garment_weights, inpaint_loose_weights, GarmentSkinner, GarmentSkinning};
-pub use offset_smoothing::{smooth_body_offsets, OffsetSmoothing, SurfaceSmoother};
-pub use sheets::{open_inner_walls, SheetOptions};
-pub use shell::{shell_samples, ShellOptions};
-pub use root_finding::{find_roots, forward_point, start_bones, Root, RootOptions};
+pub use offset_smoothing::{OffsetSmoothing, SurfaceSmoother, smooth_body_offsets};
+pub use root_finding::{Root, RootOptions, find_roots, forward_point, start_bones};
+pub use sheets::{SheetOptions, open_inner_walls};
+pub use shell::{ShellOptions, shell_samples};
 
 use crate::body::BodyModel;
 use crate::capture::CaptureFrame;
@@ -48,21 +54,44 @@ pub struct Canonicalizer<'a> {
 }
 
 impl<'a> Canonicalizer<'a> {
-    pub fn new(body: &'a BodyModel, betas: &[f32], field_options: &FieldOptions, cache_dir: Option<&Path>) -> Result<Self> {
+    pub fn new(
+        body: &'a BodyModel,
+        betas: &[f32],
+        field_options: &FieldOptions,
+        cache_dir: Option<&Path>,
+    ) -> Result<Self> {
         field_options.validate()?;
         crate::body::check_betas(betas)?;
         let rest = body.shaped_vertices(betas);
         let (field, cache_warning) = cached_field(body, &rest, field_options, cache_dir)?;
         let normalisation = Normalisation::from_body(&rest);
         let rest_surface = Bvh::build(&body.mesh(rest.clone()));
-        Ok(Canonicalizer { body, betas: betas.to_vec(), rest, field, normalisation, options: RootOptions::default(), cache_warning, rest_surface })
+        Ok(Canonicalizer {
+            body,
+            betas: betas.to_vec(),
+            rest,
+            field,
+            normalisation,
+            options: RootOptions::default(),
+            cache_warning,
+            rest_surface,
+        })
     }
 
     /// Canonicalize one capture frame's points and normals.
     pub fn frame(&self, frame: &CaptureFrame) -> CanonicalFrame {
         let posed = self.body.pose(&frame.params);
         let chooser = |roots: &[Root]| self.nearest_to_body(roots);
-        canonicalize_points(&self.field, &posed.bones, &posed.vertices, &self.body.weights, &frame.points, &frame.normals, &self.options, Some(&chooser))
+        canonicalize_points(
+            &self.field,
+            &posed.bones,
+            &posed.vertices,
+            &self.body.weights,
+            &frame.points,
+            &frame.normals,
+            &self.options,
+            Some(&chooser),
+        )
     }
 
     /// Of several roots, the one nearest the rest body's surface (PINA keeps the root of
@@ -70,7 +99,9 @@ impl<'a> Canonicalizer<'a> {
     /// squat or a bend presses the thigh to the belly, the other roots lie tens of
     /// centimetres off the body, and a fit grows sheets through them.
     fn nearest_to_body(&self, roots: &[Root]) -> usize {
-        choose_nearest(roots, |x| self.rest_surface.closest_point(x).map_or(f32::INFINITY, |h| h.distance))
+        choose_nearest(roots, |x| {
+            self.rest_surface.closest_point(x).map_or(f32::INFINITY, |h| h.distance)
+        })
     }
 
     /// Canonical positions of free-space samples of one frame (posed, world space): the
@@ -79,6 +110,16 @@ impl<'a> Canonicalizer<'a> {
         let posed = self.body.pose(&frame.params);
         let no_normals = vec![Vec3::Z; samples.len()];
         let chooser = |roots: &[Root]| self.nearest_to_body(roots);
-        canonicalize_points(&self.field, &posed.bones, &posed.vertices, &self.body.weights, samples, &no_normals, &self.options, Some(&chooser)).points
+        canonicalize_points(
+            &self.field,
+            &posed.bones,
+            &posed.vertices,
+            &self.body.weights,
+            samples,
+            &no_normals,
+            &self.options,
+            Some(&chooser),
+        )
+        .points
     }
 }

@@ -18,7 +18,8 @@ pub struct Normalisation {
 
 impl Normalisation {
     pub fn from_body(canonical_body: &[Vec3]) -> Normalisation {
-        let centre = canonical_body.iter().copied().sum::<Vec3>() / canonical_body.len().max(1) as f32;
+        let centre =
+            canonical_body.iter().copied().sum::<Vec3>() / canonical_body.len().max(1) as f32;
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for p in canonical_body {
             let c = *p - centre;
@@ -33,13 +34,21 @@ impl Normalisation {
     pub fn validate(&self) -> crate::Result<()> {
         let bad = |m: String| Err(crate::Error::invalid(format!("normalisation: {m}")));
         if !NORMALISATION_RANGE.contains(&self.range) {
-            return bad(format!("range {} m is not a body's size ({} to {} m)", self.range, NORMALISATION_RANGE.start(), NORMALISATION_RANGE.end()));
+            return bad(format!(
+                "range {} m is not a body's size ({} to {} m)",
+                self.range,
+                NORMALISATION_RANGE.start(),
+                NORMALISATION_RANGE.end()
+            ));
         }
         if !(self.centre.is_finite() && self.centre.length() <= 1000.0) {
             return bad(format!("centre {} is not finite or beyond 1 km", self.centre));
         }
         if !(self.coord_min.is_finite() && self.coord_min.abs() <= self.range) {
-            return bad(format!("coord_min {} does not fit its range {}", self.coord_min, self.range));
+            return bad(format!(
+                "coord_min {} does not fit its range {}",
+                self.coord_min, self.range
+            ));
         }
         Ok(())
     }
@@ -50,12 +59,18 @@ impl Normalisation {
 
     /// Metres (canonical body space) -> normalised [-1, 1]^3.
     pub fn to_unit(&self, p: Vec3) -> Vec3 {
-        ((p - self.centre - Vec3::splat(self.coord_min) + Vec3::splat(self.pad())) / self.range / 1.1 - Vec3::splat(0.5)) * 2.0
+        ((p - self.centre - Vec3::splat(self.coord_min) + Vec3::splat(self.pad()))
+            / self.range
+            / 1.1
+            - Vec3::splat(0.5))
+            * 2.0
     }
 
     /// Normalised -> metres.
     pub fn from_unit(&self, q: Vec3) -> Vec3 {
-        (q * 0.5 + Vec3::splat(0.5)) * 1.1 * self.range - Vec3::splat(self.pad()) + Vec3::splat(self.coord_min) + self.centre
+        (q * 0.5 + Vec3::splat(0.5)) * 1.1 * self.range - Vec3::splat(self.pad())
+            + Vec3::splat(self.coord_min)
+            + self.centre
     }
 
     /// Metres per normalised unit (distances and SDF values scale by this).

@@ -8,9 +8,9 @@
 //! rebuilt from it, so the bumps go and the limbs keep the body's curvature. Loose cloth (a
 //! skirt, tails) keeps its own shape; the smoothing fades out with the distance to the body.
 
-use crate::mesh::signed_distance::SignedDistance;
-use crate::mesh::smooth::{vertex_neighbours, Neighbours};
 use crate::mesh::TriMesh;
+use crate::mesh::signed_distance::SignedDistance;
+use crate::mesh::smooth::{Neighbours, vertex_neighbours};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -59,15 +59,31 @@ pub struct SurfaceSmoother {
 
 impl SurfaceSmoother {
     pub fn new(body: &SignedDistance, mesh: &TriMesh, options: OffsetSmoothing) -> SurfaceSmoother {
-        let anchors = mesh.positions.par_iter().map(|&x| body.smooth_offset(x).map(|(d, n)| (x - d * n, n))).collect();
-        SurfaceSmoother { anchors, neighbours: vertex_neighbours(mesh), options, pinned: Vec::new() }
+        let anchors = mesh
+            .positions
+            .par_iter()
+            .map(|&x| body.smooth_offset(x).map(|(d, n)| (x - d * n, n)))
+            .collect();
+        SurfaceSmoother {
+            anchors,
+            neighbours: vertex_neighbours(mesh),
+            options,
+            pinned: Vec::new(),
+        }
     }
 
     /// Hold the reference's vertices for which `pin` is true where the reference has them,
     /// whatever a pose's projection did to them: a wrapped body's vertices that its surface
     /// swallowed (`body_wrap`) would otherwise be pushed onto the blob around them.
     pub fn pin(mut self, reference: &TriMesh, pin: &[bool]) -> SurfaceSmoother {
-        self.pinned = reference.positions.iter().zip(pin).enumerate().filter(|(_, (_, p))| **p).map(|(v, (x, _))| (v, *x)).collect();
+        self.pinned = reference
+            .positions
+            .iter()
+            .zip(pin)
+            .enumerate()
+            .filter(|(_, (_, p))| **p)
+            .map(|(v, (x, _))| (v, *x))
+            .collect();
         self
     }
 
@@ -87,7 +103,11 @@ impl SurfaceSmoother {
         if self.options.sweeps == 0 {
             return;
         }
-        let offsets: Vec<Option<f32>> = positions.par_iter().zip(&self.anchors).map(|(&x, anchor)| anchor.map(|(p, n)| (x - p).dot(n))).collect();
+        let offsets: Vec<Option<f32>> = positions
+            .par_iter()
+            .zip(&self.anchors)
+            .map(|(&x, anchor)| anchor.map(|(p, n)| (x - p).dot(n)))
+            .collect();
         // How much of the smoothing each vertex takes: 1 within `a` of the body, 0 from `b` on.
         let share: Vec<f32> = offsets
             .iter()
@@ -148,7 +168,8 @@ mod tests {
             // Directions spread over the sphere (a Fibonacci lattice), 1 cm outside.
             let y = 1.0 - 2.0 * (i as f32 + 0.5) / 400.0;
             let phi = i as f32 * 2.399_963;
-            let dir = Vec3::new((1.0 - y * y).sqrt() * phi.cos(), y, (1.0 - y * y).sqrt() * phi.sin());
+            let dir =
+                Vec3::new((1.0 - y * y).sqrt() * phi.cos(), y, (1.0 - y * y).sqrt() * phi.sin());
             let p = dir * 0.11;
             flat_worst = flat_worst.max((body.at(p).unwrap() - 0.01).abs());
             let (d, n) = body.smooth_offset(p).unwrap();
@@ -156,7 +177,10 @@ mod tests {
             assert!(n.dot(dir) > 0.98, "normal {n} at {dir}");
         }
         assert!(flat_worst > 1e-3, "the facets' error {flat_worst}");
-        assert!(smooth_worst < 0.35 * flat_worst, "smooth offset off by up to {smooth_worst} m (facets: {flat_worst})");
+        assert!(
+            smooth_worst < 0.35 * flat_worst,
+            "smooth offset off by up to {smooth_worst} m (facets: {flat_worst})"
+        );
     }
 
     #[test]
@@ -172,23 +196,37 @@ mod tests {
             *p = if loose(*p) { dir * 0.16 } else { dir * (0.108 + bump) };
         }
         let offset_spread = |m: &TriMesh| {
-            let r: Vec<f32> = m.positions.iter().filter(|p| p.y < 0.06).map(|p| p.length()).collect();
+            let r: Vec<f32> =
+                m.positions.iter().filter(|p| p.y < 0.06).map(|p| p.length()).collect();
             let mean = r.iter().sum::<f32>() / r.len() as f32;
             (mean, (r.iter().map(|x| (x - mean).powi(2)).sum::<f32>() / r.len() as f32).sqrt())
         };
         let normal_error = |m: &TriMesh| {
             let normals = m.vertex_normals();
-            let e: Vec<f32> = m.positions.iter().zip(&normals).filter(|(p, _)| p.y < 0.06).map(|(p, n)| (p.normalize() - *n).length()).collect();
+            let e: Vec<f32> = m
+                .positions
+                .iter()
+                .zip(&normals)
+                .filter(|(p, _)| p.y < 0.06)
+                .map(|(p, n)| (p.normalize() - *n).length())
+                .collect();
             e.iter().sum::<f32>() / e.len() as f32
         };
         let (mean_before, spread_before) = offset_spread(&cloth);
         let error_before = normal_error(&cloth);
         let mut smoothed = cloth.clone();
-        smooth_body_offsets(&mut smoothed, &body, &OffsetSmoothing { tight: (0.02, 0.035), sweeps: 40 });
+        smooth_body_offsets(
+            &mut smoothed,
+            &body,
+            &OffsetSmoothing { tight: (0.02, 0.035), sweeps: 40 },
+        );
         let (mean_after, spread_after) = offset_spread(&smoothed);
         let error_after = normal_error(&smoothed);
         assert!(spread_after < 0.25 * spread_before, "bumps {spread_before} -> {spread_after} m");
-        assert!((mean_after - mean_before).abs() < 3e-4, "the cloth's offset moved: {mean_before} -> {mean_after} m");
+        assert!(
+            (mean_after - mean_before).abs() < 3e-4,
+            "the cloth's offset moved: {mean_before} -> {mean_after} m"
+        );
         assert!(error_after < 0.4 * error_before, "normals' error {error_before} -> {error_after}");
         // Loose cloth (6 cm out) is untouched.
         for (a, b) in cloth.positions.iter().zip(&smoothed.positions) {
@@ -216,7 +254,12 @@ mod tests {
         let mut anew = pose.clone();
         smooth_body_offsets(&mut anew, &body, &options);
         smoother.smooth(&mut pose.positions);
-        let worst = pose.positions.iter().zip(&anew.positions).map(|(a, b)| a.distance(*b)).fold(0f32, f32::max);
+        let worst = pose
+            .positions
+            .iter()
+            .zip(&anew.positions)
+            .map(|(a, b)| a.distance(*b))
+            .fold(0f32, f32::max);
         assert!(worst < 1e-4, "{worst} m from the surface smoothed with fresh anchors");
         // A mesh of another topology is left as it is.
         let mut other = mesh_sphere(0.108, 8, 16);
@@ -230,9 +273,11 @@ mod tests {
         let body = SignedDistance::new(&mesh_sphere(0.1, 48, 96));
         let reference = mesh_sphere(0.105, 32, 64);
         let pin: Vec<bool> = reference.positions.iter().map(|p| p.y > 0.09).collect();
-        let smoother = SurfaceSmoother::new(&body, &reference, OffsetSmoothing::default()).pin(&reference, &pin);
+        let smoother = SurfaceSmoother::new(&body, &reference, OffsetSmoothing::default())
+            .pin(&reference, &pin);
         // A pose's projection pushed every vertex 1 cm out.
-        let mut pose: Vec<Vec3> = reference.positions.iter().map(|p| *p + p.normalize() * 0.01).collect();
+        let mut pose: Vec<Vec3> =
+            reference.positions.iter().map(|p| *p + p.normalize() * 0.01).collect();
         smoother.smooth(&mut pose);
         for ((p, r), &pinned) in pose.iter().zip(&reference.positions).zip(&pin) {
             if pinned {

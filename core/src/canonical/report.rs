@@ -6,8 +6,8 @@ use crate::body::BodyModel;
 use crate::capture::Capture;
 use crate::error::Result;
 use crate::mesh::bvh::Bvh;
-use crate::synth::{generate_capture, GroundTruth, Outfit, SynthJob};
 use crate::motion::clip_by_name;
+use crate::synth::{GroundTruth, Outfit, SynthJob, generate_capture};
 use std::time::Instant;
 
 #[derive(Debug, Clone, PartialEq)]
@@ -23,9 +23,24 @@ pub struct AccuracyRow {
 
 /// Generate a noiseless synthetic capture of `outfit` (subject `seed`, `frames` frames of
 /// `clip`), canonicalize every depth point and compare with its true canonical position.
-pub fn accuracy(body: &BodyModel, outfit: Outfit, clip: &str, frames: usize, seed: u64, field: &FieldOptions) -> Result<AccuracyRow> {
-    let dir = std::env::temp_dir().join(format!("avatar-studio-canon-{}-{}-{seed}", std::process::id(), outfit.name()));
-    let mut job = SynthJob::new(seed, outfit, clip_by_name(clip).ok_or_else(|| crate::Error::invalid(format!("no clip {clip}")))?);
+pub fn accuracy(
+    body: &BodyModel,
+    outfit: Outfit,
+    clip: &str,
+    frames: usize,
+    seed: u64,
+    field: &FieldOptions,
+) -> Result<AccuracyRow> {
+    let dir = std::env::temp_dir().join(format!(
+        "avatar-studio-canon-{}-{}-{seed}",
+        std::process::id(),
+        outfit.name()
+    ));
+    let mut job = SynthJob::new(
+        seed,
+        outfit,
+        clip_by_name(clip).ok_or_else(|| crate::Error::invalid(format!("no clip {clip}")))?,
+    );
     job.frames = Some(frames);
     generate_capture(&dir, body, &job)?;
     let capture = Capture::open(&dir)?;
@@ -49,7 +64,12 @@ pub fn accuracy(body: &BodyModel, outfit: Outfit, clip: &str, frames: usize, see
         unsolved += c.unsolved;
     }
     errors.sort_by(f32::total_cmp);
-    let at = |q: f32| errors.get(((errors.len() as f32 * q) as usize).min(errors.len().saturating_sub(1))).copied().unwrap_or(f32::NAN);
+    let at = |q: f32| {
+        errors
+            .get(((errors.len() as f32 * q) as usize).min(errors.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(f32::NAN)
+    };
     Ok(AccuracyRow {
         outfit,
         points: total,
@@ -60,4 +80,3 @@ pub fn accuracy(body: &BodyModel, outfit: Outfit, clip: &str, frames: usize, see
         seconds,
     })
 }
-

@@ -3,7 +3,7 @@
 //! several starts (the inverse transform of bones near the point), keeping converged roots.
 
 use super::field::SkinningField;
-use crate::body::{blend_transform, SMPL_PARENTS, NUM_JOINTS};
+use crate::body::{NUM_JOINTS, SMPL_PARENTS, blend_transform};
 use glam::{Mat3, Mat4, Vec3};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -68,7 +68,13 @@ pub fn start_bones(near_weights: &[f32; NUM_JOINTS], max: usize) -> Vec<usize> {
 }
 
 /// All converged roots from the given start bones.
-pub fn find_roots(field: &SkinningField, bones: &[Mat4; NUM_JOINTS], posed: Vec3, starts: &[usize], options: &RootOptions) -> Vec<Root> {
+pub fn find_roots(
+    field: &SkinningField,
+    bones: &[Mat4; NUM_JOINTS],
+    posed: Vec3,
+    starts: &[usize],
+    options: &RootOptions,
+) -> Vec<Root> {
     let mut roots: Vec<Root> = Vec::new();
     for &b in starts {
         if let Some(r) = broyden(field, bones, posed, b, options) {
@@ -81,7 +87,13 @@ pub fn find_roots(field: &SkinningField, bones: &[Mat4; NUM_JOINTS], posed: Vec3
     roots
 }
 
-fn broyden(field: &SkinningField, bones: &[Mat4; NUM_JOINTS], posed: Vec3, start: usize, options: &RootOptions) -> Option<Root> {
+fn broyden(
+    field: &SkinningField,
+    bones: &[Mat4; NUM_JOINTS],
+    posed: Vec3,
+    start: usize,
+    options: &RootOptions,
+) -> Option<Root> {
     let mut x = bones[start].inverse().transform_point3(posed);
     let residual = |x: Vec3| forward_point(field, bones, x) - posed;
     let mut g = residual(x);
@@ -98,7 +110,13 @@ fn broyden(field: &SkinningField, bones: &[Mat4; NUM_JOINTS], posed: Vec3, start
             return None;
         }
         if r < options.tolerance {
-            return field.contains(x).then(|| Root { canonical: x, start_bone: start, agreement: field.weights_at(x)[start], residual: r, steps: step });
+            return field.contains(x).then(|| Root {
+                canonical: x,
+                start_bone: start,
+                agreement: field.weights_at(x)[start],
+                residual: r,
+                steps: step,
+            });
         }
         let dx = -(j_inv * g);
         let x_new = x + dx;
@@ -115,5 +133,11 @@ fn broyden(field: &SkinningField, bones: &[Mat4; NUM_JOINTS], posed: Vec3, start
         g = g_new;
     }
     let r = g.length();
-    (r < options.tolerance && field.contains(x)).then(|| Root { canonical: x, start_bone: start, agreement: field.weights_at(x)[start], residual: r, steps: options.max_steps })
+    (r < options.tolerance && field.contains(x)).then(|| Root {
+        canonical: x,
+        start_bone: start,
+        agreement: field.weights_at(x)[start],
+        residual: r,
+        steps: options.max_steps,
+    })
 }

@@ -8,10 +8,10 @@
 //! the body and behind which (through the slab) the outer side follows within `max_wall`.
 //! Skin, tight clothing and solid blobs keep every face.
 
+use crate::mesh::TriMesh;
 use crate::mesh::bvh::Bvh;
 use crate::mesh::signed_distance::SignedDistance;
 use crate::mesh::topology::compact;
-use crate::mesh::TriMesh;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -61,7 +61,11 @@ pub fn open_inner_walls(mesh: TriMesh, body: &SignedDistance, options: &SheetOpt
             _ => None,
         })
         .collect();
-    let candidates: Vec<bool> = away.iter().zip(&normals).map(|(a, n)| a.is_some_and(|a| -n.dot(a) > options.facing)).collect();
+    let candidates: Vec<bool> = away
+        .iter()
+        .zip(&normals)
+        .map(|(a, n)| a.is_some_and(|a| -n.dot(a) > options.facing))
+        .collect();
     if !candidates.iter().any(|&c| c) {
         return mesh;
     }
@@ -75,7 +79,13 @@ pub fn open_inner_walls(mesh: TriMesh, body: &SignedDistance, options: &SheetOpt
         .map(|((&x, &n), &c)| c && bvh.ray_cast(x, -n, 1e-3, options.max_wall).is_some())
         .collect();
     let rim = slab_rim(&mesh, &inner, &away, options);
-    let kept: Vec<[u32; 3]> = mesh.faces.iter().zip(&rim).filter(|(f, r)| !**r && !f.iter().all(|&v| inner[v as usize])).map(|(f, _)| *f).collect();
+    let kept: Vec<[u32; 3]> = mesh
+        .faces
+        .iter()
+        .zip(&rim)
+        .filter(|(f, r)| !**r && !f.iter().all(|&v| inner[v as usize]))
+        .map(|(f, _)| *f)
+        .collect();
     if kept.len() == mesh.faces.len() {
         return mesh;
     }
@@ -89,14 +99,21 @@ pub fn open_inner_walls(mesh: TriMesh, body: &SignedDistance, options: &SheetOpt
 /// (cosine with `away`, the way from the body's nearest point, under `rim_away`), connected through
 /// such faces to the inner wall that goes: a flared skirt's outer side faces away from the body
 /// and stays, and a solid thing, whose inner wall stays, keeps its underside.
-fn slab_rim(mesh: &TriMesh, inner: &[bool], away: &[Option<Vec3>], options: &SheetOptions) -> Vec<bool> {
+fn slab_rim(
+    mesh: &TriMesh,
+    inner: &[bool],
+    away: &[Option<Vec3>],
+    options: &SheetOptions,
+) -> Vec<bool> {
     let candidates: Vec<usize> = mesh
         .faces
         .par_iter()
         .zip(mesh.face_normals())
         .enumerate()
         .filter(|(_, (f, n))| match f.map(|v| away[v as usize]) {
-            [Some(a), Some(b), Some(c)] => -n.y > options.rim_down && n.dot((a + b + c).normalize_or_zero()) < options.rim_away,
+            [Some(a), Some(b), Some(c)] => {
+                -n.y > options.rim_down && n.dot((a + b + c).normalize_or_zero()) < options.rim_away
+            }
             _ => false,
         })
         .map(|(k, _)| k)
@@ -125,11 +142,15 @@ fn slab_rim(mesh: &TriMesh, inner: &[bool], away: &[Option<Vec3>], options: &She
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::extract::{extract, ExtractOptions};
+    use crate::mesh::extract::{ExtractOptions, extract};
 
     /// The "body": a closed cylinder of radius 28 cm around the y axis, 60 cm high.
     fn cylinder() -> TriMesh {
-        let sdf = |p: &[Vec3]| -> Vec<f32> { p.iter().map(|q| (Vec3::new(q.x, 0.0, q.z).length() - 0.28).max(q.y.abs() - 0.3)).collect() };
+        let sdf = |p: &[Vec3]| -> Vec<f32> {
+            p.iter()
+                .map(|q| (Vec3::new(q.x, 0.0, q.z).length() - 0.28).max(q.y.abs() - 0.3))
+                .collect()
+        };
         extract(sdf, &ExtractOptions::new(Vec3::splat(-0.4), Vec3::splat(0.4), 96)).unwrap().mesh
     }
 
@@ -137,8 +158,20 @@ mod tests {
     /// cubes draws it from its signed distance.
     fn ring_slab(inner: f32, outer: f32) -> TriMesh {
         let (mid, half) = ((inner + outer) / 2.0, (outer - inner) / 2.0);
-        let sdf = |p: &[Vec3]| -> Vec<f32> { p.iter().map(|q| (Vec3::new(q.x, 0.0, q.z).length() - mid).abs().max(q.y.abs() - 0.1 + half) - half).collect() };
-        extract(sdf, &ExtractOptions::new(Vec3::splat(-outer - 0.05), Vec3::splat(outer + 0.05), 96)).unwrap().mesh
+        let sdf = |p: &[Vec3]| -> Vec<f32> {
+            p.iter()
+                .map(|q| {
+                    (Vec3::new(q.x, 0.0, q.z).length() - mid).abs().max(q.y.abs() - 0.1 + half)
+                        - half
+                })
+                .collect()
+        };
+        extract(
+            sdf,
+            &ExtractOptions::new(Vec3::splat(-outer - 0.05), Vec3::splat(outer + 0.05), 96),
+        )
+        .unwrap()
+        .mesh
     }
 
     fn area_where(mesh: &TriMesh, keep: impl Fn(Vec3, Vec3) -> bool) -> f32 {
@@ -157,21 +190,37 @@ mod tests {
         let options = SheetOptions::default();
         let radial = |x: Vec3| Vec3::new(x.x, 0.0, x.z).length();
         // Facing the axis (the body), on the slab's side walls.
-        let inner_wall = |c: Vec3, n: Vec3| c.y.abs() < 0.07 && n.dot(-Vec3::new(c.x, 0.0, c.z).normalize()) > 0.9;
-        let outer_wall = |c: Vec3, n: Vec3| c.y.abs() < 0.07 && n.dot(Vec3::new(c.x, 0.0, c.z).normalize()) > 0.9;
+        let inner_wall = |c: Vec3, n: Vec3| {
+            c.y.abs() < 0.07 && n.dot(-Vec3::new(c.x, 0.0, c.z).normalize()) > 0.9
+        };
+        let outer_wall = |c: Vec3, n: Vec3| {
+            c.y.abs() < 0.07 && n.dot(Vec3::new(c.x, 0.0, c.z).normalize()) > 0.9
+        };
         // A 3 cm wall 4 cm outside the body (the skirt).
         let skirt = ring_slab(0.32, 0.35);
         let opened = open_inner_walls(skirt.clone(), &body, &options);
-        let (inner_before, inner_after) = (area_where(&skirt, inner_wall), area_where(&opened, inner_wall));
+        let (inner_before, inner_after) =
+            (area_where(&skirt, inner_wall), area_where(&opened, inner_wall));
         assert!(inner_before > 0.2, "the slab has an inner wall: {inner_before} m^2");
-        assert!(inner_after < 0.02 * inner_before, "inner wall {inner_before} -> {inner_after} m^2");
-        let (outer_before, outer_after) = (area_where(&skirt, outer_wall), area_where(&opened, outer_wall));
-        assert!((outer_after - outer_before).abs() < 1e-6 * outer_before.max(1.0), "outer wall {outer_before} -> {outer_after} m^2");
-        assert!(opened.positions.iter().all(|&x| radial(x) > 0.31), "no vertex inside the slab's inner radius");
+        assert!(
+            inner_after < 0.02 * inner_before,
+            "inner wall {inner_before} -> {inner_after} m^2"
+        );
+        let (outer_before, outer_after) =
+            (area_where(&skirt, outer_wall), area_where(&opened, outer_wall));
+        assert!(
+            (outer_after - outer_before).abs() < 1e-6 * outer_before.max(1.0),
+            "outer wall {outer_before} -> {outer_after} m^2"
+        );
+        assert!(
+            opened.positions.iter().all(|&x| radial(x) > 0.31),
+            "no vertex inside the slab's inner radius"
+        );
         // Its rim at the bottom (the hem's band, facing down) goes; the top one stays.
         let bottom = |c: Vec3, n: Vec3| c.y < -0.09 && n.y < -0.9;
         let top = |c: Vec3, n: Vec3| c.y > 0.09 && n.y > 0.9;
-        let (bottom_before, bottom_after) = (area_where(&skirt, bottom), area_where(&opened, bottom));
+        let (bottom_before, bottom_after) =
+            (area_where(&skirt, bottom), area_where(&opened, bottom));
         assert!(bottom_before > 0.01, "the slab has a rim: {bottom_before} m^2");
         assert!(bottom_after < 0.02 * bottom_before, "rim {bottom_before} -> {bottom_after} m^2");
         assert!((area_where(&opened, top) - area_where(&skirt, top)).abs() < 1e-6, "the top stays");

@@ -39,20 +39,41 @@ impl Default for ShellOptions {
         // 3.5-9 cm (3-8 cm before session 6): with the inner wall taken off the avatar's mesh
         // (`canonical::sheets`) a thicker slab costs nothing and tears fewer holes into the
         // cloth (quick preset, dress / blazer NC 0.680 / 0.783 -> 0.692 / 0.793).
-        ShellOptions { per_frame: 2000, depth: (0.035, 0.09), loose: 0.03, body_clearance: 0.015, clearance: 0.015, seed: 0x5e11_0b5e }
+        ShellOptions {
+            per_frame: 2000,
+            depth: (0.035, 0.09),
+            loose: 0.03,
+            body_clearance: 0.015,
+            clearance: 0.015,
+            seed: 0x5e11_0b5e,
+        }
     }
 }
 
 /// Samples behind a frame's canonical `points` (with outward unit `normals`), checked against
 /// the rest body (`body`: its signed distance) and every frame's observed canonical points
 /// (`observed`). Metres, canonical space. Seeded.
-pub fn shell_samples(points: &[Vec3], normals: &[Vec3], body: &SignedDistance, observed: &PointIndex, options: &ShellOptions) -> Vec<Vec3> {
-    if points.is_empty() || points.len() != normals.len() || options.per_frame == 0 || !(options.depth.1 > options.depth.0) {
+pub fn shell_samples(
+    points: &[Vec3],
+    normals: &[Vec3],
+    body: &SignedDistance,
+    observed: &PointIndex,
+    options: &ShellOptions,
+) -> Vec<Vec3> {
+    if points.is_empty()
+        || points.len() != normals.len()
+        || options.per_frame == 0
+        || !(options.depth.1 > options.depth.0)
+    {
         return Vec::new();
     }
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
     // A few candidates per wanted sample: most points are tight clothing or skin.
-    let candidates: Vec<(usize, f32)> = (0..options.per_frame * 4).map(|_| (rng.random_range(0..points.len()), rng.random_range(options.depth.0..options.depth.1))).collect();
+    let candidates: Vec<(usize, f32)> = (0..options.per_frame * 4)
+        .map(|_| {
+            (rng.random_range(0..points.len()), rng.random_range(options.depth.0..options.depth.1))
+        })
+        .collect();
     candidates
         .par_iter()
         .with_min_len(256)
@@ -80,14 +101,46 @@ mod tests {
     /// A closed box with outward faces.
     fn cube(half: f32) -> TriMesh {
         let c = |x: f32, y: f32, z: f32| Vec3::new(x, y, z) * half;
-        let positions = vec![c(-1., -1., -1.), c(1., -1., -1.), c(1., 1., -1.), c(-1., 1., -1.), c(-1., -1., 1.), c(1., -1., 1.), c(1., 1., 1.), c(-1., 1., 1.)];
-        let faces = vec![[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4], [3, 7, 6], [3, 6, 2], [0, 4, 7], [0, 7, 3], [1, 2, 6], [1, 6, 5]];
+        let positions = vec![
+            c(-1., -1., -1.),
+            c(1., -1., -1.),
+            c(1., 1., -1.),
+            c(-1., 1., -1.),
+            c(-1., -1., 1.),
+            c(1., -1., 1.),
+            c(1., 1., 1.),
+            c(-1., 1., 1.),
+        ];
+        let faces = vec![
+            [0, 2, 1],
+            [0, 3, 2],
+            [4, 5, 6],
+            [4, 6, 7],
+            [0, 1, 5],
+            [0, 5, 4],
+            [3, 7, 6],
+            [3, 6, 2],
+            [0, 4, 7],
+            [0, 7, 3],
+            [1, 2, 6],
+            [1, 6, 5],
+        ];
         TriMesh::new(positions, faces)
     }
 
     /// A square sheet of points at height `z`, `half` wide each way.
     fn sheet(z: f32, half: f32) -> Vec<Vec3> {
-        (0..60).flat_map(|i| (0..60).map(move |j| Vec3::new(half * (2.0 * i as f32 / 59.0 - 1.0), half * (2.0 * j as f32 / 59.0 - 1.0), z))).collect()
+        (0..60)
+            .flat_map(|i| {
+                (0..60).map(move |j| {
+                    Vec3::new(
+                        half * (2.0 * i as f32 / 59.0 - 1.0),
+                        half * (2.0 * j as f32 / 59.0 - 1.0),
+                        z,
+                    )
+                })
+            })
+            .collect()
     }
 
     #[test]
@@ -105,14 +158,21 @@ mod tests {
         for q in &samples {
             // Behind the skirt by the wall's depth, in front of the body.
             let behind = 0.32 - q.z;
-            assert!(behind >= options.depth.0 - 1e-5 && behind <= options.depth.1 + 1e-5, "{q}: {behind} behind the sheet");
+            assert!(
+                behind >= options.depth.0 - 1e-5 && behind <= options.depth.1 + 1e-5,
+                "{q}: {behind} behind the sheet"
+            );
             assert!(q.z > 0.2 + options.body_clearance, "{q} touches the body");
         }
         // Tight clothing gets none: its inside is the body.
-        let tight_samples = shell_samples(&tight, &vec![Vec3::NEG_Z; tight.len()], &body, &index, &options);
+        let tight_samples =
+            shell_samples(&tight, &vec![Vec3::NEG_Z; tight.len()], &body, &index, &options);
         assert!(tight_samples.is_empty(), "{} samples behind a tight layer", tight_samples.len());
         // Seeded.
-        assert_eq!(samples, shell_samples(&skirt, &vec![Vec3::Z; skirt.len()], &body, &index, &options));
+        assert_eq!(
+            samples,
+            shell_samples(&skirt, &vec![Vec3::Z; skirt.len()], &body, &index, &options)
+        );
     }
 
     #[test]

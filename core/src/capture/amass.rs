@@ -24,7 +24,13 @@ pub fn read_amass(path: impl AsRef<Path>) -> Result<AmassSequence> {
     let mut npz = Npz::open(path)?;
     let poses = npz.require("poses")?;
     if poses.shape.len() != 2 || !POSE_WIDTHS.contains(&poses.shape[1]) {
-        return Err(Error::file(path, format!("'poses' has shape {:?}, expected (frames, W) with W one of {POSE_WIDTHS:?} (SMPL body, SMPL, SMPL-H, SMPL-X)", poses.shape)));
+        return Err(Error::file(
+            path,
+            format!(
+                "'poses' has shape {:?}, expected (frames, W) with W one of {POSE_WIDTHS:?} (SMPL body, SMPL, SMPL-H, SMPL-X)",
+                poses.shape
+            ),
+        ));
     }
     let (n, width) = (poses.shape[0], poses.shape[1]);
     if n == 0 {
@@ -36,7 +42,12 @@ pub fn read_amass(path: impl AsRef<Path>) -> Result<AmassSequence> {
     };
     let trans = match npz.get("trans")? {
         Some(t) if t.shape == vec![n, 3] => Some(t.data),
-        Some(t) => return Err(Error::file(path, format!("'trans' has shape {:?}, expected ({n}, 3)", t.shape))),
+        Some(t) => {
+            return Err(Error::file(
+                path,
+                format!("'trans' has shape {:?}, expected ({n}, 3)", t.shape),
+            ));
+        }
         None => None,
     };
     let fps = ["mocap_framerate", "mocap_frame_rate"]
@@ -46,7 +57,14 @@ pub fn read_amass(path: impl AsRef<Path>) -> Result<AmassSequence> {
         .map(|v| v as f32)
         .unwrap_or(30.0);
     if !(crate::motion::MIN_FPS..=crate::motion::MAX_FPS).contains(&fps) {
-        return Err(Error::file(path, format!("frame rate {fps} is not plausible ({} to {} fps)", crate::motion::MIN_FPS, crate::motion::MAX_FPS)));
+        return Err(Error::file(
+            path,
+            format!(
+                "frame rate {fps} is not plausible ({} to {} fps)",
+                crate::motion::MIN_FPS,
+                crate::motion::MAX_FPS
+            ),
+        ));
     }
     let mut frames = Vec::with_capacity(n);
     for i in 0..n {
@@ -58,7 +76,9 @@ pub fn read_amass(path: impl AsRef<Path>) -> Result<AmassSequence> {
         for (k, v) in row[..body].iter().enumerate() {
             flat[k] = *v as f32;
         }
-        let t = trans.as_ref().map_or(Vec3::ZERO, |t| Vec3::new(t[3 * i] as f32, t[3 * i + 1] as f32, t[3 * i + 2] as f32));
+        let t = trans.as_ref().map_or(Vec3::ZERO, |t| {
+            Vec3::new(t[3 * i] as f32, t[3 * i + 1] as f32, t[3 * i + 2] as f32)
+        });
         let params = BodyParams::from_flat(&flat, betas.clone(), t)
             .map_err(|e| Error::file(path, format!("frame {i}: {e}")))?;
         frames.push(params);
@@ -122,12 +142,15 @@ mod tests {
             let mut poses = vec![0f32; 3 * width];
             poses[3] = 0.5; // joint 1, x
             poses[width + 65] = 0.25; // frame 1, joint 21, z
-            write_f32_npz(&p, &[
-                ("poses", vec![3, width], poses),
-                ("betas", vec![10], vec![0.1; 10]),
-                ("trans", vec![3, 3], vec![0.0, 0.0, 1.0, 0.0, 0.1, 1.0, 0.0, 0.2, 1.0]),
-                (key, vec![], vec![120.0]),
-            ])
+            write_f32_npz(
+                &p,
+                &[
+                    ("poses", vec![3, width], poses),
+                    ("betas", vec![10], vec![0.1; 10]),
+                    ("trans", vec![3, 3], vec![0.0, 0.0, 1.0, 0.0, 0.1, 1.0, 0.0, 0.2, 1.0]),
+                    (key, vec![], vec![120.0]),
+                ],
+            )
             .unwrap();
             let s = read_amass(&p).unwrap();
             assert_eq!(s.fps, 120.0);
@@ -157,7 +180,10 @@ mod tests {
     #[test]
     fn z_up_conversion_keeps_the_root_joint_in_place() {
         let body = crate::body::open_body_lowpoly();
-        let mut seq = AmassSequence { fps: 30.0, frames: vec![BodyParams { trans: Vec3::new(0.3, -0.2, 0.9), ..Default::default() }] };
+        let mut seq = AmassSequence {
+            fps: 30.0,
+            frames: vec![BodyParams { trans: Vec3::new(0.3, -0.2, 0.9), ..Default::default() }],
+        };
         let before = body.pose(&seq.frames[0]).posed_joints();
         z_up_to_y_up(&mut seq, &body);
         let after = body.pose(&seq.frames[0]).posed_joints();

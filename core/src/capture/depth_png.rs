@@ -25,10 +25,20 @@ impl DepthImage {
 
 /// Write depths in metres as a 16-bit PNG (atomic). Depths that do not fit in 16 bits at this
 /// scale are an error rather than silently clipped.
-pub fn write_depth_png(path: impl AsRef<Path>, metres: &[f32], width: u32, height: u32, depth_scale: f32) -> Result<()> {
+pub fn write_depth_png(
+    path: impl AsRef<Path>,
+    metres: &[f32],
+    width: u32,
+    height: u32,
+    depth_scale: f32,
+) -> Result<()> {
     let path = path.as_ref();
     if metres.len() != (width * height) as usize {
-        return Err(Error::invalid(format!("{}: {} depth values for a {width}x{height} image", path.display(), metres.len())));
+        return Err(Error::invalid(format!(
+            "{}: {} depth values for a {width}x{height} image",
+            path.display(),
+            metres.len()
+        )));
     }
     let mut raw = Vec::with_capacity(metres.len());
     for (i, &z) in metres.iter().enumerate() {
@@ -42,7 +52,8 @@ pub fn write_depth_png(path: impl AsRef<Path>, metres: &[f32], width: u32, heigh
         }
         raw.push(v as u16);
     }
-    let img: ImageBuffer<Luma<u16>, Vec<u16>> = ImageBuffer::from_raw(width, height, raw).expect("size checked above");
+    let img: ImageBuffer<Luma<u16>, Vec<u16>> =
+        ImageBuffer::from_raw(width, height, raw).expect("size checked above");
     let mut bytes = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
         .map_err(|e| Error::file(path, format!("cannot encode PNG: {e}")))?;
@@ -51,19 +62,32 @@ pub fn write_depth_png(path: impl AsRef<Path>, metres: &[f32], width: u32, heigh
 
 /// Open a PNG and check its size from the header before anything is decoded: the image must be
 /// `expected` (width, height) when given, and within the capture limits always.
-fn open_png(path: &Path, expected: Option<(u32, u32)>, what: &str) -> Result<image::codecs::png::PngDecoder<std::io::BufReader<std::fs::File>>> {
+fn open_png(
+    path: &Path,
+    expected: Option<(u32, u32)>,
+    what: &str,
+) -> Result<image::codecs::png::PngDecoder<std::io::BufReader<std::fs::File>>> {
     use crate::capture::manifest::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE};
     use image::ImageDecoder;
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let decoder = image::codecs::png::PngDecoder::new(std::io::BufReader::new(file)).map_err(|e| Error::file(path, format!("not a readable PNG {what}: {e}")))?;
+    let decoder = image::codecs::png::PngDecoder::new(std::io::BufReader::new(file))
+        .map_err(|e| Error::file(path, format!("not a readable PNG {what}: {e}")))?;
     let (w, h) = decoder.dimensions();
     if let Some((ew, eh)) = expected
         && (w, h) != (ew, eh)
     {
-        return Err(Error::file(path, format!("image is {w}x{h}, the capture's intrinsics say {ew}x{eh}")));
+        return Err(Error::file(
+            path,
+            format!("image is {w}x{h}, the capture's intrinsics say {ew}x{eh}"),
+        ));
     }
     if w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE || w as u64 * h as u64 > MAX_IMAGE_PIXELS {
-        return Err(Error::file(path, format!("image is {w}x{h}: larger than a capture image may be ({MAX_IMAGE_PIXELS} pixels, {MAX_IMAGE_SIDE} a side)")));
+        return Err(Error::file(
+            path,
+            format!(
+                "image is {w}x{h}: larger than a capture image may be ({MAX_IMAGE_PIXELS} pixels, {MAX_IMAGE_SIDE} a side)"
+            ),
+        ));
     }
     Ok(decoder)
 }
@@ -75,17 +99,25 @@ pub fn read_depth_png(path: impl AsRef<Path>, depth_scale: f32) -> Result<DepthI
 
 /// [`read_depth_png`] for an image that must be `expected` (width, height): the size is read
 /// from the PNG header first, so an oversized image is refused before it is decoded.
-pub fn read_depth_png_sized(path: impl AsRef<Path>, depth_scale: f32, expected: Option<(u32, u32)>) -> Result<DepthImage> {
+pub fn read_depth_png_sized(
+    path: impl AsRef<Path>,
+    depth_scale: f32,
+    expected: Option<(u32, u32)>,
+) -> Result<DepthImage> {
     let path = path.as_ref();
     let decoder = open_png(path, expected, "depth image")?;
-    let img = image::DynamicImage::from_decoder(decoder).map_err(|e| Error::file(path, format!("not a readable PNG depth image: {e}")))?;
+    let img = image::DynamicImage::from_decoder(decoder)
+        .map_err(|e| Error::file(path, format!("not a readable PNG depth image: {e}")))?;
     let img = match img {
         image::DynamicImage::ImageLuma16(g) => g,
         other => {
             return Err(Error::file(
                 path,
-                format!("depth images must be 16-bit single-channel PNGs, this one is {:?}", other.color()),
-            ))
+                format!(
+                    "depth images must be 16-bit single-channel PNGs, this one is {:?}",
+                    other.color()
+                ),
+            ));
         }
     };
     let (width, height) = img.dimensions();
@@ -99,17 +131,26 @@ pub fn read_mask_png(path: impl AsRef<Path>) -> Result<(u32, u32, Vec<bool>)> {
 }
 
 /// [`read_mask_png`] for a mask that must be `expected` (width, height), checked before decoding.
-pub fn read_mask_png_sized(path: impl AsRef<Path>, expected: Option<(u32, u32)>) -> Result<(u32, u32, Vec<bool>)> {
+pub fn read_mask_png_sized(
+    path: impl AsRef<Path>,
+    expected: Option<(u32, u32)>,
+) -> Result<(u32, u32, Vec<bool>)> {
     let path = path.as_ref();
     let decoder = open_png(path, expected, "mask image")?;
-    let img = image::DynamicImage::from_decoder(decoder).map_err(|e| Error::file(path, format!("not a readable mask image: {e}")))?;
+    let img = image::DynamicImage::from_decoder(decoder)
+        .map_err(|e| Error::file(path, format!("not a readable mask image: {e}")))?;
     let g = img.to_luma16();
     let (w, h) = g.dimensions();
     Ok((w, h, g.into_raw().into_iter().map(|v| v > 0).collect()))
 }
 
 /// Write a mask as an 8-bit PNG (atomic).
-pub fn write_mask_png(path: impl AsRef<Path>, mask: &[bool], width: u32, height: u32) -> Result<()> {
+pub fn write_mask_png(
+    path: impl AsRef<Path>,
+    mask: &[bool],
+    width: u32,
+    height: u32,
+) -> Result<()> {
     let path = path.as_ref();
     let raw: Vec<u8> = mask.iter().map(|&m| if m { 255 } else { 0 }).collect();
     let img: ImageBuffer<Luma<u8>, Vec<u8>> = ImageBuffer::from_raw(width, height, raw)
@@ -139,7 +180,9 @@ mod tests {
             assert_eq!(back.valid_pixels(), 4);
         }
         // 20 m does not fit at the TUM scale (65535 / 5000 = 13.1 m).
-        let err = write_depth_png(dir.path().join("far.png"), &[20.0], 1, 1, 5000.0).unwrap_err().to_string();
+        let err = write_depth_png(dir.path().join("far.png"), &[20.0], 1, 1, 5000.0)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("16 bits"), "{err}");
     }
 

@@ -30,8 +30,16 @@ impl Default for FreeSpaceOptions {
 /// Samples on the camera rays of `points` (a frame's measured points, world space), each
 /// between `min_gap` and `max_gap` in front of its point, denser near the surface (where the
 /// spurious surfaces are). Seeded: the same frame gives the same samples.
-pub fn free_space_samples(points: &[Vec3], camera_center: Vec3, options: &FreeSpaceOptions) -> Vec<Vec3> {
-    if points.is_empty() || options.per_frame == 0 || !(options.max_gap > options.min_gap) || options.min_gap < 0.0 {
+pub fn free_space_samples(
+    points: &[Vec3],
+    camera_center: Vec3,
+    options: &FreeSpaceOptions,
+) -> Vec<Vec3> {
+    if points.is_empty()
+        || options.per_frame == 0
+        || !(options.max_gap > options.min_gap)
+        || options.min_gap < 0.0
+    {
         return Vec::new();
     }
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
@@ -68,7 +76,8 @@ mod tests {
         let mut metres = vec![0.0; 64 * 64];
         for v in 0..64 {
             for u in 0..64 {
-                let d = Vec3::new((u as f32 - intr.cx) / intr.fx, (v as f32 - intr.cy) / intr.fy, 1.0);
+                let d =
+                    Vec3::new((u as f32 - intr.cx) / intr.fx, (v as f32 - intr.cy) / intr.fy, 1.0);
                 // Ray o + t d with |o + t d - c| = r; depth is t (z of d is 1).
                 let (a, b, cc) = (d.dot(d), -2.0 * d.dot(c), c.dot(c) - r * r);
                 let disc = b * b - 4.0 * a * cc;
@@ -94,12 +103,19 @@ mod tests {
             let (ui, vi) = (u.round() as usize, v.round() as usize);
             let observed = depth.at(ui as u32, vi as u32);
             assert!(observed > 0.0, "sample {q} falls on a pixel without depth");
-            assert!(q.z < observed - 0.01, "sample {q} at depth {} is not in front of {observed}", q.z);
+            assert!(
+                q.z < observed - 0.01,
+                "sample {q} at depth {} is not in front of {observed}",
+                q.z
+            );
             // And outside the sphere: nothing behind an observed depth, nothing inside the object.
             assert!((*q - Vec3::new(0.0, 0.0, 2.0)).length() > 0.5, "sample {q} inside the sphere");
         }
         // Gaps within the range, denser near the surface.
-        let gaps: Vec<f32> = samples.iter().map(|q| points.iter().map(|p| (*p - *q).length()).fold(f32::INFINITY, f32::min)).collect();
+        let gaps: Vec<f32> = samples
+            .iter()
+            .map(|q| points.iter().map(|p| (*p - *q).length()).fold(f32::INFINITY, f32::min))
+            .collect();
         let near = gaps.iter().filter(|&&g| g < 0.1).count();
         assert!(near * 2 > gaps.len(), "{near} of {} within 10 cm", gaps.len());
         assert!(gaps.iter().all(|&g| g <= options.max_gap + 1e-4));
@@ -109,7 +125,10 @@ mod tests {
     fn samples_are_seeded_and_empty_input_gives_none() {
         let pts = vec![Vec3::new(0.0, 0.0, 2.0), Vec3::new(0.1, 0.0, 2.1)];
         let o = FreeSpaceOptions { per_frame: 10, ..FreeSpaceOptions::default() };
-        assert_eq!(free_space_samples(&pts, Vec3::ZERO, &o), free_space_samples(&pts, Vec3::ZERO, &o));
+        assert_eq!(
+            free_space_samples(&pts, Vec3::ZERO, &o),
+            free_space_samples(&pts, Vec3::ZERO, &o)
+        );
         assert!(free_space_samples(&[], Vec3::ZERO, &o).is_empty());
         // A point nearer the camera than the gap gives no sample past the camera.
         let close = free_space_samples(&[Vec3::new(0.0, 0.0, 0.01)], Vec3::ZERO, &o);

@@ -4,7 +4,7 @@
 //! `Capture::open`'s message naming the input file; then the images are copied and
 //! `capture.json` is written. See docs/capture-format.md.
 
-use super::amass::{read_amass, z_up_to_y_up, AmassSequence};
+use super::amass::{AmassSequence, read_amass, z_up_to_y_up};
 use super::depth_png::read_depth_png;
 use super::manifest::{CaptureManifest, FrameRecord, Intrinsics};
 use super::open::{Capture, FrameError};
@@ -34,14 +34,30 @@ impl Pinhole {
         let parts: Vec<&str> = spec.split(',').map(str::trim).collect();
         if parts.len() == 4 && parts.iter().all(|p| p.parse::<f32>().is_ok()) {
             let v: Vec<f32> = parts.iter().map(|p| p.parse().expect("checked")).collect();
-            return Ok(Pinhole { fx: v[0], fy: v[1], cx: v[2], cy: v[3], width: None, height: None });
+            return Ok(Pinhole {
+                fx: v[0],
+                fy: v[1],
+                cx: v[2],
+                cy: v[3],
+                width: None,
+                height: None,
+            });
         }
         let path = Path::new(spec);
         if !path.is_file() {
-            return Err(Error::invalid(format!("intrinsics {spec:?}: give fx,fy,cx,cy in pixels or a JSON file with those keys")));
+            return Err(Error::invalid(format!(
+                "intrinsics {spec:?}: give fx,fy,cx,cy in pixels or a JSON file with those keys"
+            )));
         }
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        serde_json::from_str(&text).map_err(|e| Error::file(path, format!("not an intrinsics file ({{\"fx\", \"fy\", \"cx\", \"cy\"}} in pixels): {e}")))
+        serde_json::from_str(&text).map_err(|e| {
+            Error::file(
+                path,
+                format!(
+                    "not an intrinsics file ({{\"fx\", \"fy\", \"cx\", \"cy\"}} in pixels): {e}"
+                ),
+            )
+        })
     }
 }
 
@@ -83,7 +99,12 @@ pub fn list_files(dir: &Path, ext: &str) -> Result<Vec<PathBuf>> {
     let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
     let mut files: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.is_file() && p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case(ext)))
+        .filter(|p| {
+            p.is_file()
+                && p.extension()
+                    .and_then(|e| e.to_str())
+                    .is_some_and(|e| e.eq_ignore_ascii_case(ext))
+        })
         .collect();
     files.sort_by(|a, b| natural_key(a).cmp(&natural_key(b)));
     Ok(files)
@@ -122,18 +143,32 @@ pub fn read_fittings(path: &Path) -> Result<AmassSequence> {
     }
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("npz") => read_amass(path),
-        _ => Err(Error::file(path, "fittings must be an AMASS-style .npz or a folder of JSON pose files")),
+        _ => Err(Error::file(
+            path,
+            "fittings must be an AMASS-style .npz or a folder of JSON pose files",
+        )),
     }
 }
 
 /// Camera-to-world matrices: one 16-number row-major matrix for every frame, or a list of them.
 fn read_cameras(path: &Path, frames: usize) -> Result<Vec<Mat4>> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::file(path, format!("not JSON: {e}")))?;
+    let value: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| Error::file(path, format!("not JSON: {e}")))?;
     let one = |v: &serde_json::Value, i: usize| -> Result<Mat4> {
-        let nums: Option<Vec<f32>> = v.as_array().map(|a| a.iter().filter_map(|x| x.as_f64().map(|x| x as f32)).collect());
-        let nums = nums.filter(|n| n.len() == 16).ok_or_else(|| Error::file(path, format!("matrix {i}: expected 16 numbers (row-major 4x4)")))?;
-        let mut rec = FrameRecord { depth: String::new(), mask: None, pose: None, shape: vec![], translation: None, camera_to_world: None };
+        let nums: Option<Vec<f32>> =
+            v.as_array().map(|a| a.iter().filter_map(|x| x.as_f64().map(|x| x as f32)).collect());
+        let nums = nums.filter(|n| n.len() == 16).ok_or_else(|| {
+            Error::file(path, format!("matrix {i}: expected 16 numbers (row-major 4x4)"))
+        })?;
+        let mut rec = FrameRecord {
+            depth: String::new(),
+            mask: None,
+            pose: None,
+            shape: vec![],
+            translation: None,
+            camera_to_world: None,
+        };
         rec.camera_to_world = Some(nums.try_into().expect("16 numbers"));
         rec.camera_to_world().map_err(|e| Error::file(path, format!("matrix {i}: {e}")))
     };
@@ -154,13 +189,21 @@ pub fn check_output_dir(out: &Path, inputs: &[&Path]) -> Result<()> {
     for input in inputs {
         let (a, b) = (canon(out), canon(input));
         if a == b || b.starts_with(&a) {
-            return Err(Error::invalid(format!("the output {} would overwrite the input {}", out.display(), input.display())));
+            return Err(Error::invalid(format!(
+                "the output {} would overwrite the input {}",
+                out.display(),
+                input.display()
+            )));
         }
     }
     if out.exists() {
-        let empty = out.is_dir() && std::fs::read_dir(out).map_err(|e| Error::io(out, e))?.next().is_none();
+        let empty =
+            out.is_dir() && std::fs::read_dir(out).map_err(|e| Error::io(out, e))?.next().is_none();
         if !empty {
-            return Err(Error::file(out, "the output folder exists and is not empty: choose a new folder"));
+            return Err(Error::file(
+                out,
+                "the output folder exists and is not empty: choose a new folder",
+            ));
         }
     }
     Ok(())
@@ -200,12 +243,24 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
     // The image size from the first readable image (the others are checked when opened).
     let first = read_depth_png(&images[0], job.depth_scale)?;
     let p = job.pinhole;
-    for (what, given, actual) in [("width", p.width, first.width), ("height", p.height, first.height)] {
+    for (what, given, actual) in
+        [("width", p.width, first.width), ("height", p.height, first.height)]
+    {
         if given.is_some_and(|g| g != actual) {
-            return Err(Error::file(&images[0], format!("image {what} is {actual} but the intrinsics say {}", given.unwrap_or(0))));
+            return Err(Error::file(
+                &images[0],
+                format!("image {what} is {actual} but the intrinsics say {}", given.unwrap_or(0)),
+            ));
         }
     }
-    let intrinsics = Intrinsics { fx: p.fx, fy: p.fy, cx: p.cx, cy: p.cy, width: first.width, height: first.height };
+    let intrinsics = Intrinsics {
+        fx: p.fx,
+        fy: p.fy,
+        cx: p.cx,
+        cy: p.cy,
+        width: first.width,
+        height: first.height,
+    };
     let cameras = match &job.cameras {
         Some(path) => read_cameras(path, images.len())?,
         None => {
@@ -244,7 +299,10 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
     // Open the frames where they are (absolute paths) so that problems name the input files.
     let staging = staging_dir(out);
     let opened = (|| {
-        let abs: Vec<PathBuf> = images.iter().map(|p| std::fs::canonicalize(p).map_err(|e| Error::io(p, e))).collect::<Result<_>>()?;
+        let abs: Vec<PathBuf> = images
+            .iter()
+            .map(|p| std::fs::canonicalize(p).map_err(|e| Error::io(p, e)))
+            .collect::<Result<_>>()?;
         let mut probe = manifest.clone();
         for (rec, path) in probe.frames.iter_mut().zip(&abs) {
             rec.depth = path.to_string_lossy().into_owned();
@@ -255,7 +313,9 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
     })();
     let _ = std::fs::remove_dir_all(&staging);
     let capture = opened.map_err(|e| match e {
-        Error::InvalidFile { path, message } if path.starts_with(&staging) => Error::file(&job.depth_dir, message),
+        Error::InvalidFile { path, message } if path.starts_with(&staging) => {
+            Error::file(&job.depth_dir, message)
+        }
         other => other,
     })?;
     let diagnosis = capture.diagnose();
@@ -267,11 +327,19 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
         crate::io::write_bytes_atomic(out.join(&rec.depth), &bytes)?;
     }
     manifest.save(out)?;
-    Ok(ImportReport { frames: manifest.frames.len(), usable: capture.frames.len(), warnings: capture.warnings, diagnosis })
+    Ok(ImportReport {
+        frames: manifest.frames.len(),
+        usable: capture.frames.len(),
+        warnings: capture.warnings,
+        diagnosis,
+    })
 }
 
 /// A hidden sibling of `out` for checking the frames before anything is written there.
 pub(crate) fn staging_dir(out: &Path) -> PathBuf {
-    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "capture".into());
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "capture".into());
     out.with_file_name(format!(".{name}.import-{}", std::process::id()))
 }

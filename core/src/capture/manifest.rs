@@ -42,13 +42,24 @@ impl Intrinsics {
     fn validate(&self) -> Result<()> {
         let ok = |v: f32| v.is_finite() && v > 0.0;
         if !(ok(self.fx) && ok(self.fy)) {
-            return Err(Error::invalid(format!("intrinsics: focal lengths must be positive, got fx {} fy {}", self.fx, self.fy)));
+            return Err(Error::invalid(format!(
+                "intrinsics: focal lengths must be positive, got fx {} fy {}",
+                self.fx, self.fy
+            )));
         }
         if !(self.cx.is_finite() && self.cy.is_finite()) {
             return Err(Error::invalid("intrinsics: principal point is not finite"));
         }
-        if self.width == 0 || self.height == 0 || self.width > MAX_IMAGE_SIDE || self.height > MAX_IMAGE_SIDE || self.width as u64 * self.height as u64 > MAX_IMAGE_PIXELS {
-            return Err(Error::invalid(format!("intrinsics: image size {}x{} is out of range", self.width, self.height)));
+        if self.width == 0
+            || self.height == 0
+            || self.width > MAX_IMAGE_SIDE
+            || self.height > MAX_IMAGE_SIDE
+            || self.width as u64 * self.height as u64 > MAX_IMAGE_PIXELS
+        {
+            return Err(Error::invalid(format!(
+                "intrinsics: image size {}x{} is out of range",
+                self.width, self.height
+            )));
         }
         Ok(())
     }
@@ -61,7 +72,11 @@ pub struct FrameRecord {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mask: Option<String>,
     /// 72 axis-angle values (SMPL joint order); `None` = the frame has no fitting.
-    #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "nullable_numbers")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "nullable_numbers"
+    )]
     pub pose: Option<Vec<f32>>,
     #[serde(default, deserialize_with = "nullable_numbers_vec")]
     pub shape: Vec<f32>,
@@ -75,9 +90,15 @@ pub struct FrameRecord {
 impl FrameRecord {
     /// The frame's fitting as body parameters (validated: finite, angles within 2 pi).
     pub fn params(&self) -> Result<BodyParams> {
-        let pose = self.pose.as_ref().ok_or_else(|| Error::invalid("the frame has no body fitting (no \"pose\")"))?;
+        let pose = self
+            .pose
+            .as_ref()
+            .ok_or_else(|| Error::invalid("the frame has no body fitting (no \"pose\")"))?;
         if pose.len() != 3 * NUM_JOINTS {
-            return Err(Error::invalid(format!("\"pose\" has {} values, expected 72 (24 joints x 3 axis-angle)", pose.len())));
+            return Err(Error::invalid(format!(
+                "\"pose\" has {} values, expected 72 (24 joints x 3 axis-angle)",
+                pose.len()
+            )));
         }
         if let Some(i) = self.shape.iter().position(|v| !v.is_finite()) {
             return Err(Error::invalid(format!("\"shape\"[{i}] is not a finite number")));
@@ -97,7 +118,9 @@ impl FrameRecord {
                 let mat = Mat4::from_cols_array(&m).transpose();
                 let r = glam::Mat3::from_mat4(mat);
                 if (r.determinant() - 1.0).abs() > 1e-3 || mat.row(3) != glam::Vec4::W {
-                    return Err(Error::invalid("\"camera_to_world\" is not a rigid transform (rotation + translation, last row 0 0 0 1)"));
+                    return Err(Error::invalid(
+                        "\"camera_to_world\" is not a rigid transform (rotation + translation, last row 0 0 0 1)",
+                    ));
                 }
                 Ok(mat)
             }
@@ -111,12 +134,16 @@ impl FrameRecord {
 
 /// JSON has no NaN: tools write `null` for it. Read `null` as NaN so that the frame, not the
 /// whole manifest, is refused, with a message naming the value.
-fn nullable_numbers<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Option<Vec<f32>>, D::Error> {
+fn nullable_numbers<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<Vec<f32>>, D::Error> {
     let v: Option<Vec<Option<f32>>> = Deserialize::deserialize(d)?;
     Ok(v.map(|v| v.into_iter().map(|x| x.unwrap_or(f32::NAN)).collect()))
 }
 
-fn nullable_numbers_vec<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Vec<f32>, D::Error> {
+fn nullable_numbers_vec<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Vec<f32>, D::Error> {
     Ok(nullable_numbers(d)?.unwrap_or_default())
 }
 
@@ -151,7 +178,9 @@ impl BodyModelRef {
     pub fn resolve(&self, capture_dir: &Path) -> Option<PathBuf> {
         match self {
             BodyModelRef::OpenBody => None,
-            BodyModelRef::Smpl(p) => Some(if p.is_absolute() { p.clone() } else { capture_dir.join(p) }),
+            BodyModelRef::Smpl(p) => {
+                Some(if p.is_absolute() { p.clone() } else { capture_dir.join(p) })
+            }
         }
     }
 }
@@ -179,7 +208,9 @@ impl<'de> Deserialize<'de> for BodyModelRef {
             Model { smpl: PathBuf },
         }
         let raw = Raw::deserialize(d).map_err(|_| {
-            serde::de::Error::custom("\"body_model\" must be \"open_body\" or {\"smpl\": \"path/to/model.npz\"}")
+            serde::de::Error::custom(
+                "\"body_model\" must be \"open_body\" or {\"smpl\": \"path/to/model.npz\"}",
+            )
         })?;
         Ok(match raw {
             Raw::Name(n) if n.is_empty() || n == "open_body" => BodyModelRef::OpenBody,
@@ -204,7 +235,11 @@ impl CaptureManifest {
 
     /// Path of the manifest inside a capture folder (accepts the folder or the file).
     pub fn path_in(dir_or_file: &Path) -> PathBuf {
-        if dir_or_file.is_dir() { dir_or_file.join(MANIFEST_FILE) } else { dir_or_file.to_path_buf() }
+        if dir_or_file.is_dir() {
+            dir_or_file.join(MANIFEST_FILE)
+        } else {
+            dir_or_file.to_path_buf()
+        }
     }
 
     /// Load and validate the header (frames are checked one by one when opened).
@@ -212,30 +247,48 @@ impl CaptureManifest {
         let path = Self::path_in(dir_or_file.as_ref());
         let size = std::fs::metadata(&path).map_err(|e| Error::io(&path, e))?.len();
         if size > MAX_MANIFEST_BYTES {
-            return Err(Error::file(&path, format!("{size} bytes: too large for a capture manifest (at most {MAX_MANIFEST_BYTES})")));
+            return Err(Error::file(
+                &path,
+                format!(
+                    "{size} bytes: too large for a capture manifest (at most {MAX_MANIFEST_BYTES})"
+                ),
+            ));
         }
         let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-        let manifest: CaptureManifest =
-            serde_json::from_str(&text).map_err(|e| Error::file(&path, format!("not a valid capture manifest: {e}")))?;
+        let manifest: CaptureManifest = serde_json::from_str(&text)
+            .map_err(|e| Error::file(&path, format!("not a valid capture manifest: {e}")))?;
         manifest.validate().map_err(|e| e.in_file(&path))?;
         Ok(manifest)
     }
 
     pub fn validate(&self) -> Result<()> {
         if self.format != FORMAT_NAME {
-            return Err(Error::invalid(format!("\"format\" is {:?}, expected {FORMAT_NAME:?}", self.format)));
+            return Err(Error::invalid(format!(
+                "\"format\" is {:?}, expected {FORMAT_NAME:?}",
+                self.format
+            )));
         }
         if self.version != FORMAT_VERSION {
-            return Err(Error::invalid(format!("capture format version {} is not supported (this build reads {FORMAT_VERSION})", self.version)));
+            return Err(Error::invalid(format!(
+                "capture format version {} is not supported (this build reads {FORMAT_VERSION})",
+                self.version
+            )));
         }
         self.intrinsics.validate()?;
         if !(self.depth_scale.is_finite() && self.depth_scale > 0.0) {
-            return Err(Error::invalid(format!("\"depth_scale\" must be positive (PNG units per metre), got {}", self.depth_scale)));
+            return Err(Error::invalid(format!(
+                "\"depth_scale\" must be positive (PNG units per metre), got {}",
+                self.depth_scale
+            )));
         }
         if let Some(fps) = self.fps
             && !(crate::motion::MIN_FPS..=crate::motion::MAX_FPS).contains(&fps)
         {
-            return Err(Error::invalid(format!("\"fps\" {fps} is not a plausible frame rate ({} to {})", crate::motion::MIN_FPS, crate::motion::MAX_FPS)));
+            return Err(Error::invalid(format!(
+                "\"fps\" {fps} is not a plausible frame rate ({} to {})",
+                crate::motion::MIN_FPS,
+                crate::motion::MAX_FPS
+            )));
         }
         if self.frames.is_empty() {
             return Err(Error::invalid("the capture has no frames"));
@@ -263,7 +316,14 @@ mod tests {
     #[test]
     fn camera_to_world_round_trips_row_major() {
         let m = Mat4::from_rotation_y(0.7) * Mat4::from_translation(Vec3::new(0.1, 0.2, 2.0));
-        let mut f = FrameRecord { depth: "d.png".into(), mask: None, pose: None, shape: vec![], translation: None, camera_to_world: None };
+        let mut f = FrameRecord {
+            depth: "d.png".into(),
+            mask: None,
+            pose: None,
+            shape: vec![],
+            translation: None,
+            camera_to_world: None,
+        };
         f.set_camera_to_world(m);
         assert!(f.camera_to_world().unwrap().abs_diff_eq(m, 1e-6));
         // Row-major: the translation sits in elements 3, 7, 11.
@@ -274,7 +334,14 @@ mod tests {
     #[test]
     fn bad_header_values_are_named() {
         let mut m = CaptureManifest::new(intr(), 0.0);
-        m.frames.push(FrameRecord { depth: "d.png".into(), mask: None, pose: None, shape: vec![], translation: None, camera_to_world: None });
+        m.frames.push(FrameRecord {
+            depth: "d.png".into(),
+            mask: None,
+            pose: None,
+            shape: vec![],
+            translation: None,
+            camera_to_world: None,
+        });
         assert!(m.validate().unwrap_err().to_string().contains("depth_scale"));
         m.depth_scale = 1000.0;
         m.intrinsics.fx = -1.0;
@@ -285,18 +352,31 @@ mod tests {
     fn body_model_reads_the_name_the_object_and_a_plain_path() {
         let read = |v: &str| serde_json::from_str::<BodyModelRef>(v);
         assert_eq!(read(r#""open_body""#).unwrap(), BodyModelRef::OpenBody);
-        assert_eq!(read(r#"{"smpl": "models/SMPL_NEUTRAL.npz"}"#).unwrap(), BodyModelRef::Smpl("models/SMPL_NEUTRAL.npz".into()));
+        assert_eq!(
+            read(r#"{"smpl": "models/SMPL_NEUTRAL.npz"}"#).unwrap(),
+            BodyModelRef::Smpl("models/SMPL_NEUTRAL.npz".into())
+        );
         assert_eq!(read(r#""my.npz""#).unwrap(), BodyModelRef::Smpl("my.npz".into()));
         assert!(read(r#"{"smplx": "a.npz"}"#).unwrap_err().to_string().contains("open_body"));
         let m = BodyModelRef::Smpl("/abs/m.npz".into());
         assert_eq!(serde_json::to_string(&m).unwrap(), r#"{"smpl":"/abs/m.npz"}"#);
         assert_eq!(m.resolve(Path::new("/cap")), Some(PathBuf::from("/abs/m.npz")));
-        assert_eq!(BodyModelRef::Smpl("m.npz".into()).resolve(Path::new("/cap")), Some(PathBuf::from("/cap/m.npz")));
+        assert_eq!(
+            BodyModelRef::Smpl("m.npz".into()).resolve(Path::new("/cap")),
+            Some(PathBuf::from("/cap/m.npz"))
+        );
     }
 
     #[test]
     fn frame_without_fitting_or_with_nan_is_refused() {
-        let mut f = FrameRecord { depth: "d.png".into(), mask: None, pose: None, shape: vec![], translation: None, camera_to_world: None };
+        let mut f = FrameRecord {
+            depth: "d.png".into(),
+            mask: None,
+            pose: None,
+            shape: vec![],
+            translation: None,
+            camera_to_world: None,
+        };
         assert!(f.params().unwrap_err().to_string().contains("no body fitting"));
         let mut pose = vec![0.0; 72];
         pose[5] = f32::NAN;

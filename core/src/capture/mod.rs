@@ -5,8 +5,8 @@
 
 pub mod amass;
 pub mod depth_png;
-pub mod free_space;
 pub mod frame_error;
+pub mod free_space;
 pub mod import;
 pub mod manifest;
 pub mod open;
@@ -15,8 +15,11 @@ pub mod points;
 pub mod scan;
 pub mod units;
 
-pub use free_space::{free_space_samples, FreeSpaceOptions};
-pub use depth_png::{read_depth_png, read_mask_png, write_depth_png, write_mask_png, DepthImage};
-pub use manifest::{BodyModelRef, CaptureManifest, FrameRecord, Intrinsics, DEPTH_SCALE_MM, DEPTH_SCALE_TUM, MANIFEST_FILE};
+pub use depth_png::{DepthImage, read_depth_png, read_mask_png, write_depth_png, write_mask_png};
+pub use free_space::{FreeSpaceOptions, free_space_samples};
+pub use manifest::{
+    BodyModelRef, CaptureManifest, DEPTH_SCALE_MM, DEPTH_SCALE_TUM, FrameRecord, Intrinsics,
+    MANIFEST_FILE,
+};
 pub use open::{Capture, CaptureFrame, CaptureOptions, FrameError, NO_DEPTH_NEAR_BODY};
-pub use points::{backproject, crop_to_body, estimate_normals, CropOptions, CropReport};
+pub use points::{CropOptions, CropReport, backproject, crop_to_body, estimate_normals};

@@ -3,10 +3,10 @@
 //! good frames stay usable. Only a capture with no usable frame is an error.
 
 use super::depth_png::{read_depth_png_sized, read_mask_png_sized};
-use super::manifest::{BodyModelRef, CaptureManifest, FrameRecord, MANIFEST_FILE};
 pub use super::frame_error::{FrameError, NO_DEPTH_NEAR_BODY};
-use super::points::{backproject, crop_to_body, estimate_normals, CropOptions, CropReport};
-use crate::body::{open_body_ref, BodyModel, BodyParams};
+use super::manifest::{BodyModelRef, CaptureManifest, FrameRecord, MANIFEST_FILE};
+use super::points::{CropOptions, CropReport, backproject, crop_to_body, estimate_normals};
+use crate::body::{BodyModel, BodyParams, open_body_ref};
 use crate::error::{Error, Result};
 use crate::mesh::bvh::Bvh;
 use glam::{Mat4, Vec3};
@@ -35,7 +35,12 @@ pub struct CaptureOptions {
 
 impl Default for CaptureOptions {
     fn default() -> Self {
-        CaptureOptions { crop: CropOptions::default(), normal_neighbours: 16, frames: None, body_model: None }
+        CaptureOptions {
+            crop: CropOptions::default(),
+            normal_neighbours: 16,
+            frames: None,
+            body_model: None,
+        }
     }
 }
 
@@ -93,7 +98,10 @@ impl Capture {
         let manifest = CaptureManifest::load(dir)?;
         let (body_ref, named_by) = match &options.body_model {
             Some(path) => (BodyModelRef::Smpl(path.clone()), "given with --body-model".to_string()),
-            None => (manifest.body_model.clone(), format!("named in {}", dir.join(MANIFEST_FILE).display())),
+            None => (
+                manifest.body_model.clone(),
+                format!("named in {}", dir.join(MANIFEST_FILE).display()),
+            ),
         };
         let body_file = body_ref.resolve(dir);
         let body = load_body_model(body_file.as_deref(), &named_by)?;
@@ -130,7 +138,11 @@ impl Capture {
                 .unwrap_or_default();
             return Err(Error::file(
                 dir.join(super::manifest::MANIFEST_FILE),
-                format!("no usable frame in the capture ({} skipped){why}. Frames: {}", warnings.len(), reasons.join("; ")),
+                format!(
+                    "no usable frame in the capture ({} skipped){why}. Frames: {}",
+                    warnings.len(),
+                    reasons.join("; ")
+                ),
             ));
         }
         Ok(Capture { dir: dir.to_path_buf(), manifest, body, body_file, frames, warnings })
@@ -149,8 +161,12 @@ pub fn load_body_model(file: Option<&Path>, named_by: &str) -> Result<Arc<BodyMo
         return Ok(Arc::new(open_body_ref().clone()));
     };
     match BodyModel::load_npz(path) {
-        Err(Error::Io { path, cause }) => Err(Error::file(&path, format!("cannot read the SMPL body model {named_by}: {cause}"))),
-        Err(Error::InvalidFile { path, message }) => Err(Error::file(&path, format!("{message} (the SMPL body model {named_by})"))),
+        Err(Error::Io { path, cause }) => {
+            Err(Error::file(&path, format!("cannot read the SMPL body model {named_by}: {cause}")))
+        }
+        Err(Error::InvalidFile { path, message }) => {
+            Err(Error::file(&path, format!("{message} (the SMPL body model {named_by})")))
+        }
         other => Ok(Arc::new(other?)),
     }
 }
@@ -158,7 +174,12 @@ pub fn load_body_model(file: Option<&Path>, named_by: &str) -> Result<Arc<BodyMo
 /// Shape coefficients the body model does not have mean the fittings are another model's (SMPL
 /// betas read as the open body's seven MakeHuman directions): refused, naming the first frame.
 /// Trailing zeros are padding and fine; fewer coefficients than the model has are zeros.
-fn check_shape_coefficients(dir: &Path, manifest: &CaptureManifest, body: &BodyModel, smpl: bool) -> Result<()> {
+fn check_shape_coefficients(
+    dir: &Path,
+    manifest: &CaptureManifest,
+    body: &BodyModel,
+    smpl: bool,
+) -> Result<()> {
     let k = body.num_betas;
     let Some((i, n)) = manifest.frames.iter().enumerate().find_map(|(i, f)| {
         let used = f.shape.iter().rposition(|&b| b != 0.0).map_or(0, |last| last + 1);
@@ -173,7 +194,10 @@ fn check_shape_coefficients(dir: &Path, manifest: &CaptureManifest, body: &BodyM
     };
     Err(Error::file(
         dir.join(MANIFEST_FILE),
-        format!("frame {i} has {n} shape coefficients but the body model {} has {k}: {hint}", body.label),
+        format!(
+            "frame {i} has {n} shape coefficients but the body model {} has {k}: {hint}",
+            body.label
+        ),
     ))
 }
 
@@ -191,7 +215,9 @@ fn load_frame(
     let params = record.params().map_err(|e| fail(format!("body fitting: {e}")))?;
     let camera_to_world = record.camera_to_world().map_err(|e| fail(e.to_string()))?;
     let intr = &manifest.intrinsics;
-    let depth = read_depth_png_sized(&depth_file, manifest.depth_scale, Some((intr.width, intr.height))).map_err(|e| fail(strip_path(&e, &depth_file)))?;
+    let depth =
+        read_depth_png_sized(&depth_file, manifest.depth_scale, Some((intr.width, intr.height)))
+            .map_err(|e| fail(strip_path(&e, &depth_file)))?;
     if (depth.width, depth.height) != (intr.width, intr.height) {
         return Err(fail(format!(
             "image is {}x{} but the intrinsics say {}x{}",
@@ -203,9 +229,15 @@ fn load_frame(
         None => None,
         Some(m) => {
             let path = dir.join(m);
-            let (w, h, mask) = read_mask_png_sized(&path, Some((depth.width, depth.height))).map_err(|e| fail(format!("mask: {e}")))?;
+            let (w, h, mask) = read_mask_png_sized(&path, Some((depth.width, depth.height)))
+                .map_err(|e| fail(format!("mask: {e}")))?;
             if (w, h) != (depth.width, depth.height) {
-                return Err(fail(format!("mask {} is {w}x{h}, the depth image {}x{}", path.display(), depth.width, depth.height)));
+                return Err(fail(format!(
+                    "mask {} is {w}x{h}, the depth image {}x{}",
+                    path.display(),
+                    depth.width,
+                    depth.height
+                )));
             }
             Some(mask)
         }
@@ -215,7 +247,8 @@ fn load_frame(
     let bvh = Bvh::build(&body.mesh(posed.vertices));
     // World up: the body's rest up axis (Y) carried by the root orientation is not the floor's
     // up; captures are in a Y-up world, like the body model.
-    let (kept, crop) = crop_to_body(&points, &bvh, Vec3::Y, &options.crop).map_err(|e| fail(e.to_string()))?;
+    let (kept, crop) =
+        crop_to_body(&points, &bvh, Vec3::Y, &options.crop).map_err(|e| fail(e.to_string()))?;
     if kept.is_empty() {
         return Err(fail(format!(
             "{NO_DEPTH_NEAR_BODY} {:.0} cm of the fitted body ({} points, all background): is this frame's fitting right?",
@@ -225,7 +258,8 @@ fn load_frame(
     }
     let points: Vec<Vec3> = kept.iter().map(|&i| points[i]).collect();
     let pixels: Vec<u32> = kept.iter().map(|&i| pixels[i]).collect();
-    let normals = estimate_normals(&points, camera_to_world.w_axis.truncate(), options.normal_neighbours);
+    let normals =
+        estimate_normals(&points, camera_to_world.w_axis.truncate(), options.normal_neighbours);
     Ok(CaptureFrame { index, depth_file, params, camera_to_world, points, normals, pixels, crop })
 }
 

@@ -14,7 +14,12 @@ use std::num::NonZero;
 
 /// World-space points of every pixel with depth (and inside the mask, if given), with the
 /// pixel index each came from.
-pub fn backproject(depth: &DepthImage, intrinsics: &Intrinsics, camera_to_world: Mat4, mask: Option<&[bool]>) -> (Vec<Vec3>, Vec<u32>) {
+pub fn backproject(
+    depth: &DepthImage,
+    intrinsics: &Intrinsics,
+    camera_to_world: Mat4,
+    mask: Option<&[bool]>,
+) -> (Vec<Vec3>, Vec<u32>) {
     let mut points = Vec::new();
     let mut pixels = Vec::new();
     for v in 0..depth.height {
@@ -24,7 +29,9 @@ pub fn backproject(depth: &DepthImage, intrinsics: &Intrinsics, camera_to_world:
             if z <= 0.0 || mask.is_some_and(|m| !m[i]) {
                 continue;
             }
-            points.push(camera_to_world.transform_point3(intrinsics.unproject(u as f32, v as f32, z)));
+            points.push(
+                camera_to_world.transform_point3(intrinsics.unproject(u as f32, v as f32, z)),
+            );
             pixels.push(i as u32);
         }
     }
@@ -38,7 +45,8 @@ pub fn estimate_normals(points: &[Vec3], camera_center: Vec3, k: usize) -> Vec<V
         return Vec::new();
     }
     let coords: Vec<[f32; 3]> = points.iter().map(|p| p.to_array()).collect();
-    let tree: ImmutableKdTree<f32, 3> = ImmutableKdTree::new_from_slice(&coords).expect("finite points");
+    let tree: ImmutableKdTree<f32, 3> =
+        ImmutableKdTree::new_from_slice(&coords).expect("finite points");
     let k = NonZero::new(k.clamp(3, 64)).unwrap();
     points
         .par_iter()
@@ -48,7 +56,8 @@ pub fn estimate_normals(points: &[Vec3], camera_center: Vec3, k: usize) -> Vec<V
             if hits.len() < 3 {
                 return to_cam;
             }
-            let mean = hits.iter().map(|h| points[h.item as usize]).sum::<Vec3>() / hits.len() as f32;
+            let mean =
+                hits.iter().map(|h| points[h.item as usize]).sum::<Vec3>() / hits.len() as f32;
             let mut cov = Mat3::ZERO;
             for h in &hits {
                 let d = points[h.item as usize] - mean;
@@ -69,7 +78,9 @@ fn smallest_eigenvector(a: Mat3) -> Option<Vec3> {
     }
     let b = Mat3::from_diagonal(Vec3::splat(shift)) - a;
     // Start from the column of b with the largest norm; 32 iterations are plenty for 3x3.
-    let mut v = [b.x_axis, b.y_axis, b.z_axis].into_iter().max_by(|p, q| p.length_squared().total_cmp(&q.length_squared()))?;
+    let mut v = [b.x_axis, b.y_axis, b.z_axis]
+        .into_iter()
+        .max_by(|p, q| p.length_squared().total_cmp(&q.length_squared()))?;
     for _ in 0..32 {
         v = (b * v).normalize_or_zero();
         if v == Vec3::ZERO {
@@ -95,7 +106,12 @@ pub struct CropOptions {
 
 impl Default for CropOptions {
     fn default() -> Self {
-        CropOptions { max_distance: 0.30, remove_floor: true, floor_tolerance: 0.015, keep_near_body: 0.01 }
+        CropOptions {
+            max_distance: 0.30,
+            remove_floor: true,
+            floor_tolerance: 0.015,
+            keep_near_body: 0.01,
+        }
     }
 }
 
@@ -107,18 +123,29 @@ pub struct CropReport {
 }
 
 /// Indices of the points kept, with the counts of what was removed.
-pub fn crop_to_body(points: &[Vec3], body: &Bvh, up: Vec3, options: &CropOptions) -> Result<(Vec<usize>, CropReport)> {
-    let (lo, _) = body.bounds().ok_or_else(|| Error::invalid("cannot crop to an empty body mesh"))?;
+pub fn crop_to_body(
+    points: &[Vec3],
+    body: &Bvh,
+    up: Vec3,
+    options: &CropOptions,
+) -> Result<(Vec<usize>, CropReport)> {
+    let (lo, _) =
+        body.bounds().ok_or_else(|| Error::invalid("cannot crop to an empty body mesh"))?;
     let body_dist: Vec<f32> = points
         .par_iter()
-        .map(|&p| body.closest_point_within(p, options.max_distance).map_or(f32::INFINITY, |h| h.distance))
+        .map(|&p| {
+            body.closest_point_within(p, options.max_distance).map_or(f32::INFINITY, |h| h.distance)
+        })
         .collect();
     let mut report = CropReport::default();
-    let near: Vec<usize> = (0..points.len()).filter(|&i| body_dist[i] <= options.max_distance).collect();
+    let near: Vec<usize> =
+        (0..points.len()).filter(|&i| body_dist[i] <= options.max_distance).collect();
     report.far_from_body = points.len() - near.len();
     let floor = if options.remove_floor {
-        let lowest = lo.dot(up).min(near.iter().map(|&i| points[i].dot(up)).fold(f32::INFINITY, f32::min));
-        let candidates: Vec<Vec3> = near.iter().map(|&i| points[i]).filter(|p| p.dot(up) < lowest + 0.12).collect();
+        let lowest =
+            lo.dot(up).min(near.iter().map(|&i| points[i].dot(up)).fold(f32::INFINITY, f32::min));
+        let candidates: Vec<Vec3> =
+            near.iter().map(|&i| points[i]).filter(|p| p.dot(up) < lowest + 0.12).collect();
         // Without enough floor in view for RANSAC, the floor is the plane under the body's soles.
         fit_floor_plane(&candidates, up, options.floor_tolerance).or(Some((up, lo.dot(up))))
     } else {
@@ -128,7 +155,8 @@ pub fn crop_to_body(points: &[Vec3], body: &Bvh, up: Vec3, options: &CropOptions
         .into_iter()
         .filter(|&i| match floor {
             Some((n, d)) => {
-                let on_floor = (points[i].dot(n) - d).abs() <= options.floor_tolerance || points[i].dot(n) < d;
+                let on_floor =
+                    (points[i].dot(n) - d).abs() <= options.floor_tolerance || points[i].dot(n) < d;
                 let is_floor = on_floor && body_dist[i] > options.keep_near_body;
                 if is_floor {
                     report.floor += 1;
@@ -177,7 +205,9 @@ mod tests {
 
     #[test]
     fn pca_normals_of_a_plane_face_the_camera() {
-        let pts: Vec<Vec3> = (0..400).map(|i| Vec3::new((i % 20) as f32 * 0.01, (i / 20) as f32 * 0.01, 2.0)).collect();
+        let pts: Vec<Vec3> = (0..400)
+            .map(|i| Vec3::new((i % 20) as f32 * 0.01, (i / 20) as f32 * 0.01, 2.0))
+            .collect();
         let normals = estimate_normals(&pts, Vec3::ZERO, 12);
         for n in normals {
             assert!((n - Vec3::NEG_Z).length() < 1e-3, "{n}");
@@ -187,7 +217,11 @@ mod tests {
     #[test]
     fn backprojection_inverts_projection() {
         let intr = Intrinsics { fx: 500.0, fy: 480.0, cx: 2.0, cy: 1.5, width: 4, height: 3 };
-        let depth = DepthImage { width: 4, height: 3, metres: vec![1.0, 0.0, 2.0, 3.0, 1.5, 1.5, 0.0, 2.5, 1.0, 1.0, 1.0, 4.0] };
+        let depth = DepthImage {
+            width: 4,
+            height: 3,
+            metres: vec![1.0, 0.0, 2.0, 3.0, 1.5, 1.5, 0.0, 2.5, 1.0, 1.0, 1.0, 4.0],
+        };
         let (pts, px) = backproject(&depth, &intr, Mat4::IDENTITY, None);
         assert_eq!(pts.len(), 10);
         for (p, &i) in pts.iter().zip(&px) {

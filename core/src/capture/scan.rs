@@ -9,9 +9,9 @@ use super::import::check_output_dir;
 use super::manifest::{CaptureManifest, FrameRecord};
 use crate::body::{BodyModel, BodyParams};
 use crate::error::{Error, Result};
-use crate::mesh::bvh::Bvh;
 use crate::mesh::TriMesh;
-use crate::synth::{look_at, render_depth, PinholeCamera};
+use crate::mesh::bvh::Bvh;
+use crate::synth::{PinholeCamera, look_at, render_depth};
 use glam::Vec3;
 use std::path::Path;
 
@@ -19,12 +19,19 @@ use std::path::Path;
 /// texture coordinates, materials, points and lines ignored).
 pub fn load_scan(path: impl AsRef<Path>) -> Result<TriMesh> {
     let path = path.as_ref();
-    let options = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
     let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| match e {
-        tobj::LoadError::OpenFileFailed | tobj::LoadError::ReadError => match std::fs::metadata(path) {
-            Err(io) => Error::io(path, io),
-            Ok(_) => Error::file(path, format!("cannot read the OBJ: {e}")),
-        },
+        tobj::LoadError::OpenFileFailed | tobj::LoadError::ReadError => {
+            match std::fs::metadata(path) {
+                Err(io) => Error::io(path, io),
+                Ok(_) => Error::file(path, format!("cannot read the OBJ: {e}")),
+            }
+        }
         other => Error::file(path, format!("not a readable OBJ scan: {other}")),
     })?;
     let mut mesh = TriMesh::default();
@@ -32,13 +39,23 @@ pub fn load_scan(path: impl AsRef<Path>) -> Result<TriMesh> {
         let base = mesh.positions.len() as u32;
         let p = &m.mesh.positions;
         if p.len() % 3 != 0 {
-            return Err(Error::file(path, format!("object '{}': positions are not triples", m.name)));
+            return Err(Error::file(
+                path,
+                format!("object '{}': positions are not triples", m.name),
+            ));
         }
         mesh.positions.extend(p.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
         let n = (p.len() / 3) as u32;
         for tri in m.mesh.indices.chunks_exact(3) {
             if let Some(&bad) = tri.iter().find(|&&i| i >= n) {
-                return Err(Error::file(path, format!("object '{}': face index {} out of range ({n} vertices)", m.name, bad + 1)));
+                return Err(Error::file(
+                    path,
+                    format!(
+                        "object '{}': face index {} out of range ({n} vertices)",
+                        m.name,
+                        bad + 1
+                    ),
+                ));
             }
             mesh.faces.push([base + tri[0], base + tri[1], base + tri[2]]);
         }
@@ -47,7 +64,10 @@ pub fn load_scan(path: impl AsRef<Path>) -> Result<TriMesh> {
         return Err(Error::file(path, format!("vertex {} is not finite", i + 1)));
     }
     if mesh.faces.is_empty() {
-        return Err(Error::file(path, "the OBJ has no faces: a scan must be a surface mesh, not a point cloud"));
+        return Err(Error::file(
+            path,
+            "the OBJ has no faces: a scan must be a surface mesh, not a point cloud",
+        ));
     }
     Ok(mesh)
 }
@@ -85,10 +105,18 @@ pub struct ScanReport {
 /// Render `scan` (posed as `fitting`, metres, Y up) from a ring of cameras into the capture
 /// folder `out`. The scan must lie on the fitted body: a scan in millimetres or centimetres,
 /// or one that the fitting does not describe, is refused with the reason.
-pub fn import_scan(scan_path: &Path, fitting_path: &Path, out: &Path, body: &BodyModel, views: &ScanViews) -> Result<ScanReport> {
+pub fn import_scan(
+    scan_path: &Path,
+    fitting_path: &Path,
+    out: &Path,
+    body: &BodyModel,
+    views: &ScanViews,
+) -> Result<ScanReport> {
     check_output_dir(out, &[scan_path, fitting_path])?;
     if views.views == 0 || !(16..=4096).contains(&views.resolution) {
-        return Err(Error::invalid("a scan needs at least 1 view and an image side of 16 to 4096 pixels"));
+        return Err(Error::invalid(
+            "a scan needs at least 1 view and an image side of 16 to 4096 pixels",
+        ));
     }
     let scan = load_scan(scan_path)?;
     let fitting = BodyParams::load_json(fitting_path)?;
@@ -101,9 +129,21 @@ pub fn import_scan(scan_path: &Path, fitting_path: &Path, out: &Path, body: &Bod
     // The bounding sphere fills 90 % of the half image: sin(half angle) = radius / distance.
     let half = ((0.5 * side as f32) / f).atan() * 0.9;
     let distance = radius / half.sin();
-    let camera = PinholeCamera { fx: f, fy: f, cx: 0.5 * side as f32, cy: 0.5 * side as f32, width: side, height: side, near: 0.05, far: distance + 2.0 * radius };
+    let camera = PinholeCamera {
+        fx: f,
+        fy: f,
+        cx: 0.5 * side as f32,
+        cy: 0.5 * side as f32,
+        width: side,
+        height: side,
+        near: 0.05,
+        far: distance + 2.0 * radius,
+    };
     if distance + radius > 65535.0 / SCAN_DEPTH_SCALE {
-        return Err(Error::file(scan_path, format!("the scan is {:.1} m across: too large for a person (units?)", 2.0 * radius)));
+        return Err(Error::file(
+            scan_path,
+            format!("the scan is {:.1} m across: too large for a person (units?)", 2.0 * radius),
+        ));
     }
     let intr = camera.intrinsics();
     let mut manifest = CaptureManifest::new(intr, SCAN_DEPTH_SCALE);
@@ -128,11 +168,22 @@ pub fn import_scan(scan_path: &Path, fitting_path: &Path, out: &Path, body: &Bod
         manifest.frames.push(rec);
     }
     manifest.save(out)?;
-    Ok(ScanReport { vertices: scan.positions.len(), faces: scan.faces.len(), frames: views.views, depth_pixels, distance })
+    Ok(ScanReport {
+        vertices: scan.positions.len(),
+        faces: scan.faces.len(),
+        frames: views.views,
+        depth_pixels,
+        distance,
+    })
 }
 
 /// Most of the scan must lie within 30 cm of the fitted body; otherwise say why.
-fn check_scan_on_body(path: &Path, scan: &TriMesh, body: &BodyModel, fitting: &BodyParams) -> Result<()> {
+fn check_scan_on_body(
+    path: &Path,
+    scan: &TriMesh,
+    body: &BodyModel,
+    fitting: &BodyParams,
+) -> Result<()> {
     let posed = body.pose(fitting);
     let bvh = Bvh::build(&body.mesh(posed.vertices.clone()));
     let step = (scan.positions.len() / 2000).max(1);
@@ -156,5 +207,13 @@ fn check_scan_on_body(path: &Path, scan: &TriMesh, body: &BodyModel, fitting: &B
             body_centre.to_array()
         )
     };
-    Err(Error::file(path, format!("only {} of {} scan vertices lie within {:.0} cm of the fitted body: {why}", on, sample.len(), ON_BODY * 100.0)))
+    Err(Error::file(
+        path,
+        format!(
+            "only {} of {} scan vertices lie within {:.0} cm of the fitted body: {why}",
+            on,
+            sample.len(),
+            ON_BODY * 100.0
+        ),
+    ))
 }

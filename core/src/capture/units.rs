@@ -3,8 +3,8 @@
 //! camera_to_world, Z-up fittings). See docs/capture-format.md.
 
 use super::depth_png::read_depth_png;
-use super::manifest::{CaptureManifest, FrameRecord};
 use super::frame_error::{FrameError, NO_DEPTH_NEAR_BODY};
+use super::manifest::{CaptureManifest, FrameRecord};
 use super::points::backproject;
 use crate::body::{BodyModel, BodyParams, NUM_JOINTS, SMPL_PARENTS};
 use glam::{Mat4, Quat, Vec3};
@@ -35,11 +35,16 @@ const HYPOTHESES: [Hypothesis; 6] = [
     Hypothesis::ZUp,
 ];
 
-
 /// The one-line diagnosis when at least half of the `considered` frames failed with
 /// [`NO_DEPTH_NEAR_BODY`]: each correction is tried on a few of them and the one that puts the
 /// most depth points on the fitted skeleton is named.
-pub fn diagnose(dir: &Path, manifest: &CaptureManifest, body: &BodyModel, warnings: &[FrameError], considered: usize) -> Option<String> {
+pub fn diagnose(
+    dir: &Path,
+    manifest: &CaptureManifest,
+    body: &BodyModel,
+    warnings: &[FrameError],
+    considered: usize,
+) -> Option<String> {
     // Translations beyond 1 km are refused before any depth is read: millimetres, most likely.
     let huge: Vec<f32> = warnings
         .iter()
@@ -49,12 +54,15 @@ pub fn diagnose(dir: &Path, manifest: &CaptureManifest, body: &BodyModel, warnin
     if !huge.is_empty() && 2 * huge.len() >= considered {
         let t = median(huge);
         return Some(if t / 1000.0 < 20.0 {
-            format!("translations look like millimetres: {t:.0} m; a person is metres from the camera (write metres in \"translation\")")
+            format!(
+                "translations look like millimetres: {t:.0} m; a person is metres from the camera (write metres in \"translation\")"
+            )
         } else {
             format!("translations of {t:.0} m are not plausible: wrong units?")
         });
     }
-    let far: Vec<&FrameError> = warnings.iter().filter(|w| w.reason.starts_with(NO_DEPTH_NEAR_BODY)).collect();
+    let far: Vec<&FrameError> =
+        warnings.iter().filter(|w| w.reason.starts_with(NO_DEPTH_NEAR_BODY)).collect();
     if far.is_empty() || 2 * far.len() < considered {
         return None;
     }
@@ -63,7 +71,9 @@ pub fn diagnose(dir: &Path, manifest: &CaptureManifest, body: &BodyModel, warnin
     for w in far.iter().take(FRAMES_EXAMINED) {
         let record = &manifest.frames[w.index];
         let (Ok(params), Ok(c2w)) = (record.params(), record.camera_to_world()) else { continue };
-        let Ok(depth) = read_depth_png(dir.join(&record.depth), manifest.depth_scale) else { continue };
+        let Ok(depth) = read_depth_png(dir.join(&record.depth), manifest.depth_scale) else {
+            continue;
+        };
         let (points, _) = backproject(&depth, &manifest.intrinsics, Mat4::IDENTITY, None);
         let step = (points.len() / 4000).max(1);
         let camera_points: Vec<Vec3> = points.into_iter().step_by(step).collect();
@@ -72,7 +82,8 @@ pub fn diagnose(dir: &Path, manifest: &CaptureManifest, body: &BodyModel, warnin
         }
         for (k, h) in HYPOTHESES.iter().enumerate() {
             if let Some((p, c)) = apply(*h, &params, c2w, record, body) {
-                let world: Vec<Vec3> = camera_points.iter().map(|q| c.transform_point3(*q)).collect();
+                let world: Vec<Vec3> =
+                    camera_points.iter().map(|q| c.transform_point3(*q)).collect();
                 score[k] += near_fraction(&world, &skeleton_samples(body, &p));
             }
         }
@@ -82,7 +93,8 @@ pub fn diagnose(dir: &Path, manifest: &CaptureManifest, body: &BodyModel, warnin
         return None;
     }
     let n = examined.len() as f32;
-    let (best, best_score) = (0..HYPOTHESES.len()).map(|k| (k, score[k] / n)).max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let (best, best_score) =
+        (0..HYPOTHESES.len()).map(|k| (k, score[k] / n)).max_by(|a, b| a.1.total_cmp(&b.1))?;
     let given = score[0] / n;
     let trans = median(examined.iter().map(|(p, _, _)| p.trans.length()).collect());
     if best != 0 && best_score >= 0.1 && best_score >= 2.0 * given {
@@ -111,7 +123,11 @@ pub fn diagnose(dir: &Path, manifest: &CaptureManifest, body: &BodyModel, warnin
         median(pts.iter().map(|p| p.y).collect()),
         median(pts.iter().map(|p| p.z).collect()),
     ));
-    let units = if trans > 20.0 { format!("; translations of {trans:.0} m are not plausible, wrong units?") } else { String::new() };
+    let units = if trans > 20.0 {
+        format!("; translations of {trans:.0} m are not plausible, wrong units?")
+    } else {
+        String::new()
+    };
     Some(format!(
         "the fitted body is {:.2} m from the depth (pelvis at {:.2?}, depth centre at {:.2?}): are the translations and camera_to_world right?{units}",
         (pelvis - depth_centre).length(),
@@ -121,7 +137,13 @@ pub fn diagnose(dir: &Path, manifest: &CaptureManifest, body: &BodyModel, warnin
 }
 
 /// The frame's fitting and camera-to-world under a hypothesis (`None`: not applicable).
-fn apply(h: Hypothesis, params: &BodyParams, c2w: Mat4, record: &FrameRecord, body: &BodyModel) -> Option<(BodyParams, Mat4)> {
+fn apply(
+    h: Hypothesis,
+    params: &BodyParams,
+    c2w: Mat4,
+    record: &FrameRecord,
+    body: &BodyModel,
+) -> Option<(BodyParams, Mat4)> {
     let mut p = params.clone();
     match h {
         Hypothesis::AsGiven => Some((p, c2w)),
@@ -133,7 +155,9 @@ fn apply(h: Hypothesis, params: &BodyParams, c2w: Mat4, record: &FrameRecord, bo
             })
         }
         Hypothesis::InvertedCamera => record.camera_to_world.is_some().then(|| (p, c2w.inverse())),
-        Hypothesis::CameraCoordinates => record.camera_to_world.is_some().then_some((p, Mat4::IDENTITY)),
+        Hypothesis::CameraCoordinates => {
+            record.camera_to_world.is_some().then_some((p, Mat4::IDENTITY))
+        }
         Hypothesis::ZUp => {
             let r = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2);
             let j0 = body.rest_joints(&p.betas)[0];
@@ -147,7 +171,8 @@ fn apply(h: Hypothesis, params: &BodyParams, c2w: Mat4, record: &FrameRecord, bo
 /// Points along the posed skeleton: joints and three points on each bone.
 fn skeleton_samples(body: &BodyModel, params: &BodyParams) -> Vec<Vec3> {
     let rest = body.rest_joints(&params.betas);
-    let joints = crate::body::forward_kinematics(&rest, &params.rotations(), params.trans).posed_joints();
+    let joints =
+        crate::body::forward_kinematics(&rest, &params.rotations(), params.trans).posed_joints();
     let mut out = joints.to_vec();
     for j in 1..NUM_JOINTS {
         let p = joints[SMPL_PARENTS[j] as usize];
@@ -158,7 +183,8 @@ fn skeleton_samples(body: &BodyModel, params: &BodyParams) -> Vec<Vec3> {
 
 fn near_fraction(points: &[Vec3], skeleton: &[Vec3]) -> f32 {
     let r2 = NEAR_SKELETON * NEAR_SKELETON;
-    let near = points.iter().filter(|p| skeleton.iter().any(|s| s.distance_squared(**p) <= r2)).count();
+    let near =
+        points.iter().filter(|p| skeleton.iter().any(|s| s.distance_squared(**p) <= r2)).count();
     near as f32 / points.len().max(1) as f32
 }
 

@@ -7,7 +7,7 @@
 use crate::body::BodyParams;
 use crate::capture::CaptureManifest;
 use crate::error::{Error, Result};
-use crate::synth::noise::{gaussian, DepthNoise};
+use crate::synth::noise::{DepthNoise, gaussian};
 use crate::synth::{Outfit, SynthJob};
 use glam::{Quat, Vec3};
 use rand::{Rng, SeedableRng};
@@ -38,7 +38,8 @@ impl FitError {
             let e = Vec3::new(gaussian(rng), gaussian(rng), gaussian(rng)) * per_axis;
             *r = (Quat::from_scaled_axis(e) * Quat::from_scaled_axis(*r)).to_scaled_axis();
         }
-        let t = Vec3::new(gaussian(rng), gaussian(rng), gaussian(rng)) * (self.trans_m / 3f32.sqrt());
+        let t =
+            Vec3::new(gaussian(rng), gaussian(rng), gaussian(rng)) * (self.trans_m / 3f32.sqrt());
         p.trans += t;
     }
 }
@@ -57,7 +58,12 @@ pub struct CaptureConditions {
 
 impl CaptureConditions {
     pub fn clean() -> Self {
-        CaptureConditions { name: "clean".into(), noise: None, fit_error: FitError::NONE, turn_deg: (45.0, 45.0) }
+        CaptureConditions {
+            name: "clean".into(),
+            noise: None,
+            fit_error: FitError::NONE,
+            turn_deg: (45.0, 45.0),
+        }
     }
 
     /// Kinect v2-like depth, fittings off by 3 degrees per joint and 1 cm (RMS), 30-60 degrees
@@ -76,7 +82,9 @@ impl CaptureConditions {
     pub fn parse_list(names: &str, noise: Option<&str>) -> Result<Vec<Self>> {
         let noise = match noise {
             None => None,
-            Some(n) => Some(DepthNoise::preset(n).ok_or_else(|| Error::invalid(format!("unknown noise model {n:?}: use kinect_v1 or kinect_v2")))?),
+            Some(n) => Some(DepthNoise::preset(n).ok_or_else(|| {
+                Error::invalid(format!("unknown noise model {n:?}: use kinect_v1 or kinect_v2"))
+            })?),
         };
         names
             .split(',')
@@ -112,10 +120,18 @@ impl CaptureConditions {
         let fit = if self.fit_error.is_none() {
             "exact fittings".to_string()
         } else {
-            format!("fittings off by {} deg per joint and {} cm (RMS)", self.fit_error.joint_deg, self.fit_error.trans_m * 100.0)
+            format!(
+                "fittings off by {} deg per joint and {} cm (RMS)",
+                self.fit_error.joint_deg,
+                self.fit_error.trans_m * 100.0
+            )
         };
         let (a, b) = self.turn_deg;
-        let turn = if a == b { format!("{a} deg between frames") } else { format!("{a}-{b} deg between frames (one draw per capture)") };
+        let turn = if a == b {
+            format!("{a} deg between frames")
+        } else {
+            format!("{a}-{b} deg between frames (one draw per capture)")
+        };
         format!("{}: {noise}, {fit}, {turn}", self.name)
     }
 
@@ -150,7 +166,12 @@ impl CaptureConditions {
 /// setting enter by identity, not by their place in the command's lists, so a capture does not
 /// change when other outfits or settings are evaluated beside it (`--outfits dress` draws the
 /// full table's dress capture).
-pub fn capture_seed(seed: u64, subject: u64, outfit: Outfit, conditions: &CaptureConditions) -> u64 {
+pub fn capture_seed(
+    seed: u64,
+    subject: u64,
+    outfit: Outfit,
+    conditions: &CaptureConditions,
+) -> u64 {
     let mut h = seed ^ 0x9e37_79b9_7f4a_7c15;
     // The outfit's declaration order, which is `ALL_OUTFITS`' (the full preset's) order.
     for v in [subject, outfit as u64, conditions.seed_stream()] {
@@ -197,8 +218,14 @@ mod tests {
 
     #[test]
     fn a_capture_is_drawn_by_its_outfit_and_setting_not_by_their_place_in_the_lists() {
-        let [user, clean] = <[CaptureConditions; 2]>::try_from(CaptureConditions::parse_list("user,clean", None).unwrap()).unwrap();
-        let [noisy, misfit] = <[CaptureConditions; 2]>::try_from(CaptureConditions::parse_list("noisy,misfit", None).unwrap()).unwrap();
+        let [user, clean] = <[CaptureConditions; 2]>::try_from(
+            CaptureConditions::parse_list("user,clean", None).unwrap(),
+        )
+        .unwrap();
+        let [noisy, misfit] = <[CaptureConditions; 2]>::try_from(
+            CaptureConditions::parse_list("noisy,misfit", None).unwrap(),
+        )
+        .unwrap();
         let seed = |o, c: &CaptureConditions| capture_seed(0, 1001, o, c);
         let dress = crate::synth::Outfit::Dress;
         // The diagnostic settings share the user capture's draw; clean has its own.
@@ -218,7 +245,9 @@ mod tests {
         let c = CaptureConditions::parse_list("user,clean", Some("kinect_v1")).unwrap();
         assert_eq!(c[0].noise, Some(DepthNoise::kinect_v1()));
         assert_eq!(c[1], CaptureConditions::clean());
-        assert!(CaptureConditions::parse_list("dirty", None).unwrap_err().to_string().contains("dirty"));
+        assert!(
+            CaptureConditions::parse_list("dirty", None).unwrap_err().to_string().contains("dirty")
+        );
         assert!(CaptureConditions::parse_list("user", Some("kinect_v9")).is_err());
         let user = CaptureConditions::user();
         let clip = crate::motion::MotionClip::new("x", 30.0, vec![BodyParams::default()]);

@@ -8,13 +8,15 @@ pub const TRAIN_SUBJECT_SEEDS: std::ops::Range<u64> = 1..41;
 /// Shape seeds of the held-out evaluation subjects (disjoint from training).
 pub const EVAL_SUBJECT_SEEDS: [u64; 4] = [1001, 1002, 1003, 1004];
 /// Outfits meta-training may use.
-pub const TRAIN_OUTFITS: [Outfit; 4] = [Outfit::TshirtShorts, Outfit::LongsleeveTrousers, Outfit::PoloLoose, Outfit::Dress];
+pub const TRAIN_OUTFITS: [Outfit; 4] =
+    [Outfit::TshirtShorts, Outfit::LongsleeveTrousers, Outfit::PoloLoose, Outfit::Dress];
 /// The outfit no meta-training ever sees (like the paper's blazer).
 pub const UNSEEN_OUTFIT: Outfit = Outfit::BlazerTails;
 /// Evaluation outfits: a seen one and the unseen one.
 pub const EVAL_OUTFITS: [Outfit; 2] = [Outfit::LongsleeveTrousers, Outfit::BlazerTails];
 /// Clips the avatar is fine-tuned on (from the library's training clips).
-pub const FINETUNE_CLIPS: [&str; 8] = ["walk", "raise_arms", "squat", "turn", "bend", "arm_swing", "jumping_jacks", "march"];
+pub const FINETUNE_CLIPS: [&str; 8] =
+    ["walk", "raise_arms", "squat", "turn", "bend", "arm_swing", "jumping_jacks", "march"];
 /// Held-out clips (never in meta-training or fine-tuning): the library's held-out set.
 pub const EVAL_CLIPS: [&str; 3] = crate::motion::HELDOUT_CLIPS;
 /// The held-out pose of the evaluation's contact sheets: a clip and where in it (0-1). The

@@ -22,12 +22,12 @@
 
 use super::occupancy::volumetric_iou;
 use super::sampling::sample_surface;
-use crate::mesh::point_index::PointIndex;
-use super::surface_error::{region_errors, SampleDistances, SurfaceErrors};
+use super::surface_error::{SampleDistances, SurfaceErrors, region_errors};
 use crate::body::skeleton::CLOTHED_JOINTS;
 use crate::error::{Error, Result};
-use crate::mesh::bvh::Bvh;
 use crate::mesh::TriMesh;
+use crate::mesh::bvh::Bvh;
+use crate::mesh::point_index::PointIndex;
 use crate::synth::ClothedTemplate;
 use glam::Vec3;
 use rand::SeedableRng;
@@ -92,7 +92,10 @@ impl Regions {
     /// vertices a garment covers: `ClothedTemplate::cloth` >= 0.5 (a garment offset of at least
     /// 2 mm at rest: shirt, sleeves, trousers) and every panel vertex (skirt, tails).
     pub fn of_template(t: &ClothedTemplate) -> Result<Regions> {
-        Ok(Regions { scored: clothed_mask(&t.vertex_joint, None)?, cloth: t.cloth.iter().map(|&c| c >= 0.5).collect() })
+        Ok(Regions {
+            scored: clothed_mask(&t.vertex_joint, None)?,
+            cloth: t.cloth.iter().map(|&c| c >= 0.5).collect(),
+        })
     }
 }
 
@@ -127,7 +130,12 @@ impl<'a> Prepared<'a> {
     /// `what` names the mesh in errors ("predicted", "ground-truth").
     pub fn new(mesh: &'a TriMesh, what: &str) -> Result<Prepared<'a>> {
         check_mesh(mesh, what)?;
-        Ok(Prepared { mesh, normals: mesh.vertex_normals(), vertices: PointIndex::new(&mesh.positions)?, bvh: Bvh::build(mesh) })
+        Ok(Prepared {
+            mesh,
+            normals: mesh.vertex_normals(),
+            vertices: PointIndex::new(&mesh.positions)?,
+            bvh: Bvh::build(mesh),
+        })
     }
 }
 
@@ -135,7 +143,9 @@ impl Prepared<'_> {
     /// Distance from `p` to the surface, given an upper bound (e.g. the nearest-vertex
     /// distance) that prunes the BVH search.
     pub fn surface_distance_below(&self, p: Vec3, bound: f32) -> f32 {
-        self.bvh.closest_point_within(p, bound * (1.0 + 1e-5) + 1e-9).map_or(bound, |h| h.distance.min(bound))
+        self.bvh
+            .closest_point_within(p, bound * (1.0 + 1e-5) + 1e-9)
+            .map_or(bound, |h| h.distance.min(bound))
     }
 
     /// Distance from `p` to the surface.
@@ -145,9 +155,18 @@ impl Prepared<'_> {
 
     /// `n` area-uniform samples of this surface measured to `other`; `clothed(p)` says
     /// whether a sample lies in the clothed region.
-    pub fn sample_distances(&self, other: &Prepared, n: usize, rng: &mut ChaCha8Rng, clothed: impl Fn(Vec3) -> bool) -> Result<SampleDistances> {
+    pub fn sample_distances(
+        &self,
+        other: &Prepared,
+        n: usize,
+        rng: &mut ChaCha8Rng,
+        clothed: impl Fn(Vec3) -> bool,
+    ) -> Result<SampleDistances> {
         let points = sample_surface(self.mesh, n.max(1), rng)?;
-        Ok(SampleDistances { distance: points.iter().map(|&p| other.surface_distance(p)).collect(), clothed: points.iter().map(|&p| clothed(p)).collect() })
+        Ok(SampleDistances {
+            distance: points.iter().map(|&p| other.surface_distance(p)).collect(),
+            clothed: points.iter().map(|&p| clothed(p)).collect(),
+        })
     }
 }
 
@@ -157,7 +176,10 @@ pub fn check_mesh(mesh: &TriMesh, what: &str) -> Result<()> {
         return Err(Error::invalid(format!("{what} mesh is empty")));
     }
     if let Some(p) = mesh.positions.iter().position(|p| !p.is_finite()) {
-        return Err(Error::invalid(format!("{what} mesh vertex {p} is not finite ({})", mesh.positions[p])));
+        return Err(Error::invalid(format!(
+            "{what} mesh vertex {p} is not finite ({})",
+            mesh.positions[p]
+        )));
     }
     let n = mesh.positions.len() as u32;
     if let Some(f) = mesh.faces.iter().position(|f| f.iter().any(|&i| i >= n)) {
@@ -192,12 +214,22 @@ pub fn vertex_scores(gt_points: &[Vec3], gt_normals: &[Vec3], pred: &Prepared) -
 /// All metrics of a predicted mesh against a ground-truth mesh; `regions` selects the
 /// ground-truth vertices scored by Dp, Df and NC and the clothed region. `seed` drives IoU and
 /// the surface sampling.
-pub fn evaluate_frame(pred: &TriMesh, gt: &TriMesh, regions: &Regions, options: &MetricOptions, seed: u64) -> Result<FrameMetrics> {
+pub fn evaluate_frame(
+    pred: &TriMesh,
+    gt: &TriMesh,
+    regions: &Regions,
+    options: &MetricOptions,
+    seed: u64,
+) -> Result<FrameMetrics> {
     let gt_prepared = Prepared::new(gt, "ground-truth")?;
     let mask = &regions.scored;
     for (what, m) in [("metric mask", mask), ("clothed region", &regions.cloth)] {
         if m.len() != gt.positions.len() {
-            return Err(Error::invalid(format!("{what} has {} entries for {} ground-truth vertices", m.len(), gt.positions.len())));
+            return Err(Error::invalid(format!(
+                "{what} has {} entries for {} ground-truth vertices",
+                m.len(),
+                gt.positions.len()
+            )));
         }
     }
     let prepared = Prepared::new(pred, "predicted")?;
@@ -217,8 +249,10 @@ pub fn evaluate_frame(pred: &TriMesh, gt: &TriMesh, regions: &Regions, options: 
     let iou = volumetric_iou(pred, gt, options.iou_resolution, &mut rng)?;
     // The same samples as `chamfer_l2` (same order), classified by the nearest true vertex.
     let clothed = |p: Vec3| regions.cloth[gt_prepared.vertices.nearest(p).0];
-    let to_gt = prepared.sample_distances(&gt_prepared, options.chamfer_samples, &mut rng, clothed)?;
-    let to_pred = gt_prepared.sample_distances(&prepared, options.chamfer_samples, &mut rng, clothed)?;
+    let to_gt =
+        prepared.sample_distances(&gt_prepared, options.chamfer_samples, &mut rng, clothed)?;
+    let to_pred =
+        gt_prepared.sample_distances(&prepared, options.chamfer_samples, &mut rng, clothed)?;
     let chamfer = 0.5 * (mean(&to_gt.distance) + mean(&to_pred.distance));
     let (surface, cloth) = region_errors(&to_gt, &to_pred, options.far_m);
     Ok(FrameMetrics {
@@ -272,17 +306,22 @@ impl Summary {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::extract::{extract, ExtractOptions};
+    use crate::mesh::extract::{ExtractOptions, extract};
 
     fn sphere_mesh(center: Vec3, r: f32, res: usize) -> TriMesh {
-        let opts = ExtractOptions::new(center - Vec3::splat(r * 1.3), center + Vec3::splat(r * 1.3), res);
-        extract(|p: &[Vec3]| p.iter().map(|x| x.distance(center) - r).collect(), &opts).unwrap().mesh
+        let opts =
+            ExtractOptions::new(center - Vec3::splat(r * 1.3), center + Vec3::splat(r * 1.3), res);
+        extract(|p: &[Vec3]| p.iter().map(|x| x.distance(center) - r).collect(), &opts)
+            .unwrap()
+            .mesh
     }
 
     #[test]
     fn identical_meshes_score_perfectly() {
         let m = sphere_mesh(Vec3::ZERO, 0.3, 40);
-        let r = evaluate_frame(&m, &m, &Regions::all(m.positions.len()), &MetricOptions::default(), 1).unwrap();
+        let r =
+            evaluate_frame(&m, &m, &Regions::all(m.positions.len()), &MetricOptions::default(), 1)
+                .unwrap();
         assert_eq!(r.dp_cm, 0.0);
         assert_eq!(r.df_cm, 0.0);
         assert!((r.nc - 1.0).abs() < 1e-6, "{r:?}");
@@ -295,11 +334,23 @@ mod tests {
         let gt = sphere_mesh(Vec3::ZERO, 0.30, 64);
         // Concentric sphere 2 cm larger: every distance is 2 cm, up to tessellation.
         let big = sphere_mesh(Vec3::ZERO, 0.32, 64);
-        let r = evaluate_frame(&big, &gt, &Regions::all(gt.positions.len()), &MetricOptions::default(), 2).unwrap();
+        let r = evaluate_frame(
+            &big,
+            &gt,
+            &Regions::all(gt.positions.len()),
+            &MetricOptions::default(),
+            2,
+        )
+        .unwrap();
         assert!((r.df_cm - 2.0).abs() < 0.05, "Df {}", r.df_cm);
         // Nearest vertex is at least the surface distance and within a cell of it.
         let cell_cm = 0.32 * 2.6 / 64.0 * CM;
-        assert!(r.dp_cm >= r.df_cm && r.dp_cm < r.df_cm + 0.5 * cell_cm, "Dp {} Df {}", r.dp_cm, r.df_cm);
+        assert!(
+            r.dp_cm >= r.df_cm && r.dp_cm < r.df_cm + 0.5 * cell_cm,
+            "Dp {} Df {}",
+            r.dp_cm,
+            r.df_cm
+        );
         assert!((r.chamfer_cm - 2.0).abs() < 0.05, "Chamfer {}", r.chamfer_cm);
         let iou_truth = (0.30f32 / 0.32).powi(3);
         assert!((r.iou - iou_truth).abs() < 0.01, "IoU {} vs {iou_truth}", r.iou);
@@ -308,8 +359,17 @@ mod tests {
         // is | |p - c| - r | (about 1.5 cm on average: the mean |cos| over a sphere is 1/2).
         let c = Vec3::new(0.03, 0.0, 0.0);
         let moved = sphere_mesh(c, 0.30, 64);
-        let r = evaluate_frame(&moved, &gt, &Regions::all(gt.positions.len()), &MetricOptions::default(), 3).unwrap();
-        let exact = mean(&gt.positions.iter().map(|p| (p.distance(c) - 0.30).abs()).collect::<Vec<_>>()) * CM;
+        let r = evaluate_frame(
+            &moved,
+            &gt,
+            &Regions::all(gt.positions.len()),
+            &MetricOptions::default(),
+            3,
+        )
+        .unwrap();
+        let exact =
+            mean(&gt.positions.iter().map(|p| (p.distance(c) - 0.30).abs()).collect::<Vec<_>>())
+                * CM;
         assert!((exact - 1.5).abs() < 0.1, "analytic mean {exact}");
         assert!((r.df_cm - exact).abs() < 0.05, "Df {} vs {exact}", r.df_cm);
     }
@@ -319,7 +379,14 @@ mod tests {
         let gt = sphere_mesh(Vec3::ZERO, 0.3, 40);
         let mut flipped = gt.clone();
         flipped.faces.iter_mut().for_each(|f| f.swap(1, 2));
-        let r = evaluate_frame(&flipped, &gt, &Regions::all(gt.positions.len()), &MetricOptions::default(), 4).unwrap();
+        let r = evaluate_frame(
+            &flipped,
+            &gt,
+            &Regions::all(gt.positions.len()),
+            &MetricOptions::default(),
+            4,
+        )
+        .unwrap();
         assert!((r.nc + 1.0).abs() < 1e-5, "NC {}", r.nc);
         assert_eq!(r.dp_cm, 0.0);
         assert_eq!(r.iou, 1.0); // volume does not depend on orientation
@@ -333,21 +400,44 @@ mod tests {
         let mut pred = gt.clone();
         pred.positions.iter_mut().filter(|p| p.x > 0.05).for_each(|p| *p *= 1.0 + 0.05 / 0.3);
         let left: Vec<bool> = gt.positions.iter().map(|p| p.x < -0.05).collect();
-        let r = evaluate_frame(&pred, &gt, &Regions { scored: left.clone(), cloth: left.clone() }, &MetricOptions::default(), 5).unwrap();
+        let r = evaluate_frame(
+            &pred,
+            &gt,
+            &Regions { scored: left.clone(), cloth: left.clone() },
+            &MetricOptions::default(),
+            5,
+        )
+        .unwrap();
         assert_eq!(r.dp_cm, 0.0);
         assert_eq!(r.scored_vertices, left.iter().filter(|m| **m).count());
-        let r_all = evaluate_frame(&pred, &gt, &Regions::all(gt.positions.len()), &MetricOptions::default(), 5).unwrap();
+        let r_all = evaluate_frame(
+            &pred,
+            &gt,
+            &Regions::all(gt.positions.len()),
+            &MetricOptions::default(),
+            5,
+        )
+        .unwrap();
         assert!(r_all.dp_cm > 1.0);
-        let none = Regions { scored: vec![false; gt.positions.len()], cloth: vec![true; gt.positions.len()] };
+        let none = Regions {
+            scored: vec![false; gt.positions.len()],
+            cloth: vec![true; gt.positions.len()],
+        };
         assert!(evaluate_frame(&pred, &gt, &none, &MetricOptions::default(), 5).is_err());
     }
 
     #[test]
     fn clothed_mask_keeps_clothed_joints_and_visible_vertices() {
         let joints = [0u8, 15, 16, 20, 4, 12];
-        assert_eq!(clothed_mask(&joints, None).unwrap(), vec![true, false, true, false, true, false]);
+        assert_eq!(
+            clothed_mask(&joints, None).unwrap(),
+            vec![true, false, true, false, true, false]
+        );
         let vis = [true, true, false, true, true, true];
-        assert_eq!(clothed_mask(&joints, Some(&vis)).unwrap(), vec![true, false, false, false, true, false]);
+        assert_eq!(
+            clothed_mask(&joints, Some(&vis)).unwrap(),
+            vec![true, false, false, false, true, false]
+        );
         assert!(clothed_mask(&joints, Some(&vis[..3])).is_err());
     }
 
@@ -355,16 +445,31 @@ mod tests {
     fn bad_meshes_are_errors_not_panics() {
         let gt = sphere_mesh(Vec3::ZERO, 0.3, 24);
         let opts = MetricOptions::default();
-        assert!(evaluate_frame(&TriMesh::default(), &gt, &Regions::all(gt.positions.len()), &opts, 0).unwrap_err().to_string().contains("empty"));
+        assert!(
+            evaluate_frame(&TriMesh::default(), &gt, &Regions::all(gt.positions.len()), &opts, 0)
+                .unwrap_err()
+                .to_string()
+                .contains("empty")
+        );
         let mut nan = gt.clone();
         nan.positions[3] = Vec3::NAN;
-        assert!(evaluate_frame(&nan, &gt, &Regions::all(gt.positions.len()), &opts, 0).unwrap_err().to_string().contains("not finite"));
+        assert!(
+            evaluate_frame(&nan, &gt, &Regions::all(gt.positions.len()), &opts, 0)
+                .unwrap_err()
+                .to_string()
+                .contains("not finite")
+        );
         let mut bad = gt.clone();
         bad.faces[0][1] = 1_000_000;
         assert!(evaluate_frame(&bad, &gt, &Regions::all(gt.positions.len()), &opts, 0).is_err());
         assert!(evaluate_frame(&gt, &gt, &Regions::all(1), &opts, 0).is_err());
         let short_cloth = Regions { cloth: vec![true], ..Regions::all(gt.positions.len()) };
-        assert!(evaluate_frame(&gt, &gt, &short_cloth, &opts, 0).unwrap_err().to_string().contains("clothed region"));
+        assert!(
+            evaluate_frame(&gt, &gt, &short_cloth, &opts, 0)
+                .unwrap_err()
+                .to_string()
+                .contains("clothed region")
+        );
     }
 
     #[test]

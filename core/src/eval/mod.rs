@@ -16,4 +16,4 @@ pub use conditions::CaptureConditions;
 pub use metrics::Regions;
 pub use predictor::{FitData, NakedBody, Predictor, StaticOutfit};
 pub use protocol::{Protocol, Shots};
-pub use runner::{run, EvalConfig, Report, RowResult};
+pub use runner::{EvalConfig, Report, RowResult, run};

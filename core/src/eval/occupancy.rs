@@ -26,10 +26,17 @@ impl SampleGrid {
     /// Cubic cells of `longest side / resolution` covering `[min, max]`, shifted by a random
     /// sub-cell offset (stratified sampling: every point of the box is equally likely to be
     /// sampled).
-    pub fn covering<R: Rng>(min: Vec3, max: Vec3, resolution: usize, rng: &mut R) -> Result<SampleGrid> {
+    pub fn covering<R: Rng>(
+        min: Vec3,
+        max: Vec3,
+        resolution: usize,
+        rng: &mut R,
+    ) -> Result<SampleGrid> {
         let extent = max - min;
         if !min.is_finite() || !max.is_finite() || !(extent.max_element() > 0.0) {
-            return Err(Error::invalid(format!("sample box is empty or not finite: {min} .. {max}")));
+            return Err(Error::invalid(format!(
+                "sample box is empty or not finite: {min} .. {max}"
+            )));
         }
         let step = extent.max_element() / resolution.max(1) as f32;
         let offset = Vec3::new(rng.random(), rng.random(), rng.random()) * step;
@@ -106,7 +113,8 @@ pub fn inside_mask(mesh: &TriMesh, grid: &SampleGrid) -> Vec<bool> {
         let mut start = 0;
         while start < crossings.len() {
             let line = crossings[start].0 as usize;
-            let end = start + crossings[start..].iter().take_while(|c| c.0 as usize == line).count();
+            let end =
+                start + crossings[start..].iter().take_while(|c| c.0 as usize == line).count();
             let run = &crossings[start..end];
             let total: i32 = run.iter().map(|c| c.2 as i32).sum();
             let (iu, iv) = (line % nu, line / nu);
@@ -154,7 +162,12 @@ fn covers(w: f64, a: (f64, f64), b: (f64, f64)) -> bool {
 }
 
 /// Volumetric IoU of two meshes at the points of a seeded grid over their joint bounds.
-pub fn volumetric_iou<R: Rng>(a: &TriMesh, b: &TriMesh, resolution: usize, rng: &mut R) -> Result<f32> {
+pub fn volumetric_iou<R: Rng>(
+    a: &TriMesh,
+    b: &TriMesh,
+    resolution: usize,
+    rng: &mut R,
+) -> Result<f32> {
     let (amin, amax) = a.bounds().ok_or_else(|| Error::invalid("IoU of an empty mesh"))?;
     let (bmin, bmax) = b.bounds().ok_or_else(|| Error::invalid("IoU of an empty mesh"))?;
     let grid = SampleGrid::covering(amin.min(bmin), amax.max(bmax), resolution, rng)?;
@@ -175,11 +188,23 @@ pub(crate) mod tests {
 
     pub(crate) fn cube(min: Vec3, size: Vec3) -> TriMesh {
         let p = (0..8)
-            .map(|i| min + size * Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32))
+            .map(|i| {
+                min + size * Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32)
+            })
             .collect();
         let f = vec![
-            [0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
-            [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5],
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
         ];
         TriMesh::new(p, f)
     }
@@ -199,7 +224,8 @@ pub(crate) mod tests {
             for y in 0..grid.dims[1] {
                 for x in 0..grid.dims[0] {
                     let p = grid.point([x, y, z]);
-                    let truth = p.cmpgt(Vec3::new(0.1, 0.2, 0.3)).all() && p.cmplt(Vec3::new(1.1, 0.7, 1.0)).all();
+                    let truth = p.cmpgt(Vec3::new(0.1, 0.2, 0.3)).all()
+                        && p.cmplt(Vec3::new(1.1, 0.7, 1.0)).all();
                     assert_eq!(mask[grid.index([x, y, z])], truth, "at {p}");
                 }
             }
@@ -222,7 +248,13 @@ pub(crate) mod tests {
         }
         let same = volumetric_iou(&a, &a, 32, &mut ChaCha8Rng::seed_from_u64(0)).unwrap();
         assert_eq!(same, 1.0);
-        let apart = volumetric_iou(&a, &cube(Vec3::splat(3.0), Vec3::ONE), 32, &mut ChaCha8Rng::seed_from_u64(0)).unwrap();
+        let apart = volumetric_iou(
+            &a,
+            &cube(Vec3::splat(3.0), Vec3::ONE),
+            32,
+            &mut ChaCha8Rng::seed_from_u64(0),
+        )
+        .unwrap();
         assert_eq!(apart, 0.0);
     }
 

@@ -6,7 +6,7 @@ use crate::body::{BodyModel, BodyParams};
 use crate::canonical::FieldOptions;
 use crate::error::Result;
 use crate::mesh::TriMesh;
-use crate::synth::{canonical_surface, pose_surface, ClothedTemplate, Outfit, PoseFeatures};
+use crate::synth::{ClothedTemplate, Outfit, PoseFeatures, canonical_surface, pose_surface};
 use std::path::Path;
 
 /// What a row is fine-tuned on: a capture folder of the protocol's fine-tuning frames.
@@ -101,11 +101,23 @@ impl Predictor for StaticOutfit {
         let template = ClothedTemplate::build(data.body, data.betas, data.outfit);
         let zero = BodyParams { betas: data.betas.to_vec(), ..BodyParams::default() };
         // No joint is bent at the zero pose, so the folds' per-subject phase does not matter.
-        let canonical = TriMesh::new(canonical_surface(&template, &PoseFeatures::of(&data.body.pose(&zero).bones), 0), template.faces.clone());
+        let canonical = TriMesh::new(
+            canonical_surface(&template, &PoseFeatures::of(&data.body.pose(&zero).bones), 0),
+            template.faces.clone(),
+        );
         let weights = match &self.field_options {
             Some(o) => {
-                let field = crate::canonical::Canonicalizer::new(data.body, data.betas, o, crate::canonical::default_cache_dir().as_deref())?.field;
-                Some(crate::canonical::GarmentSkinner::new(data.body, data.betas).weights(&field, &canonical))
+                let field = crate::canonical::Canonicalizer::new(
+                    data.body,
+                    data.betas,
+                    o,
+                    crate::canonical::default_cache_dir().as_deref(),
+                )?
+                .field;
+                Some(
+                    crate::canonical::GarmentSkinner::new(data.body, data.betas)
+                        .weights(&field, &canonical),
+                )
             }
             None => None,
         };
@@ -113,11 +125,18 @@ impl Predictor for StaticOutfit {
         Ok(())
     }
     fn predict(&self, params: &BodyParams) -> Result<TriMesh> {
-        let (t, canonical, weights) = self.fitted.as_ref().ok_or_else(|| crate::error::Error::invalid("predict called before fit"))?;
+        let (t, canonical, weights) = self
+            .fitted
+            .as_ref()
+            .ok_or_else(|| crate::error::Error::invalid("predict called before fit"))?;
         let bones = self.body.pose(params).bones;
         Ok(match weights {
-            Some(weights) => crate::canonical::forward_skin_with_weights(&bones, canonical, weights),
-            None => TriMesh::new(pose_surface(t, &canonical.positions, &bones), canonical.faces.clone()),
+            Some(weights) => {
+                crate::canonical::forward_skin_with_weights(&bones, canonical, weights)
+            }
+            None => {
+                TriMesh::new(pose_surface(t, &canonical.positions, &bones), canonical.faces.clone())
+            }
         })
     }
 }

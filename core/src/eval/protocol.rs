@@ -22,7 +22,14 @@ pub enum Protocol {
     FewShot(Shots),
 }
 
-pub const FEW_SHOT: [Shots; 6] = [Shots::Fraction(1.0), Shots::Fraction(0.5), Shots::Fraction(0.2), Shots::Fraction(0.1), Shots::Fraction(0.05), Shots::OnePerClip];
+pub const FEW_SHOT: [Shots; 6] = [
+    Shots::Fraction(1.0),
+    Shots::Fraction(0.5),
+    Shots::Fraction(0.2),
+    Shots::Fraction(0.1),
+    Shots::Fraction(0.05),
+    Shots::OnePerClip,
+];
 
 impl Protocol {
     pub fn label(&self) -> String {
@@ -47,7 +54,9 @@ impl Protocol {
         if let Some(shots) = name.strip_prefix("few-shot:") {
             return Some(vec![Protocol::FewShot(match shots {
                 "1/clip" => Shots::OnePerClip,
-                percent => Shots::Fraction(percent.parse::<f32>().ok().filter(|p| *p > 0.0 && *p <= 100.0)? / 100.0),
+                percent => Shots::Fraction(
+                    percent.parse::<f32>().ok().filter(|p| *p > 0.0 && *p <= 100.0)? / 100.0,
+                ),
             })]);
         }
         Some(match name {
@@ -87,14 +96,26 @@ pub fn heldout_frames(len: usize, stride: usize) -> Vec<usize> {
 
 /// The fine-tuning frames (clip index, frame) of a protocol, over clips of the given lengths.
 pub fn training_selection(protocol: &Protocol, clip_lengths: &[usize]) -> Vec<(usize, usize)> {
-    let all: Vec<(usize, usize)> = clip_lengths.iter().enumerate().flat_map(|(c, &n)| finetune_frames(n).into_iter().map(move |f| (c, f))).collect();
+    let all: Vec<(usize, usize)> = clip_lengths
+        .iter()
+        .enumerate()
+        .flat_map(|(c, &n)| finetune_frames(n).into_iter().map(move |f| (c, f)))
+        .collect();
     match protocol {
-        Protocol::Interpolation | Protocol::Extrapolation | Protocol::FewShot(Shots::Fraction(1.0)) => all,
+        Protocol::Interpolation
+        | Protocol::Extrapolation
+        | Protocol::FewShot(Shots::Fraction(1.0)) => all,
         Protocol::FewShot(Shots::Fraction(f)) => {
             let keep = ((all.len() as f32 * f).round() as usize).max(1);
             (0..keep).map(|i| all[i * all.len() / keep]).collect()
         }
-        Protocol::FewShot(Shots::OnePerClip) => clip_lengths.iter().copied().enumerate().filter(|&(_, n)| n > 0).map(|(c, n)| (c, n / 2)).collect(),
+        Protocol::FewShot(Shots::OnePerClip) => clip_lengths
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|&(_, n)| n > 0)
+            .map(|(c, n)| (c, n / 2))
+            .collect(),
     }
 }
 
@@ -104,7 +125,13 @@ mod tests {
 
     #[test]
     fn protocol_lists_parse() {
-        assert_eq!(Protocol::parse_list("few-shot:100,few-shot:1/clip"), Some(vec![Protocol::FewShot(Shots::Fraction(1.0)), Protocol::FewShot(Shots::OnePerClip)]));
+        assert_eq!(
+            Protocol::parse_list("few-shot:100,few-shot:1/clip"),
+            Some(vec![
+                Protocol::FewShot(Shots::Fraction(1.0)),
+                Protocol::FewShot(Shots::OnePerClip)
+            ])
+        );
         assert_eq!(Protocol::parse_list("interpolation,extrapolation").map(|v| v.len()), Some(2));
         assert_eq!(Protocol::parse_list("all").map(|v| v.len()), Some(8));
         for bad in ["few-shot:0", "few-shot:250", "few-shot:x", "interp", "few-shot:100,nope"] {
@@ -126,7 +153,10 @@ mod tests {
         let lens = [96, 90, 90, 75];
         let full = training_selection(&Protocol::Interpolation, &lens).len();
         assert_eq!(full, 10 + 9 + 9 + 8);
-        let counts: Vec<usize> = FEW_SHOT.iter().map(|&s| training_selection(&Protocol::FewShot(s), &lens).len()).collect();
+        let counts: Vec<usize> = FEW_SHOT
+            .iter()
+            .map(|&s| training_selection(&Protocol::FewShot(s), &lens).len())
+            .collect();
         assert_eq!(counts, vec![36, 18, 7, 4, 2, 4]);
         // Subsets of the full selection, spread over the clips.
         let half = training_selection(&Protocol::FewShot(Shots::Fraction(0.5)), &lens);

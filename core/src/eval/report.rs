@@ -52,7 +52,10 @@ pub struct RowInput<'a> {
 impl RowResult {
     pub fn summarise(input: RowInput) -> Result<RowResult> {
         let m = input.metrics;
-        let s = |f: fn(&FrameMetrics) -> f32| Summary::of(&m.iter().map(f).collect::<Vec<_>>()).ok_or_else(|| Error::invalid("no frames evaluated"));
+        let s = |f: fn(&FrameMetrics) -> f32| {
+            Summary::of(&m.iter().map(f).collect::<Vec<_>>())
+                .ok_or_else(|| Error::invalid("no frames evaluated"))
+        };
         Ok(RowResult {
             method: input.method,
             protocol: input.protocol,
@@ -117,7 +120,9 @@ impl Report {
             s += "| method | outfit | training frames | evaluated frames | Chamfer-L2 (cm) | NC | Dp (cm) | Df (cm) | IoU | spurious | missing | p99 (cm) | clothed spurious | clothed missing | clothed p99 (cm) |\n";
             s += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
             for outfit in &outfits {
-                for r in self.rows.iter().filter(|r| r.capture == capture && r.protocol == protocol && r.outfit == *outfit) {
+                for r in self.rows.iter().filter(|r| {
+                    r.capture == capture && r.protocol == protocol && r.outfit == *outfit
+                }) {
                     s += &format!(
                         "| {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1}% | {:.1}% | {:.2} | {:.1}% | {:.1}% | {:.2} |\n",
                         r.method,

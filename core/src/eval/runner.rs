@@ -3,19 +3,22 @@
 //! its conditions, every row fine-tuned on it and scored at the protocol's evaluation poses;
 //! optionally a contact sheet per outfit. The report is in `report`.
 
-use super::conditions::{capture_seed, CaptureConditions};
+use super::conditions::{CaptureConditions, capture_seed};
 use super::dataset::*;
-use super::metrics::{evaluate_frame, FrameMetrics, MetricOptions, Regions, Summary};
+use super::metrics::{FrameMetrics, MetricOptions, Regions, Summary, evaluate_frame};
 use super::predictor::{FitData, Predictor};
-use super::protocol::{heldout_frames, interpolation_frames, training_selection, Protocol, Shots};
-pub use super::report::{Report, RowResult};
+use super::protocol::{Protocol, Shots, heldout_frames, interpolation_frames, training_selection};
 use super::report::RowInput;
+pub use super::report::{Report, RowResult};
 use crate::body::{BodyModel, BodyParams};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::motion::MotionClip;
 use crate::synth::contact_sheet::write_view_sheet;
-use crate::synth::{canonical_surface, generate_capture, pose_surface, subject_betas, ClothedTemplate, PoseFeatures, SynthJob, ALL_OUTFITS};
+use crate::synth::{
+    ALL_OUTFITS, ClothedTemplate, PoseFeatures, SynthJob, canonical_surface, generate_capture,
+    pose_surface, subject_betas,
+};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -58,7 +61,8 @@ impl EvalConfig {
             heldout_stride: 5,
             metrics: MetricOptions::default(),
             ground_truth_row: true,
-            workdir: std::env::temp_dir().join(format!("avatar-studio-eval-{}", std::process::id())),
+            workdir: std::env::temp_dir()
+                .join(format!("avatar-studio-eval-{}", std::process::id())),
             keep_captures: false,
             seed: 0,
             contact_sheets: None,
@@ -93,7 +97,12 @@ pub fn query(p: &BodyParams, betas: &[f32]) -> BodyParams {
 }
 
 /// The ground-truth clothed mesh of one pose.
-pub fn ground_truth_mesh(body: &BodyModel, template: &ClothedTemplate, params: &BodyParams, subject: u64) -> TriMesh {
+pub fn ground_truth_mesh(
+    body: &BodyModel,
+    template: &ClothedTemplate,
+    params: &BodyParams,
+    subject: u64,
+) -> TriMesh {
     let bones = body.pose(params).bones;
     let canonical = canonical_surface(template, &PoseFeatures::of(&bones), subject);
     TriMesh::new(pose_surface(template, &canonical, &bones), template.faces.clone())
@@ -109,15 +118,28 @@ struct Accum {
 /// Contact-sheet views: front (from +Z, slightly above) and the body's left side.
 const SHEET_VIEWS: [Vec3; 2] = [Vec3::new(0.0, 0.15, 1.0), Vec3::new(1.0, 0.15, 0.0)];
 
-pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Predictor>], progress: &dyn Fn(&str)) -> Result<Report> {
-    let finetune: Vec<MotionClip> = config.finetune_clips.iter().map(|c| clip(c)).collect::<Result<_>>()?;
-    let heldout: Vec<MotionClip> = config.eval_clips.iter().map(|c| clip(c)).collect::<Result<_>>()?;
+pub fn run(
+    body: &BodyModel,
+    config: &EvalConfig,
+    predictors: &mut [Box<dyn Predictor>],
+    progress: &dyn Fn(&str),
+) -> Result<Report> {
+    let finetune: Vec<MotionClip> =
+        config.finetune_clips.iter().map(|c| clip(c)).collect::<Result<_>>()?;
+    let heldout: Vec<MotionClip> =
+        config.eval_clips.iter().map(|c| clip(c)).collect::<Result<_>>()?;
     let lengths: Vec<usize> = finetune.iter().map(|c| c.len()).collect();
     // Settings: every protocol under every capture conditions (conditions outermost).
-    let settings: Vec<(&CaptureConditions, &Protocol)> = config.captures.iter().flat_map(|c| config.protocols.iter().map(move |p| (c, p))).collect();
+    let settings: Vec<(&CaptureConditions, &Protocol)> =
+        config.captures.iter().flat_map(|c| config.protocols.iter().map(move |p| (c, p))).collect();
     let methods = predictors.len() + config.ground_truth_row as usize;
-    let mut acc: Vec<Vec<Vec<Accum>>> =
-        (0..methods).map(|_| (0..settings.len()).map(|_| (0..config.outfits.len()).map(|_| Accum::default()).collect()).collect()).collect();
+    let mut acc: Vec<Vec<Vec<Accum>>> = (0..methods)
+        .map(|_| {
+            (0..settings.len())
+                .map(|_| (0..config.outfits.len()).map(|_| Accum::default()).collect())
+                .collect()
+        })
+        .collect();
     let sheet_pose = match &config.contact_sheets {
         Some(_) => Some(sheet_pose()?),
         None => None,
@@ -130,24 +152,55 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
             // Truth, then every row, at the sheet pose.
             let mut sheet: Vec<TriMesh> = Vec::new();
             for (si, (capture, protocol)) in settings.iter().enumerate() {
-                progress(&format!("subject {subject}, {}, {} capture, {}", outfit.name(), capture.name, protocol.label()));
+                progress(&format!(
+                    "subject {subject}, {}, {} capture, {}",
+                    outfit.name(),
+                    capture.name,
+                    protocol.label()
+                ));
                 let train = training_selection(protocol, &lengths);
                 let eval_poses: Vec<BodyParams> = if protocol.evaluates_heldout() {
-                    heldout.iter().flat_map(|c| heldout_frames(c.len(), config.heldout_stride).into_iter().map(move |f| c.frames[f].clone())).collect()
+                    heldout
+                        .iter()
+                        .flat_map(|c| {
+                            heldout_frames(c.len(), config.heldout_stride)
+                                .into_iter()
+                                .map(move |f| c.frames[f].clone())
+                        })
+                        .collect()
                 } else {
-                    finetune.iter().flat_map(|c| interpolation_frames(c.len()).into_iter().map(move |f| c.frames[f].clone())).collect()
+                    finetune
+                        .iter()
+                        .flat_map(|c| {
+                            interpolation_frames(c.len())
+                                .into_iter()
+                                .map(move |f| c.frames[f].clone())
+                        })
+                        .collect()
                 };
-                let eval_poses: Vec<BodyParams> = eval_poses.iter().map(|p| query(p, &betas)).collect();
-                let gts: Vec<TriMesh> = eval_poses.par_iter().map(|p| ground_truth_mesh(body, &template, p, subject)).collect();
-                let sheet_query = sheet_pose.as_ref().filter(|_| subject_index == 0 && si == 0).map(|p| query(p, &betas));
+                let eval_poses: Vec<BodyParams> =
+                    eval_poses.iter().map(|p| query(p, &betas)).collect();
+                let gts: Vec<TriMesh> = eval_poses
+                    .par_iter()
+                    .map(|p| ground_truth_mesh(body, &template, p, subject))
+                    .collect();
+                let sheet_query = sheet_pose
+                    .as_ref()
+                    .filter(|_| subject_index == 0 && si == 0)
+                    .map(|p| query(p, &betas));
                 if let Some(p) = &sheet_query {
                     sheet.push(ground_truth_mesh(body, &template, p, subject));
                 }
                 // The fine-tuning capture: the selected frames under the setting's conditions.
                 let capture_dir = config.workdir.join(format!("s{subject}_{}_{si}", outfit.name()));
                 if predictors.iter().any(|p| p.needs_capture()) {
-                    let frames: Vec<BodyParams> = train.iter().map(|&(c, f)| finetune[c].frames[f].clone()).collect();
-                    let mut job = SynthJob::new(subject, outfit, MotionClip::new("finetune", finetune[0].fps, frames));
+                    let frames: Vec<BodyParams> =
+                        train.iter().map(|&(c, f)| finetune[c].frames[f].clone()).collect();
+                    let mut job = SynthJob::new(
+                        subject,
+                        outfit,
+                        MotionClip::new("finetune", finetune[0].fps, frames),
+                    );
                     let seed = capture_seed(config.seed, subject, outfit, capture);
                     capture.prepare(&mut job, seed);
                     job.write_ground_truth = false;
@@ -162,16 +215,32 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
                 }
                 for (m, predictor) in predictors.iter_mut().enumerate() {
                     let t = Instant::now();
-                    predictor.fit(&FitData { capture_dir: &capture_dir, body, betas: &betas, outfit })?;
+                    predictor.fit(&FitData {
+                        capture_dir: &capture_dir,
+                        body,
+                        betas: &betas,
+                        outfit,
+                    })?;
                     let predictor: &dyn Predictor = &**predictor;
                     let scores: Vec<FrameMetrics> = eval_poses
                         .par_iter()
                         .zip(gts.par_iter())
                         .enumerate()
-                        .map(|(k, (p, gt))| evaluate_frame(&predictor.predict(p)?, gt, &regions, &config.metrics, config.seed + k as u64))
+                        .map(|(k, (p, gt))| {
+                            evaluate_frame(
+                                &predictor.predict(p)?,
+                                gt,
+                                &regions,
+                                &config.metrics,
+                                config.seed + k as u64,
+                            )
+                        })
                         .collect::<Result<_>>()?;
                     // The subject's share of the row, averaged as the row's summary averages.
-                    let mean = |f: fn(&FrameMetrics) -> f32| Summary::of(&scores.iter().map(f).collect::<Vec<_>>()).map_or(f32::NAN, |s| s.mean);
+                    let mean = |f: fn(&FrameMetrics) -> f32| {
+                        Summary::of(&scores.iter().map(f).collect::<Vec<_>>())
+                            .map_or(f32::NAN, |s| s.mean)
+                    };
                     progress(&format!(
                         "subject {subject}, {}: {} Chamfer-L2 {:.3} cm, NC {:.4}, spurious {:.1} %",
                         outfit.name(),
@@ -190,8 +259,19 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
                 }
                 if config.ground_truth_row {
                     let t = Instant::now();
-                    let scores: Vec<FrameMetrics> =
-                        gts.par_iter().enumerate().map(|(k, gt)| evaluate_frame(gt, gt, &regions, &config.metrics, config.seed + k as u64)).collect::<Result<_>>()?;
+                    let scores: Vec<FrameMetrics> = gts
+                        .par_iter()
+                        .enumerate()
+                        .map(|(k, gt)| {
+                            evaluate_frame(
+                                gt,
+                                gt,
+                                &regions,
+                                &config.metrics,
+                                config.seed + k as u64,
+                            )
+                        })
+                        .collect::<Result<_>>()?;
                     let a = &mut acc[predictors.len()][si][oi];
                     a.metrics.extend(scores);
                     a.seconds += t.elapsed().as_secs_f64();
@@ -202,7 +282,11 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
             }
             if let (Some(dir), false) = (&config.contact_sheets, sheet.is_empty()) {
                 std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-                write_view_sheet(&dir.join(format!("eval-{}.png", outfit.name())), &sheet, &SHEET_VIEWS)?;
+                write_view_sheet(
+                    &dir.join(format!("eval-{}.png", outfit.name())),
+                    &sheet,
+                    &SHEET_VIEWS,
+                )?;
             }
         }
     }
@@ -213,16 +297,36 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
     let mut rows = Vec::new();
     for (m, name) in names.iter().enumerate() {
         for (si, (capture, protocol)) in settings.iter().enumerate() {
-            let row = |outfit: String, training_frames: usize, metrics: &[FrameMetrics], seconds: f64| {
-                RowResult::summarise(RowInput { method: name.clone(), protocol: protocol.label(), capture: capture.name.clone(), outfit, training_frames, metrics, seconds })
-            };
+            let row =
+                |outfit: String, training_frames: usize, metrics: &[FrameMetrics], seconds: f64| {
+                    RowResult::summarise(RowInput {
+                        method: name.clone(),
+                        protocol: protocol.label(),
+                        capture: capture.name.clone(),
+                        outfit,
+                        training_frames,
+                        metrics,
+                        seconds,
+                    })
+                };
             for (oi, outfit) in config.outfits.iter().enumerate() {
                 let a = &acc[m][si][oi];
-                rows.push(row(outfit.name().to_string(), a.training_frames, &a.metrics, a.seconds)?);
+                rows.push(row(
+                    outfit.name().to_string(),
+                    a.training_frames,
+                    &a.metrics,
+                    a.seconds,
+                )?);
             }
             if config.outfits.len() > 1 {
-                let all: Vec<FrameMetrics> = acc[m][si].iter().flat_map(|a| a.metrics.iter().copied()).collect();
-                rows.push(row("all".into(), acc[m][si][0].training_frames, &all, acc[m][si].iter().map(|a| a.seconds).sum())?);
+                let all: Vec<FrameMetrics> =
+                    acc[m][si].iter().flat_map(|a| a.metrics.iter().copied()).collect();
+                rows.push(row(
+                    "all".into(),
+                    acc[m][si][0].training_frames,
+                    &all,
+                    acc[m][si].iter().map(|a| a.seconds).sum(),
+                )?);
             }
         }
     }
@@ -239,4 +343,3 @@ pub fn run(body: &BodyModel, config: &EvalConfig, predictors: &mut [Box<dyn Pred
         rows,
     })
 }
-

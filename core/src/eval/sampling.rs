@@ -3,8 +3,8 @@
 
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use glam::Vec3;
 pub use crate::mesh::point_index::PointIndex;
+use glam::Vec3;
 use rand::Rng;
 
 /// `n` points uniformly distributed over the surface area of `mesh`.
@@ -13,13 +13,21 @@ pub fn sample_surface<R: Rng>(mesh: &TriMesh, n: usize, rng: &mut R) -> Result<V
 }
 
 /// `n` points uniformly distributed over the surface with the unit normal of their face.
-pub fn sample_surface_with_normals<R: Rng>(mesh: &TriMesh, n: usize, rng: &mut R) -> Result<(Vec<Vec3>, Vec<Vec3>)> {
+pub fn sample_surface_with_normals<R: Rng>(
+    mesh: &TriMesh,
+    n: usize,
+    rng: &mut R,
+) -> Result<(Vec<Vec3>, Vec<Vec3>)> {
     let normals = mesh.face_normals();
     Ok(sample_surface_faces(mesh, n, rng)?.into_iter().map(|(p, f)| (p, normals[f])).unzip())
 }
 
 /// Area-uniform samples with the index of the face each lies on.
-fn sample_surface_faces<R: Rng>(mesh: &TriMesh, n: usize, rng: &mut R) -> Result<Vec<(Vec3, usize)>> {
+fn sample_surface_faces<R: Rng>(
+    mesh: &TriMesh,
+    n: usize,
+    rng: &mut R,
+) -> Result<Vec<(Vec3, usize)>> {
     let mut cumulative = Vec::with_capacity(mesh.faces.len());
     let mut total = 0f64;
     for f in 0..mesh.faces.len() {
@@ -28,7 +36,10 @@ fn sample_surface_faces<R: Rng>(mesh: &TriMesh, n: usize, rng: &mut R) -> Result
         cumulative.push(total);
     }
     if !(total > 0.0) || !total.is_finite() {
-        return Err(Error::invalid(format!("cannot sample a surface of area {total} ({} faces)", mesh.faces.len())));
+        return Err(Error::invalid(format!(
+            "cannot sample a surface of area {total} ({} faces)",
+            mesh.faces.len()
+        )));
     }
     Ok((0..n)
         .map(|_| {
@@ -53,7 +64,14 @@ mod tests {
     fn samples_are_uniform_over_area() {
         // Two triangles: one of area 1/2 (z = 0), one of area 2 (z = 1): 1:4 split expected.
         let mesh = TriMesh::new(
-            vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::new(2.0, 0.0, 1.0), Vec3::new(0.0, 2.0, 1.0)],
+            vec![
+                Vec3::ZERO,
+                Vec3::X,
+                Vec3::Y,
+                Vec3::Z,
+                Vec3::new(2.0, 0.0, 1.0),
+                Vec3::new(0.0, 2.0, 1.0),
+            ],
             vec![[0, 1, 2], [3, 4, 5]],
         );
         let mut rng = ChaCha8Rng::seed_from_u64(1);

@@ -40,14 +40,31 @@ pub struct SurfaceErrors {
 
 /// Shares beyond `far` (metres) and the 99th percentile; an empty side gives share 0.
 pub fn surface_errors(pred_to_gt: &[f32], gt_to_pred: &[f32], far: f32) -> SurfaceErrors {
-    let share = |v: &[f32]| if v.is_empty() { 0.0 } else { v.iter().filter(|&&d| d > far).count() as f32 / v.len() as f32 };
+    let share = |v: &[f32]| {
+        if v.is_empty() {
+            0.0
+        } else {
+            v.iter().filter(|&&d| d > far).count() as f32 / v.len() as f32
+        }
+    };
     let mut all: Vec<f32> = pred_to_gt.iter().chain(gt_to_pred).copied().collect();
-    SurfaceErrors { spurious: share(pred_to_gt), missing: share(gt_to_pred), p99_cm: percentile(&mut all, 0.99) * CM }
+    SurfaceErrors {
+        spurious: share(pred_to_gt),
+        missing: share(gt_to_pred),
+        p99_cm: percentile(&mut all, 0.99) * CM,
+    }
 }
 
 /// The whole-surface and the clothed-region errors.
-pub fn region_errors(pred: &SampleDistances, gt: &SampleDistances, far: f32) -> (SurfaceErrors, SurfaceErrors) {
-    (surface_errors(&pred.distance, &gt.distance, far), surface_errors(&pred.clothed_only(), &gt.clothed_only(), far))
+pub fn region_errors(
+    pred: &SampleDistances,
+    gt: &SampleDistances,
+    far: f32,
+) -> (SurfaceErrors, SurfaceErrors) {
+    (
+        surface_errors(&pred.distance, &gt.distance, far),
+        surface_errors(&pred.clothed_only(), &gt.clothed_only(), far),
+    )
 }
 
 /// The `q` quantile (0-1) by nearest rank; 0 for no values. Reorders `v`.
@@ -61,21 +78,27 @@ pub fn percentile(v: &mut [f32], q: f32) -> f32 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::metrics::{evaluate_frame, MetricOptions, Regions};
+    use super::super::metrics::{MetricOptions, Regions, evaluate_frame};
     use super::*;
-    use crate::mesh::extract::{extract, ExtractOptions};
     use crate::mesh::TriMesh;
+    use crate::mesh::extract::{ExtractOptions, extract};
     use glam::Vec3;
 
     const R: f32 = 0.3;
 
     fn sphere(center: Vec3) -> TriMesh {
-        let opts = ExtractOptions::new(center - Vec3::splat(R * 1.3), center + Vec3::splat(R * 1.3), 64);
-        extract(|p: &[Vec3]| p.iter().map(|x| x.distance(center) - R).collect(), &opts).unwrap().mesh
+        let opts =
+            ExtractOptions::new(center - Vec3::splat(R * 1.3), center + Vec3::splat(R * 1.3), 64);
+        extract(|p: &[Vec3]| p.iter().map(|x| x.distance(center) - R).collect(), &opts)
+            .unwrap()
+            .mesh
     }
 
     fn area(m: &TriMesh) -> f32 {
-        (0..m.faces.len()).map(|f| m.triangle(f)).map(|[a, b, c]| 0.5 * (b - a).cross(c - a).length()).sum()
+        (0..m.faces.len())
+            .map(|f| m.triangle(f))
+            .map(|[a, b, c]| 0.5 * (b - a).cross(c - a).length())
+            .sum()
     }
 
     fn options() -> MetricOptions {
@@ -102,7 +125,12 @@ mod tests {
         let gt = sphere(Vec3::ZERO);
         let mut pred = gt.clone();
         let n = pred.positions.len() as u32;
-        pred.positions.extend([Vec3::new(R, 0.0, -w / 2.0), Vec3::new(R + l, 0.0, -w / 2.0), Vec3::new(R + l, 0.0, w / 2.0), Vec3::new(R, 0.0, w / 2.0)]);
+        pred.positions.extend([
+            Vec3::new(R, 0.0, -w / 2.0),
+            Vec3::new(R + l, 0.0, -w / 2.0),
+            Vec3::new(R + l, 0.0, w / 2.0),
+            Vec3::new(R, 0.0, w / 2.0),
+        ]);
         pred.faces.extend([[n, n + 1, n + 2], [n, n + 2, n + 3]]);
         // The far part of the flap by midpoint quadrature on a 1 mm grid.
         let steps = (l * 1000.0) as usize;
@@ -118,19 +146,33 @@ mod tests {
         let expected = far_area / (sphere_area + l * w);
         // The clothed region: the +x half of the truth (the flap's side).
         let cloth: Vec<bool> = gt.positions.iter().map(|p| p.x > 0.0).collect();
-        let right_area: f32 = (0..gt.faces.len()).filter(|&f| gt.faces[f].iter().all(|&v| cloth[v as usize])).map(|f| {
-            let [a, b, c] = gt.triangle(f);
-            0.5 * (b - a).cross(c - a).length()
-        }).sum();
+        let right_area: f32 = (0..gt.faces.len())
+            .filter(|&f| gt.faces[f].iter().all(|&v| cloth[v as usize]))
+            .map(|f| {
+                let [a, b, c] = gt.triangle(f);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum();
         let expected_cloth = far_area / (right_area + l * w);
         let regions = Regions { scored: vec![true; gt.positions.len()], cloth };
         let m = evaluate_frame(&pred, &gt, &regions, &options(), 11).unwrap();
         // 40k samples: the standard error of a ~10 % share is 0.15 %.
-        assert!((m.surface.spurious - expected).abs() < 0.006, "spurious {} vs {expected}", m.surface.spurious);
+        assert!(
+            (m.surface.spurious - expected).abs() < 0.006,
+            "spurious {} vs {expected}",
+            m.surface.spurious
+        );
         assert!(expected > 0.08, "{expected}");
         assert!(m.surface.missing < 1e-4, "{:?}", m.surface);
-        assert!((m.cloth.spurious - expected_cloth).abs() < 0.012, "clothed spurious {} vs {expected_cloth}", m.cloth.spurious);
-        assert!(m.cloth.spurious > m.surface.spurious + 0.05, "the flap is a larger share of the clothed half");
+        assert!(
+            (m.cloth.spurious - expected_cloth).abs() < 0.012,
+            "clothed spurious {} vs {expected_cloth}",
+            m.cloth.spurious
+        );
+        assert!(
+            m.cloth.spurious > m.surface.spurious + 0.05,
+            "the flap is a larger share of the clothed half"
+        );
         // The far end of the flap is R + L from the centre: beyond the 99th percentile sits
         // flap area at distances up to L, so p99 is several centimetres.
         assert!(m.surface.p99_cm > 10.0 && m.surface.p99_cm < l * CM, "{:?}", m.surface);
@@ -159,10 +201,22 @@ mod tests {
         let regions = Regions::all(gt.positions.len());
         let m = evaluate_frame(&pred, &gt, &regions, &options(), 12).unwrap();
         assert!((expected_missing - 0.33).abs() < 0.03, "analytic share {expected_missing}");
-        assert!((m.surface.missing - expected_missing).abs() < 0.012, "missing {} vs {expected_missing}", m.surface.missing);
+        assert!(
+            (m.surface.missing - expected_missing).abs() < 0.012,
+            "missing {} vs {expected_missing}",
+            m.surface.missing
+        );
         // The same shape moved: the prediction's far share is the same by symmetry.
-        assert!((m.surface.spurious - expected_missing).abs() < 0.012, "spurious {}", m.surface.spurious);
-        assert!((m.surface.p99_cm - expected_p99).abs() < 0.05, "p99 {} vs {expected_p99}", m.surface.p99_cm);
+        assert!(
+            (m.surface.spurious - expected_missing).abs() < 0.012,
+            "spurious {}",
+            m.surface.spurious
+        );
+        assert!(
+            (m.surface.p99_cm - expected_p99).abs() < 0.05,
+            "p99 {} vs {expected_p99}",
+            m.surface.p99_cm
+        );
         // The clothed region = the whole truth here.
         assert_eq!(m.cloth, m.surface);
         // Identical surfaces: nothing spurious, nothing missing.

@@ -3,10 +3,10 @@
 //! targets, and per-joint rotation, root translation and morph-weight animation (LINEAR at the
 //! clip's frame rate).
 
-use super::glb::{GlbBuilder, ARRAY_BUFFER};
-use super::morph::{compress, MorphTargets};
-use crate::avatar::{AvatarSource, PoseSurface, PROJECTION_STEPS};
-use crate::body::{BodyParams, Weights, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS};
+use super::glb::{ARRAY_BUFFER, GlbBuilder};
+use super::morph::{MorphTargets, compress};
+use crate::avatar::{AvatarSource, PROJECTION_STEPS, PoseSurface};
+use crate::body::{BodyParams, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS, Weights};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::motion::MotionClip;
@@ -31,7 +31,12 @@ pub const DEFAULT_COLOR: [f32; 3] = [0.80, 0.58, 0.47];
 
 impl Default for ExportOptions {
     fn default() -> Self {
-        ExportOptions { max_targets: 64, newton_steps: PROJECTION_STEPS, min_target_effect: 1e-4, color: DEFAULT_COLOR }
+        ExportOptions {
+            max_targets: 64,
+            newton_steps: PROJECTION_STEPS,
+            min_target_effect: 1e-4,
+            color: DEFAULT_COLOR,
+        }
     }
 }
 
@@ -60,7 +65,13 @@ pub fn top4(w: &Weights) -> ([u8; 4], [f32; 4]) {
     let mut joints = [0u8; 4];
     let mut weights = [0f32; 4];
     for k in 0..4 {
-        let v = if sum > 0.0 { w[idx[k]].max(0.0) as f64 / sum } else if k == 0 { 1.0 } else { 0.0 };
+        let v = if sum > 0.0 {
+            w[idx[k]].max(0.0) as f64 / sum
+        } else if k == 0 {
+            1.0
+        } else {
+            0.0
+        };
         weights[k] = v as f32;
         if weights[k] > 0.0 {
             joints[k] = idx[k] as u8;
@@ -80,12 +91,19 @@ fn continuous(qs: &mut [Quat]) {
     }
 }
 
-pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &ExportOptions) -> Result<Exported> {
+pub fn export_glb(
+    source: &dyn AvatarSource,
+    clip: &MotionClip,
+    options: &ExportOptions,
+) -> Result<Exported> {
     if clip.is_empty() {
         return Err(Error::invalid(format!("motion clip {:?} has no frames", clip.name)));
     }
     if !(clip.fps.is_finite() && clip.fps > 0.0) {
-        return Err(Error::invalid(format!("motion clip {:?} has frame rate {}", clip.name, clip.fps)));
+        return Err(Error::invalid(format!(
+            "motion clip {:?} has frame rate {}",
+            clip.name, clip.fps
+        )));
     }
     clip.validate()?;
     let body = source.body();
@@ -98,10 +116,27 @@ pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &Export
     let full_weights = source.mesh_skinning_weights(&rest);
     let smoother = source.surface_smoother(&rest);
     let (joints, weights): (Vec<[u8; 4]>, Vec<[f32; 4]>) = full_weights.iter().map(top4).unzip();
-    let params: Vec<BodyParams> = clip.frames.iter().map(|p| BodyParams { betas: betas.clone(), ..p.clone() }).collect();
+    let params: Vec<BodyParams> =
+        clip.frames.iter().map(|p| BodyParams { betas: betas.clone(), ..p.clone() }).collect();
     // Each frame: the reference vertices projected onto that pose's surface, skinned.
-    let surfaces: Vec<PoseSurface> = params.par_iter().map(|p| PoseSurface::project(source, p, &rest.positions, &full_weights, smoother.as_ref(), options.newton_steps)).collect::<Result<_>>()?;
-    let posed: Vec<Vec<Vec3>> = params.par_iter().zip(&surfaces).map(|(p, s)| s.skin(&body.pose(p).bones.transforms)).collect();
+    let surfaces: Vec<PoseSurface> = params
+        .par_iter()
+        .map(|p| {
+            PoseSurface::project(
+                source,
+                p,
+                &rest.positions,
+                &full_weights,
+                smoother.as_ref(),
+                options.newton_steps,
+            )
+        })
+        .collect::<Result<_>>()?;
+    let posed: Vec<Vec<Vec3>> = params
+        .par_iter()
+        .zip(&surfaces)
+        .map(|(p, s)| s.skin(&body.pose(p).bones.transforms))
+        .collect();
     // The deltas are taken in bind space *with the exported 4-weight skinning*: un-skin the
     // studio's posed mesh with the file's weights. The morph targets then also absorb the
     // truncation to 4 influences, and the file reproduces the posed mesh up to compression.
@@ -127,7 +162,14 @@ pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &Export
     let morphs = compress(&deltas, options.max_targets.max(1), options.min_target_effect);
     let max_compression_error = (0..deltas.len())
         .into_par_iter()
-        .map(|f| morphs.delta(f).iter().zip(&deltas[f]).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max))
+        .map(|f| {
+            morphs
+                .delta(f)
+                .iter()
+                .zip(&deltas[f])
+                .map(|(a, b)| (*a - *b).length())
+                .fold(0.0, f32::max)
+        })
         .reduce(|| 0.0, f32::max);
 
     let rest_joints = body.rest_joints(&betas);
@@ -136,13 +178,29 @@ pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &Export
     let position = b.floats(&flat(&rest.positions), "VEC3", 3, Some(ARRAY_BUFFER), true);
     let normal = b.floats(&flat(&rest.vertex_normals()), "VEC3", 3, Some(ARRAY_BUFFER), false);
     let joints_acc = b.joints_u8(&joints);
-    let weights_acc = b.floats(&weights.iter().flatten().copied().collect::<Vec<_>>(), "VEC4", 4, Some(ARRAY_BUFFER), false);
+    let weights_acc = b.floats(
+        &weights.iter().flatten().copied().collect::<Vec<_>>(),
+        "VEC4",
+        4,
+        Some(ARRAY_BUFFER),
+        false,
+    );
     let indices = b.indices_u32(&rest.faces.iter().flatten().copied().collect::<Vec<_>>());
-    let targets: Vec<serde_json::Value> =
-        morphs.all_targets().iter().map(|t| json!({"POSITION": b.floats(&flat(t), "VEC3", 3, Some(ARRAY_BUFFER), true)})).collect();
-    let target_names: Vec<String> = std::iter::once("compensation".to_string()).chain((0..morphs.targets.len()).map(|k| format!("pca_{k:02}"))).collect();
+    let targets: Vec<serde_json::Value> = morphs
+        .all_targets()
+        .iter()
+        .map(|t| json!({"POSITION": b.floats(&flat(t), "VEC3", 3, Some(ARRAY_BUFFER), true)}))
+        .collect();
+    let target_names: Vec<String> = std::iter::once("compensation".to_string())
+        .chain((0..morphs.targets.len()).map(|k| format!("pca_{k:02}")))
+        .collect();
     // Inverse bind matrices: a translation by -J, written as exact constants.
-    let ibm: Vec<f32> = rest_joints.iter().flat_map(|j| [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -j.x, -j.y, -j.z, 1.0]).collect();
+    let ibm: Vec<f32> = rest_joints
+        .iter()
+        .flat_map(|j| {
+            [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -j.x, -j.y, -j.z, 1.0]
+        })
+        .collect();
     let ibm_acc = b.floats(&ibm, "MAT4", 16, None, false);
 
     let n = params.len();
@@ -151,20 +209,33 @@ pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &Export
     let mut samplers = Vec::new();
     let mut channels = Vec::new();
     for j in 0..NUM_JOINTS {
-        let mut qs: Vec<Quat> = params.iter().map(|p| Quat::from_scaled_axis(p.pose[j]).normalize()).collect();
+        let mut qs: Vec<Quat> =
+            params.iter().map(|p| Quat::from_scaled_axis(p.pose[j]).normalize()).collect();
         continuous(&mut qs);
-        let out = b.floats(&qs.iter().flat_map(|q| q.to_array()).collect::<Vec<_>>(), "VEC4", 4, None, false);
+        let out = b.floats(
+            &qs.iter().flat_map(|q| q.to_array()).collect::<Vec<_>>(),
+            "VEC4",
+            4,
+            None,
+            false,
+        );
         samplers.push(json!({"input": input, "output": out, "interpolation": "LINEAR"}));
-        channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": j, "path": "rotation"}}));
+        channels.push(
+            json!({"sampler": samplers.len() - 1, "target": {"node": j, "path": "rotation"}}),
+        );
     }
-    let root_t: Vec<f32> = params.iter().flat_map(|p| (rest_joints[0] + p.trans).to_array()).collect();
+    let root_t: Vec<f32> =
+        params.iter().flat_map(|p| (rest_joints[0] + p.trans).to_array()).collect();
     let out = b.floats(&root_t, "VEC3", 3, None, false);
     samplers.push(json!({"input": input, "output": out, "interpolation": "LINEAR"}));
-    channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": 0, "path": "translation"}}));
+    channels
+        .push(json!({"sampler": samplers.len() - 1, "target": {"node": 0, "path": "translation"}}));
     let morph_w: Vec<f32> = (0..n).flat_map(|f| morphs.all_weights(f)).collect();
     let out = b.floats(&morph_w, "SCALAR", 1, None, false);
     samplers.push(json!({"input": input, "output": out, "interpolation": "LINEAR"}));
-    channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": NUM_JOINTS, "path": "weights"}}));
+    channels.push(
+        json!({"sampler": samplers.len() - 1, "target": {"node": NUM_JOINTS, "path": "weights"}}),
+    );
 
     let nodes: Vec<serde_json::Value> = (0..NUM_JOINTS)
         .map(|j| {
@@ -219,7 +290,11 @@ pub fn export_glb(source: &dyn AvatarSource, clip: &MotionClip, options: &Export
 
 /// The plain alternative: the studio's posed mesh of every frame as OBJ or PLY files
 /// (`frame_000000.obj`, ...), written atomically.
-pub fn write_mesh_sequence(exported: &Exported, dir: &std::path::Path, extension: &str) -> Result<usize> {
+pub fn write_mesh_sequence(
+    exported: &Exported,
+    dir: &std::path::Path,
+    extension: &str,
+) -> Result<usize> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     for (f, v) in exported.posed.iter().enumerate() {
         let mesh = TriMesh::new(v.clone(), exported.rest.faces.clone());

@@ -1,7 +1,7 @@
 //! A minimal binary glTF 2.0 builder: one buffer, one bufferView per accessor (4-byte aligned,
 //! no byteStride), JSON written with serde_json, chunks padded as the spec requires.
 
-use serde_json::{json, Value};
+use serde_json::{Value, json};
 
 pub const ARRAY_BUFFER: u32 = 34962;
 pub const ELEMENT_ARRAY_BUFFER: u32 = 34963;
@@ -33,11 +33,19 @@ impl GlbBuilder {
 
     /// Float accessor of `kind` (SCALAR, VEC3, VEC4, MAT4) with `width` floats per element;
     /// `bounds` adds exact min/max.
-    pub fn floats(&mut self, data: &[f32], kind: &str, width: usize, target: Option<u32>, bounds: bool) -> usize {
+    pub fn floats(
+        &mut self,
+        data: &[f32],
+        kind: &str,
+        width: usize,
+        target: Option<u32>,
+        bounds: bool,
+    ) -> usize {
         let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
         let view = self.view(&bytes, target);
         let count = data.len() / width;
-        let mut a = json!({"bufferView": view, "componentType": FLOAT, "count": count, "type": kind});
+        let mut a =
+            json!({"bufferView": view, "componentType": FLOAT, "count": count, "type": kind});
         if bounds && count > 0 {
             let mut lo = vec![f32::INFINITY; width];
             let mut hi = vec![f32::NEG_INFINITY; width];

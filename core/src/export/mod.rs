@@ -6,7 +6,7 @@ pub mod glb;
 pub mod morph;
 pub mod source;
 
-pub use animated::{export_glb, top4, write_mesh_sequence, ExportOptions, Exported, DEFAULT_COLOR};
-pub use morph::{compress, MorphTargets};
 pub use crate::avatar::AvatarSource;
+pub use animated::{DEFAULT_COLOR, ExportOptions, Exported, export_glb, top4, write_mesh_sequence};
+pub use morph::{MorphTargets, compress};
 pub use source::SyntheticAvatar;

@@ -46,7 +46,10 @@ fn symmetric_eigen(mut a: Vec<Vec<f64>>) -> (Vec<f64>, Vec<Vec<f64>>) {
         row[i] = 1.0;
     }
     for _sweep in 0..60 {
-        let off: f64 = (0..n).flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j))).map(|(i, j)| a[i][j] * a[i][j]).sum();
+        let off: f64 = (0..n)
+            .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| a[i][j] * a[i][j])
+            .sum();
         let diag: f64 = (0..n).map(|i| a[i][i] * a[i][i]).sum();
         if off <= 1e-22 * diag.max(1e-300) {
             break;
@@ -98,11 +101,20 @@ pub fn compress(deltas: &[Vec<Vec3>], max_targets: usize, min_effect: f32) -> Mo
             *m += *x / frames as f32;
         }
     }
-    let centred: Vec<Vec<f32>> = deltas.iter().map(|d| d.iter().zip(&mean).flat_map(|(x, m)| (*x - *m).to_array()).collect()).collect();
+    let centred: Vec<Vec<f32>> = deltas
+        .iter()
+        .map(|d| d.iter().zip(&mean).flat_map(|(x, m)| (*x - *m).to_array()).collect())
+        .collect();
     use rayon::prelude::*;
     let gram: Vec<Vec<f64>> = (0..frames)
         .into_par_iter()
-        .map(|i| (0..frames).map(|j| centred[i].iter().zip(&centred[j]).map(|(a, b)| *a as f64 * *b as f64).sum()).collect())
+        .map(|i| {
+            (0..frames)
+                .map(|j| {
+                    centred[i].iter().zip(&centred[j]).map(|(a, b)| *a as f64 * *b as f64).sum()
+                })
+                .collect()
+        })
         .collect();
     let (values, vectors) = symmetric_eigen(gram);
     let components = max_targets.saturating_sub(1);
@@ -129,15 +141,23 @@ pub fn compress(deltas: &[Vec<Vec3>], max_targets: usize, min_effect: f32) -> Mo
         if span < 1e-9 {
             continue;
         }
-        let target: Vec<Vec3> = u.chunks_exact(3).map(|c| Vec3::new((c[0] * span) as f32, (c[1] * span) as f32, (c[2] * span) as f32)).collect();
+        let target: Vec<Vec3> = u
+            .chunks_exact(3)
+            .map(|c| Vec3::new((c[0] * span) as f32, (c[1] * span) as f32, (c[2] * span) as f32))
+            .collect();
         if target.iter().map(|t| t.length()).fold(0.0, f32::max) < min_effect {
             // Components come in decreasing variance: the rest are smaller still.
             break;
         }
         for (k, c) in constant.iter_mut().enumerate() {
-            *c += Vec3::new((u[3 * k] * lo) as f32, (u[3 * k + 1] * lo) as f32, (u[3 * k + 2] * lo) as f32);
+            *c += Vec3::new(
+                (u[3 * k] * lo) as f32,
+                (u[3 * k + 1] * lo) as f32,
+                (u[3 * k + 2] * lo) as f32,
+            );
         }
-        weight_columns.push(coeffs.iter().map(|c| ((c - lo) / span).clamp(0.0, 1.0) as f32).collect());
+        weight_columns
+            .push(coeffs.iter().map(|c| ((c - lo) / span).clamp(0.0, 1.0) as f32).collect());
         targets.push(target);
     }
     let weights = (0..frames).map(|f| weight_columns.iter().map(|col| col[f]).collect()).collect();
@@ -152,7 +172,8 @@ mod tests {
     fn exact_for_low_rank_deltas_and_weights_in_unit_range() {
         // Deltas spanned by two patterns: two components reproduce them exactly.
         let a: Vec<Vec3> = (0..50).map(|i| Vec3::new(i as f32 * 0.001, 0.0, 0.01)).collect();
-        let b: Vec<Vec3> = (0..50).map(|i| Vec3::new(0.0, (i as f32 * 0.3).sin() * 0.02, 0.0)).collect();
+        let b: Vec<Vec3> =
+            (0..50).map(|i| Vec3::new(0.0, (i as f32 * 0.3).sin() * 0.02, 0.0)).collect();
         let deltas: Vec<Vec<Vec3>> = (0..30)
             .map(|f| {
                 let (s, t) = ((f as f32 * 0.4).sin(), (f as f32 * 0.17).cos() * 2.0);

@@ -2,13 +2,13 @@
 //! with the diffused field, as an avatar (`crate::avatar::AvatarSource`) for tests, benchmarks
 //! and the command line until a neural avatar is given.
 
+use crate::avatar::AvatarSource;
 use crate::body::{BodyModel, BodyParams, Weights};
 use crate::canonical::{Canonicalizer, FieldOptions};
-use crate::avatar::AvatarSource;
 use crate::error::Result;
-use crate::mesh::bvh::Bvh;
 use crate::mesh::TriMesh;
-use crate::synth::{canonical_surface, ClothedTemplate, Outfit, PoseFeatures};
+use crate::mesh::bvh::Bvh;
+use crate::synth::{ClothedTemplate, Outfit, PoseFeatures, canonical_surface};
 use glam::Vec3;
 
 /// A synthetic subject in an outfit: the exact pose-dependent canonical clothing of the
@@ -22,7 +22,12 @@ pub struct SyntheticAvatar {
 }
 
 impl SyntheticAvatar {
-    pub fn new(body: BodyModel, subject: u64, outfit: Outfit, field: &FieldOptions) -> Result<Self> {
+    pub fn new(
+        body: BodyModel,
+        subject: u64,
+        outfit: Outfit,
+        field: &FieldOptions,
+    ) -> Result<Self> {
         let betas = crate::synth::subject_betas(&body, subject);
         let template = ClothedTemplate::build(&body, &betas, outfit);
         let field = Canonicalizer::new(&body, &betas, field, None)?.field;
@@ -31,7 +36,10 @@ impl SyntheticAvatar {
 
     fn surface(&self, params: &BodyParams) -> TriMesh {
         let bones = self.body.pose(params).bones;
-        TriMesh::new(canonical_surface(&self.template, &PoseFeatures::of(&bones), self.subject), self.template.faces.clone())
+        TriMesh::new(
+            canonical_surface(&self.template, &PoseFeatures::of(&bones), self.subject),
+            self.template.faces.clone(),
+        )
     }
 }
 

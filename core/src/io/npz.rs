@@ -3,7 +3,7 @@
 //! the file and the key.
 
 use crate::error::{Error, Result};
-use npyz::{npz::NpzArchive, DType, Order, TypeChar};
+use npyz::{DType, Order, TypeChar, npz::NpzArchive};
 use std::io::{Cursor, Read, Seek};
 use std::path::{Path, PathBuf};
 
@@ -71,15 +71,21 @@ impl<R: Read + Seek> Npz<R> {
     pub fn get(&mut self, key: &str) -> Result<Option<Array>> {
         let origin = self.origin.clone();
         let bad = |msg: String| Error::file(&origin, format!("array '{key}': {msg}"));
-        let Some(file) = self.archive.by_name(key).map_err(|e| bad(format!("unreadable ({e})")))? else {
+        let Some(file) = self.archive.by_name(key).map_err(|e| bad(format!("unreadable ({e})")))?
+        else {
             return Ok(None);
         };
         let shape: Vec<usize> = file.shape().iter().map(|&d| d as usize).collect();
         // The header's shape is checked before anything is inflated (a small zip entry can
         // claim gigabytes).
-        let expected = shape.iter().try_fold(1usize, |a, &d| a.checked_mul(d)).filter(|&n| n <= MAX_ARRAY_VALUES);
+        let expected = shape
+            .iter()
+            .try_fold(1usize, |a, &d| a.checked_mul(d))
+            .filter(|&n| n <= MAX_ARRAY_VALUES);
         let Some(expected) = expected else {
-            return Err(bad(format!("shape {shape:?} is larger than any model or motion array ({MAX_ARRAY_VALUES} values at most)")));
+            return Err(bad(format!(
+                "shape {shape:?} is larger than any model or motion array ({MAX_ARRAY_VALUES} values at most)"
+            )));
         };
         let order = file.order();
         let DType::Plain(ts) = file.dtype() else {
@@ -87,23 +93,44 @@ impl<R: Read + Seek> Npz<R> {
         };
         let bytes = ts.num_bytes().unwrap_or(0);
         let data: Vec<f64> = match (ts.type_char(), bytes) {
-            (TypeChar::Float, 8) => file.into_vec::<f64>().map_err(|e| bad(format!("truncated or corrupt ({e})")))?,
+            (TypeChar::Float, 8) => {
+                file.into_vec::<f64>().map_err(|e| bad(format!("truncated or corrupt ({e})")))?
+            }
             (TypeChar::Float, 4) => conv(file.into_vec::<f32>(), &bad)?,
-            (TypeChar::Float, 2) => return Err(bad("float16 is not supported; save as float32".into())),
-            (TypeChar::Int, 8) => conv(file.into_vec::<i64>().map(|v| v.into_iter().map(|x| x as f64).collect::<Vec<f64>>()), &bad)?,
+            (TypeChar::Float, 2) => {
+                return Err(bad("float16 is not supported; save as float32".into()));
+            }
+            (TypeChar::Int, 8) => conv(
+                file.into_vec::<i64>()
+                    .map(|v| v.into_iter().map(|x| x as f64).collect::<Vec<f64>>()),
+                &bad,
+            )?,
             (TypeChar::Int, 4) => conv(file.into_vec::<i32>(), &bad)?,
             (TypeChar::Int, 2) => conv(file.into_vec::<i16>(), &bad)?,
             (TypeChar::Int, 1) => conv(file.into_vec::<i8>(), &bad)?,
-            (TypeChar::Uint, 8) => conv(file.into_vec::<u64>().map(|v| v.into_iter().map(|x| x as f64).collect::<Vec<f64>>()), &bad)?,
+            (TypeChar::Uint, 8) => conv(
+                file.into_vec::<u64>()
+                    .map(|v| v.into_iter().map(|x| x as f64).collect::<Vec<f64>>()),
+                &bad,
+            )?,
             (TypeChar::Uint, 4) => conv(file.into_vec::<u32>(), &bad)?,
             (TypeChar::Uint, 2) => conv(file.into_vec::<u16>(), &bad)?,
             (TypeChar::Uint, 1) => conv(file.into_vec::<u8>(), &bad)?,
-            (TypeChar::Bool, _) => conv(file.into_vec::<bool>().map(|v| v.into_iter().map(|b| b as u8 as f64).collect::<Vec<f64>>()), &bad)?,
-            (TypeChar::Object, _) => return Err(bad("pickled object array; convert it to a numeric array".into())),
+            (TypeChar::Bool, _) => conv(
+                file.into_vec::<bool>()
+                    .map(|v| v.into_iter().map(|b| b as u8 as f64).collect::<Vec<f64>>()),
+                &bad,
+            )?,
+            (TypeChar::Object, _) => {
+                return Err(bad("pickled object array; convert it to a numeric array".into()));
+            }
             (other, _) => return Err(bad(format!("unsupported dtype {other:?}"))),
         };
         if data.len() != expected {
-            return Err(bad(format!("holds {} values but its shape {shape:?} needs {expected}", data.len())));
+            return Err(bad(format!(
+                "holds {} values but its shape {shape:?} needs {expected}",
+                data.len()
+            )));
         }
         let data = match order {
             Order::C => data,
@@ -115,7 +142,10 @@ impl<R: Read + Seek> Npz<R> {
     /// Read a numeric array that must be present.
     pub fn require(&mut self, key: &str) -> Result<Array> {
         self.get(key)?.ok_or_else(|| {
-            Error::file(&self.origin, format!("missing array '{key}' (found: {})", self.names().join(", ")))
+            Error::file(
+                &self.origin,
+                format!("missing array '{key}' (found: {})", self.names().join(", ")),
+            )
         })
     }
 
@@ -127,7 +157,9 @@ impl<R: Read + Seek> Npz<R> {
             TypeChar::UnicodeStr => file.into_vec::<String>().ok()?.into_iter().next(),
             TypeChar::ByteStr | TypeChar::RawData => {
                 let v = file.into_vec::<Vec<u8>>().ok()?;
-                v.into_iter().next().map(|b| String::from_utf8_lossy(&b).trim_end_matches('\0').to_string())
+                v.into_iter()
+                    .next()
+                    .map(|b| String::from_utf8_lossy(&b).trim_end_matches('\0').to_string())
             }
             _ => None,
         }
@@ -165,7 +197,10 @@ fn fortran_to_c(data: &[f64], shape: &[usize]) -> Vec<f64> {
 
 /// Write float32 arrays to an npz archive (atomic). Byte-reproducible: fixed zip timestamps,
 /// no compression, so the same arrays always give the same file.
-pub fn write_f32_npz(path: impl AsRef<Path>, arrays: &[(&str, Vec<usize>, Vec<f32>)]) -> Result<()> {
+pub fn write_f32_npz(
+    path: impl AsRef<Path>,
+    arrays: &[(&str, Vec<usize>, Vec<f32>)],
+) -> Result<()> {
     use npyz::WriterBuilder;
     let path = path.as_ref();
     crate::io::write_atomic(path, |w| {

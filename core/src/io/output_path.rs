@@ -38,7 +38,11 @@ impl Inputs {
     /// names when that lies outside the folder.
     pub fn capture(mut self, dir_or_manifest: impl AsRef<Path>) -> Inputs {
         let p = dir_or_manifest.as_ref();
-        let dir = if p.is_file() { p.parent().unwrap_or(Path::new(".")).to_path_buf() } else { p.to_path_buf() };
+        let dir = if p.is_file() {
+            p.parent().unwrap_or(Path::new(".")).to_path_buf()
+        } else {
+            p.to_path_buf()
+        };
         if let Some(model) = manifest_body_model(&dir) {
             self.files.push(model);
         }
@@ -49,11 +53,23 @@ impl Inputs {
     /// Refuse `out` as an output file: one of the inputs, inside an input capture folder, an
     /// existing folder, or an extension that is not one of `extensions` (lowercase, no dot).
     pub fn check_file(&self, out: &Path, extensions: &[&str]) -> Result<()> {
-        let ext = out.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+        let ext =
+            out.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
         if !extensions.is_empty() && !extensions.contains(&ext.as_str()) {
             let want: Vec<String> = extensions.iter().map(|e| format!(".{e}")).collect();
-            let got = if ext.is_empty() { "no extension".to_string() } else { format!("the extension .{ext}") };
-            return Err(Error::file(out, format!("output has {got} but {} is written here: name it {}", want.join(" or "), want.join(" or "))));
+            let got = if ext.is_empty() {
+                "no extension".to_string()
+            } else {
+                format!("the extension .{ext}")
+            };
+            return Err(Error::file(
+                out,
+                format!(
+                    "output has {got} but {} is written here: name it {}",
+                    want.join(" or "),
+                    want.join(" or ")
+                ),
+            ));
         }
         if out.is_dir() {
             return Err(Error::file(out, "output is a folder, a file is written here"));
@@ -65,12 +81,21 @@ impl Inputs {
     /// inside one. (Files written into it are checked with [`Inputs::check_file`].)
     pub fn check_folder(&self, out: &Path) -> Result<()> {
         if out.exists() && !out.is_dir() {
-            return Err(Error::file(out, "output must be a folder but this is an existing file; refusing to replace it"));
+            return Err(Error::file(
+                out,
+                "output must be a folder but this is an existing file; refusing to replace it",
+            ));
         }
         let resolved = resolve(out);
         for dir in &self.folders {
             if resolved.starts_with(resolve(dir)) {
-                return Err(Error::file(out, format!("output folder lies in the input capture folder {}; refusing to write into input data", dir.display())));
+                return Err(Error::file(
+                    out,
+                    format!(
+                        "output folder lies in the input capture folder {}; refusing to write into input data",
+                        dir.display()
+                    ),
+                ));
             }
         }
         Ok(())
@@ -83,13 +108,25 @@ impl Inputs {
         }
         for input in &self.files {
             if same_file::is_same_file(out, input).unwrap_or(false) {
-                return Err(Error::file(out, format!("output is the input {}; refusing to overwrite it (choose another output name)", input.display())));
+                return Err(Error::file(
+                    out,
+                    format!(
+                        "output is the input {}; refusing to overwrite it (choose another output name)",
+                        input.display()
+                    ),
+                ));
             }
         }
         let resolved = resolve(out);
         for dir in &self.folders {
             if resolved.starts_with(resolve(dir)) {
-                return Err(Error::file(out, format!("output is a file of the input capture {}; refusing to overwrite capture data", dir.display())));
+                return Err(Error::file(
+                    out,
+                    format!(
+                        "output is a file of the input capture {}; refusing to overwrite capture data",
+                        dir.display()
+                    ),
+                ));
             }
         }
         Ok(())
@@ -104,7 +141,9 @@ fn resolve(p: &Path) -> PathBuf {
     }
     match (p.parent().filter(|d| !d.as_os_str().is_empty()), p.file_name()) {
         (Some(parent), Some(name)) => resolve(parent).join(name),
-        (None, Some(name)) => std::env::current_dir().map(|d| d.join(name)).unwrap_or_else(|_| p.to_path_buf()),
+        (None, Some(name)) => {
+            std::env::current_dir().map(|d| d.join(name)).unwrap_or_else(|_| p.to_path_buf())
+        }
         _ => p.to_path_buf(),
     }
 }
@@ -141,7 +180,13 @@ mod tests {
         let link = dir.path().join("link.json");
         std::os::unix::fs::symlink(&clip, &link).unwrap();
         let inputs = Inputs::new().capture(&cap).file(&clip);
-        for (out, ext) in [(cap.join("capture.json"), "json"), (cap.join("depth/000001.png"), "png"), (clip.clone(), "json"), (link, "json"), (dir.path().join("smpl.npz"), "npz")] {
+        for (out, ext) in [
+            (cap.join("capture.json"), "json"),
+            (cap.join("depth/000001.png"), "png"),
+            (clip.clone(), "json"),
+            (link, "json"),
+            (dir.path().join("smpl.npz"), "npz"),
+        ] {
             let e = inputs.check_file(&out, &[ext]).unwrap_err().to_string();
             assert!(e.contains(&*out.to_string_lossy()) && e.contains("refusing"), "{e}");
         }

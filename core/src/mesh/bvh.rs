@@ -118,7 +118,8 @@ impl Bvh {
                 let (l, r) = (node_index + 1, node.first);
                 let dl = box_distance_squared(q, &self.nodes[l as usize]);
                 let dr = box_distance_squared(q, &self.nodes[r as usize]);
-                let (near, d_near, far, d_far) = if dl <= dr { (l, dl, r, dr) } else { (r, dr, l, dl) };
+                let (near, d_near, far, d_far) =
+                    if dl <= dr { (l, dl, r, dr) } else { (r, dr, l, dl) };
                 if d_far < best_d2 {
                     stack[top] = far;
                     top += 1;
@@ -213,7 +214,13 @@ impl Bvh {
     }
 }
 
-fn build_node(tris: &[[Vec3; 3]], centroids: &[Vec3], order: &mut [u32], offset: usize, nodes: &mut Vec<Node>) -> usize {
+fn build_node(
+    tris: &[[Vec3; 3]],
+    centroids: &[Vec3],
+    order: &mut [u32],
+    offset: usize,
+    nodes: &mut Vec<Node>,
+) -> usize {
     let (mut min, mut max) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     let (mut cmin, mut cmax) = (min, max);
     for &i in order.iter() {
@@ -232,9 +239,17 @@ fn build_node(tris: &[[Vec3; 3]], centroids: &[Vec3], order: &mut [u32], offset:
     if order.len() <= LEAF_SIZE || !(extent.max_element() > 0.0) {
         return index;
     }
-    let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
     let mid = order.len() / 2;
-    order.select_nth_unstable_by(mid, |&a, &b| centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]));
+    order.select_nth_unstable_by(mid, |&a, &b| {
+        centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+    });
     let (left, right) = order.split_at_mut(mid);
     build_node(tris, centroids, left, offset, nodes);
     let right_index = build_node(tris, centroids, right, offset + mid, nodes);
@@ -267,7 +282,13 @@ fn ray_box(origin: Vec3, inv: Vec3, node: &Node, t_min: f32, t_max: f32) -> bool
 
 /// Two-sided ray/triangle intersection (edge-plane determinant form): returns
 /// (t, u, v, front) where front means the ray travels against the face normal.
-pub fn ray_triangle(origin: Vec3, dir: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Option<(f32, f32, f32, bool)> {
+pub fn ray_triangle(
+    origin: Vec3,
+    dir: Vec3,
+    a: Vec3,
+    b: Vec3,
+    c: Vec3,
+) -> Option<(f32, f32, f32, bool)> {
     let e1 = b - a;
     let e2 = c - a;
     let p = dir.cross(e2);
@@ -360,8 +381,18 @@ mod tests {
     fn random_soup(rng: &mut ChaCha8Rng, n: usize) -> Vec<[Vec3; 3]> {
         (0..n)
             .map(|_| {
-                let c = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
-                let mut v = || c + Vec3::new(rng.random_range(-0.2..0.2), rng.random_range(-0.2..0.2), rng.random_range(-0.2..0.2));
+                let c = Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                let mut v = || {
+                    c + Vec3::new(
+                        rng.random_range(-0.2..0.2),
+                        rng.random_range(-0.2..0.2),
+                        rng.random_range(-0.2..0.2),
+                    )
+                };
                 [v(), v(), v()]
             })
             .collect()
@@ -386,12 +417,19 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         for _ in 0..200 {
             let tri = random_soup(&mut rng, 1)[0];
-            let p = Vec3::new(rng.random_range(-1.5..1.5), rng.random_range(-1.5..1.5), rng.random_range(-1.5..1.5));
+            let p = Vec3::new(
+                rng.random_range(-1.5..1.5),
+                rng.random_range(-1.5..1.5),
+                rng.random_range(-1.5..1.5),
+            );
             let q = closest_point_on_triangle(p, tri[0], tri[1], tri[2]);
             let exact = q.distance(p);
             let sampled = sampled_distance(p, tri);
             // The closest point must lie on the triangle and no sample may be closer.
-            assert!(exact <= sampled + 1e-5, "closest point {exact} farther than a sample {sampled}");
+            assert!(
+                exact <= sampled + 1e-5,
+                "closest point {exact} farther than a sample {sampled}"
+            );
             assert!(sampled - exact < 0.01, "closest point {exact} too close vs samples {sampled}");
             let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
             assert!((q - tri[0]).dot(n).abs() < 1e-4, "closest point off the triangle plane");
@@ -404,7 +442,11 @@ mod tests {
         let tris = random_soup(&mut rng, 500);
         let bvh = Bvh::from_triangles(tris.clone());
         for _ in 0..500 {
-            let q = Vec3::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0));
+            let q = Vec3::new(
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+            );
             let hit = bvh.closest_point(q).unwrap();
             let (brute_face, brute) = tris
                 .iter()
@@ -416,7 +458,12 @@ mod tests {
             assert!((hit.point.distance(q) - hit.distance).abs() < 1e-5);
             // Ties aside, the face must be the brute-force one.
             let t = tris[hit.face as usize];
-            assert!((closest_point_on_triangle(q, t[0], t[1], t[2]).distance(q) - tris_dist(&tris, brute_face, q)).abs() < 1e-6);
+            assert!(
+                (closest_point_on_triangle(q, t[0], t[1], t[2]).distance(q)
+                    - tris_dist(&tris, brute_face, q))
+                .abs()
+                    < 1e-6
+            );
         }
         assert!(bvh.closest_point_within(Vec3::splat(10.0), 1.0).is_none());
         assert!(Bvh::from_triangles(Vec::new()).closest_point(Vec3::ZERO).is_none());
@@ -433,8 +480,16 @@ mod tests {
         let tris = random_soup(&mut rng, 300);
         let bvh = Bvh::from_triangles(tris.clone());
         for _ in 0..300 {
-            let o = Vec3::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0));
-            let d = (Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) - o * 0.3)
+            let o = Vec3::new(
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+            );
+            let d = (Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            ) - o * 0.3)
                 .normalize();
             let mut brute: Vec<f32> = tris
                 .iter()
@@ -452,7 +507,13 @@ mod tests {
         }
         // Axis-parallel rays (infinite inverse components) work too.
         let hits = bvh.ray_hits(Vec3::new(0.1, 0.2, -5.0), Vec3::Z, 0.0, 100.0);
-        let brute = tris.iter().filter(|t| ray_triangle(Vec3::new(0.1, 0.2, -5.0), Vec3::Z, t[0], t[1], t[2]).is_some_and(|h| h.0 > 0.0)).count();
+        let brute = tris
+            .iter()
+            .filter(|t| {
+                ray_triangle(Vec3::new(0.1, 0.2, -5.0), Vec3::Z, t[0], t[1], t[2])
+                    .is_some_and(|h| h.0 > 0.0)
+            })
+            .count();
         assert_eq!(hits.len(), brute);
     }
 
@@ -471,9 +532,16 @@ mod tests {
     fn a_ray_along_a_box_face_plane_still_finds_the_triangles_beyond() {
         // Upright triangles at x = 1..40 whose boxes all start at y = 0, and a ray along +x
         // from a point on that plane (y = 0 exactly, so 0 * inf meets the slab test).
-        let tris: Vec<[Vec3; 3]> = (1..40).map(|i| { let x = i as f32; [Vec3::new(x, 0.0, -1.0), Vec3::new(x, 0.0, 1.0), Vec3::new(x, 1.0, 0.0)] }).collect();
+        let tris: Vec<[Vec3; 3]> = (1..40)
+            .map(|i| {
+                let x = i as f32;
+                [Vec3::new(x, 0.0, -1.0), Vec3::new(x, 0.0, 1.0), Vec3::new(x, 1.0, 0.0)]
+            })
+            .collect();
         let bvh = Bvh::from_triangles(tris);
-        let hit = bvh.ray_cast(Vec3::new(0.0, 0.0, 0.5), Vec3::X, 0.0, 100.0).expect("the first triangle lies 1 m ahead");
+        let hit = bvh
+            .ray_cast(Vec3::new(0.0, 0.0, 0.5), Vec3::X, 0.0, 100.0)
+            .expect("the first triangle lies 1 m ahead");
         assert!((hit.t - 1.0).abs() < 1e-6, "hit at {}", hit.t);
         assert_eq!(bvh.ray_hits(Vec3::new(0.0, 0.0, 0.5), Vec3::X, 0.0, 100.0).len(), 39);
         // Beside the slab (y < 0) the same ray misses every box.

@@ -15,9 +15,9 @@
 //!
 //! The cells are polygonised with `marching_cubes`' case table.
 
-use super::marching_cubes::{case_table, EDGES};
-use super::topology::largest_component;
 use super::TriMesh;
+use super::marching_cubes::{EDGES, case_table};
+use super::topology::largest_component;
 use crate::error::{Error, Result};
 use glam::Vec3;
 use std::collections::HashMap;
@@ -133,7 +133,10 @@ where
                 )));
             }
             if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-                return Err(Error::invalid(format!("SDF is not finite ({}) at {}", v[i], chunk[i])));
+                return Err(Error::invalid(format!(
+                    "SDF is not finite ({}) at {}",
+                    v[i], chunk[i]
+                )));
             }
             values.extend(v);
         }
@@ -144,11 +147,14 @@ where
     let nb = grid.blocks;
     let corner_dims = [nb[0] + 1, nb[1] + 1, nb[2] + 1];
     let corner_points: Vec<Vec3> = (0..corner_dims[2])
-        .flat_map(|z| (0..corner_dims[1]).flat_map(move |y| (0..corner_dims[0]).map(move |x| [x, y, z])))
+        .flat_map(|z| {
+            (0..corner_dims[1]).flat_map(move |y| (0..corner_dims[0]).map(move |x| [x, y, z]))
+        })
         .map(|[x, y, z]| grid.point([x * grid.b, y * grid.b, z * grid.b]))
         .collect();
     let coarse = eval(&corner_points)?;
-    let corner_value = |c: [usize; 3]| coarse[c[0] + corner_dims[0] * (c[1] + corner_dims[1] * c[2])];
+    let corner_value =
+        |c: [usize; 3]| coarse[c[0] + corner_dims[0] * (c[1] + corner_dims[1] * c[2])];
 
     // Which blocks to refine.
     let threshold = options.margin * grid.h * grid.b as f32 * 3f32.sqrt();
@@ -161,7 +167,8 @@ where
                 let mut inside = 0;
                 let mut nearest = f32::INFINITY;
                 for c in 0..8 {
-                    let v = corner_value([x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)]) - options.level;
+                    let v = corner_value([x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)])
+                        - options.level;
                     inside += (v < 0.0) as usize;
                     nearest = nearest.min(v.abs());
                 }
@@ -215,7 +222,10 @@ where
                                 let bi = block_index([bx, by, bz]);
                                 let sl = slot[bi];
                                 if sl != u32::MAX && owner.is_none_or(|(o, _)| bi < o) {
-                                    owner = Some((bi, sl as usize * per_block + llx + side * (lly + side * llz)));
+                                    owner = Some((
+                                        bi,
+                                        sl as usize * per_block + llx + side * (lly + side * llz),
+                                    ));
                                 }
                             }
                         }
@@ -255,7 +265,8 @@ where
                     let mut case = 0usize;
                     for (c, value) in v.iter_mut().enumerate() {
                         let (dx, dy, dz) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
-                        *value = values[base + (lx + dx) + side * ((ly + dy) + side * (lz + dz))] - options.level;
+                        *value = values[base + (lx + dx) + side * ((ly + dy) + side * (lz + dz))]
+                            - options.level;
                         case |= ((*value < 0.0) as usize) << c;
                     }
                     let tris = &table[case];
@@ -269,8 +280,15 @@ where
                             let e = e as usize;
                             if edge_vertex[e] == u32::MAX {
                                 let (c0, c1) = EDGES[e];
-                                let lo = [g[0] + (c0 & 1), g[1] + ((c0 >> 1) & 1), g[2] + ((c0 >> 2) & 1)];
-                                let key = ((lo[0] * stride[0] + lo[1] * stride[1] + lo[2] * stride[2]) * 3 + e / 4) as u64;
+                                let lo = [
+                                    g[0] + (c0 & 1),
+                                    g[1] + ((c0 >> 1) & 1),
+                                    g[2] + ((c0 >> 2) & 1),
+                                ];
+                                let key =
+                                    ((lo[0] * stride[0] + lo[1] * stride[1] + lo[2] * stride[2])
+                                        * 3
+                                        + e / 4) as u64;
                                 edge_vertex[e] = *vertex_of_edge.entry(key).or_insert_with(|| {
                                     let (v0, v1) = (v[c0], v[c1]);
                                     let t = v0 / (v0 - v1);
@@ -321,17 +339,24 @@ impl Grid {
     fn new(o: &ExtractOptions) -> Result<Grid> {
         let extent = o.max - o.min;
         if !o.min.is_finite() || !o.max.is_finite() || extent.min_element() <= 0.0 {
-            return Err(Error::invalid(format!("extraction box is empty or not finite: {} .. {}", o.min, o.max)));
+            return Err(Error::invalid(format!(
+                "extraction box is empty or not finite: {} .. {}",
+                o.min, o.max
+            )));
         }
         if o.resolution < 2 || o.resolution > 4096 {
-            return Err(Error::invalid(format!("extraction resolution {} is outside 2..=4096", o.resolution)));
+            return Err(Error::invalid(format!(
+                "extraction resolution {} is outside 2..=4096",
+                o.resolution
+            )));
         }
         if !(o.margin >= 0.0) || !o.level.is_finite() {
             return Err(Error::invalid("extraction margin must be >= 0 and the level finite"));
         }
         let b = (o.resolution as f32 / o.coarse_resolution.max(1) as f32).round().max(1.0) as usize;
         let h = extent.max_element() / o.resolution as f32;
-        let blocks = [0, 1, 2].map(|a| ((extent[a] / (h * b as f32)) - 1e-4).ceil().max(1.0) as usize);
+        let blocks =
+            [0, 1, 2].map(|a| ((extent[a] / (h * b as f32)) - 1e-4).ceil().max(1.0) as usize);
         let cells = blocks.map(|n| n * b);
         Ok(Grid { min: o.min, h, b, blocks, cells })
     }
@@ -395,7 +420,12 @@ mod tests {
         }
     }
 
-    fn check_surface(mesh: &TriMesh, sdf: &dyn Fn(&[Vec3]) -> Vec<f32>, h: f32, expected_volume: f32) {
+    fn check_surface(
+        mesh: &TriMesh,
+        sdf: &dyn Fn(&[Vec3]) -> Vec<f32>,
+        h: f32,
+        expected_volume: f32,
+    ) {
         assert!(mesh.faces.len() > 100);
         assert_watertight(mesh);
         assert_eq!(face_components(mesh).1, 1);
@@ -406,7 +436,10 @@ mod tests {
         // Outward normals: positive volume close to the analytic one, and vertex normals
         // agree with the SDF gradient.
         let vol = mesh.signed_volume();
-        assert!((vol - expected_volume).abs() < 0.01 * expected_volume, "volume {vol} vs {expected_volume}");
+        assert!(
+            (vol - expected_volume).abs() < 0.01 * expected_volume,
+            "volume {vol} vs {expected_volume}"
+        );
         let eps = 1e-3;
         for (p, n) in mesh.positions.iter().zip(mesh.vertex_normals()).step_by(7) {
             let g = Vec3::new(
@@ -455,7 +488,10 @@ mod tests {
     fn largest_component_drops_the_small_sphere() {
         let f = |pts: &[Vec3]| -> Vec<f32> {
             pts.iter()
-                .map(|p| (p.distance(Vec3::new(-0.4, 0.0, 0.0)) - 0.35).min(p.distance(Vec3::new(0.55, 0.0, 0.0)) - 0.15))
+                .map(|p| {
+                    (p.distance(Vec3::new(-0.4, 0.0, 0.0)) - 0.35)
+                        .min(p.distance(Vec3::new(0.55, 0.0, 0.0)) - 0.15)
+                })
                 .collect()
         };
         let mut opts = ExtractOptions::new(Vec3::splat(-1.0), Vec3::splat(1.0), 64);

@@ -13,14 +13,21 @@ pub fn write_mesh(path: impl AsRef<Path>, mesh: &TriMesh) -> Result<()> {
     match extension(path).as_str() {
         "obj" => write_obj(path, mesh),
         "ply" => write_ply(path, &mesh.positions, &mesh.vertex_normals(), &mesh.faces),
-        other => Err(Error::file(path, format!("unknown mesh format '.{other}' (use .obj or .ply)"))),
+        other => {
+            Err(Error::file(path, format!("unknown mesh format '.{other}' (use .obj or .ply)")))
+        }
     }
 }
 
 pub fn write_obj(path: impl AsRef<Path>, mesh: &TriMesh) -> Result<()> {
     let normals = mesh.vertex_normals();
     write_atomic(path, |w| {
-        writeln!(w, "# Avatar Studio mesh: {} vertices, {} faces", mesh.positions.len(), mesh.faces.len())?;
+        writeln!(
+            w,
+            "# Avatar Studio mesh: {} vertices, {} faces",
+            mesh.positions.len(),
+            mesh.faces.len()
+        )?;
         for p in &mesh.positions {
             writeln!(w, "v {:.6} {:.6} {:.6}", p.x, p.y, p.z)?;
         }
@@ -36,7 +43,12 @@ pub fn write_obj(path: impl AsRef<Path>, mesh: &TriMesh) -> Result<()> {
 }
 
 /// Binary little-endian PLY with optional normals and faces.
-pub fn write_ply(path: impl AsRef<Path>, points: &[Vec3], normals: &[Vec3], faces: &[[u32; 3]]) -> Result<()> {
+pub fn write_ply(
+    path: impl AsRef<Path>,
+    points: &[Vec3],
+    normals: &[Vec3],
+    faces: &[[u32; 3]],
+) -> Result<()> {
     let has_normals = !normals.is_empty() && normals.len() == points.len();
     write_atomic(path, |w| {
         writeln!(w, "ply\nformat binary_little_endian 1.0\ncomment Avatar Studio")?;
@@ -86,7 +98,10 @@ fn parse_obj(text: &str) -> std::result::Result<TriMesh, String> {
         let mut parts = line.split_whitespace();
         match parts.next() {
             Some("v") => {
-                let c: Vec<f32> = parts.take(3).map(|s| s.parse::<f32>()).collect::<std::result::Result<_, _>>()
+                let c: Vec<f32> = parts
+                    .take(3)
+                    .map(|s| s.parse::<f32>())
+                    .collect::<std::result::Result<_, _>>()
                     .map_err(|e| format!("line {}: bad vertex ({e})", line_no + 1))?;
                 if c.len() != 3 || c.iter().any(|x| !x.is_finite()) {
                     return Err(format!("line {}: vertex needs 3 finite numbers", line_no + 1));
@@ -97,11 +112,16 @@ fn parse_obj(text: &str) -> std::result::Result<TriMesh, String> {
                 let idx: Vec<u32> = parts
                     .map(|s| {
                         let first = s.split('/').next().unwrap_or("");
-                        let i: i64 = first.parse().map_err(|_| format!("line {}: bad face index '{s}'", line_no + 1))?;
+                        let i: i64 = first
+                            .parse()
+                            .map_err(|_| format!("line {}: bad face index '{s}'", line_no + 1))?;
                         let n = mesh.positions.len() as i64;
                         let i = if i < 0 { n + i } else { i - 1 };
                         if i < 0 || i >= n {
-                            return Err(format!("line {}: face index {s} out of range", line_no + 1));
+                            return Err(format!(
+                                "line {}: face index {s} out of range",
+                                line_no + 1
+                            ));
                         }
                         Ok(i as u32)
                     })

@@ -11,9 +11,18 @@ use std::sync::OnceLock;
 /// Cube corner `c` sits at (c & 1, c >> 1 & 1, c >> 2 & 1). Edge `4 * axis + k` joins a
 /// corner with bit `axis` clear to the corner with it set.
 pub(crate) const EDGES: [(usize, usize); 12] = [
-    (0, 1), (2, 3), (4, 5), (6, 7), // along x
-    (0, 2), (1, 3), (4, 6), (5, 7), // along y
-    (0, 4), (1, 5), (2, 6), (3, 7), // along z
+    (0, 1),
+    (2, 3),
+    (4, 5),
+    (6, 7), // along x
+    (0, 2),
+    (1, 3),
+    (4, 6),
+    (5, 7), // along y
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7), // along z
 ];
 
 fn edge_between(a: usize, b: usize) -> usize {
@@ -114,7 +123,8 @@ mod tests {
     fn case_table_loops_close_and_face_away_from_inside() {
         for case in 0..256usize {
             let inside = |c: usize| (case >> c) & 1 == 1;
-            let crossed: Vec<usize> = (0..12).filter(|&e| inside(EDGES[e].0) != inside(EDGES[e].1)).collect();
+            let crossed: Vec<usize> =
+                (0..12).filter(|&e| inside(EDGES[e].0) != inside(EDGES[e].1)).collect();
             let loops = case_loops(case);
             let mut used: Vec<usize> = loops.iter().flatten().copied().collect();
             used.sort();

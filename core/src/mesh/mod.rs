@@ -131,7 +131,8 @@ mod tests {
 
     #[test]
     fn barycentric_coordinates_rebuild_points_of_the_triangle() {
-        let (a, b, c) = (Vec3::new(0.1, 0.0, 0.3), Vec3::new(1.0, 0.2, 0.0), Vec3::new(0.3, 1.1, 0.5));
+        let (a, b, c) =
+            (Vec3::new(0.1, 0.0, 0.3), Vec3::new(1.0, 0.2, 0.0), Vec3::new(0.3, 1.1, 0.5));
         let p = a * 0.2 + b * 0.5 + c * 0.3;
         let w = barycentric(p, a, b, c);
         assert!((w - Vec3::new(0.2, 0.5, 0.3)).length() < 1e-5, "{w}");
@@ -147,8 +148,18 @@ mod tests {
             .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32))
             .collect();
         let f = vec![
-            [0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
-            [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5],
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
         ];
         TriMesh::new(p, f)
     }

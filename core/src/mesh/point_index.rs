@@ -48,7 +48,8 @@ mod tests {
     #[test]
     fn nearest_matches_brute_force_and_handles_duplicates() {
         let mut rng = ChaCha8Rng::seed_from_u64(2);
-        let mut pts: Vec<Vec3> = (0..2000).map(|_| Vec3::new(rng.random(), rng.random(), rng.random())).collect();
+        let mut pts: Vec<Vec3> =
+            (0..2000).map(|_| Vec3::new(rng.random(), rng.random(), rng.random())).collect();
         // Many exact duplicates (seams of a mesh) must not break the index.
         pts.extend(std::iter::repeat_n(Vec3::splat(0.5), 300));
         let index = PointIndex::new(&pts).unwrap();

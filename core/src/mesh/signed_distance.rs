@@ -3,8 +3,8 @@
 //! sign is the nearest face's, which is right away from sharp folds (the body's SDF for the
 //! sign prior and the shells behind loose clothing).
 
-use super::bvh::Bvh;
 use super::TriMesh;
+use super::bvh::Bvh;
 use glam::Vec3;
 
 pub struct SignedDistance {
@@ -48,7 +48,8 @@ impl SignedDistance {
     pub fn smooth_offset(&self, p: Vec3) -> Option<(f32, Vec3)> {
         let h = self.bvh.closest_point(p)?;
         let [a, b, c] = self.faces[h.face as usize].map(|i| i as usize);
-        let w = super::barycentric(h.point, self.positions[a], self.positions[b], self.positions[c]);
+        let w =
+            super::barycentric(h.point, self.positions[a], self.positions[b], self.positions[c]);
         let mut normal = Vec3::ZERO;
         let mut smooth_point = Vec3::ZERO;
         for (k, v) in [a, b, c].into_iter().enumerate() {
@@ -70,12 +71,36 @@ mod tests {
     #[test]
     fn a_box_is_negative_inside_and_positive_outside() {
         let c = |x: f32, y: f32, z: f32| Vec3::new(x, y, z) * 0.5;
-        let positions = vec![c(-1., -1., -1.), c(1., -1., -1.), c(1., 1., -1.), c(-1., 1., -1.), c(-1., -1., 1.), c(1., -1., 1.), c(1., 1., 1.), c(-1., 1., 1.)];
-        let faces = vec![[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4], [3, 7, 6], [3, 6, 2], [0, 4, 7], [0, 7, 3], [1, 2, 6], [1, 6, 5]];
+        let positions = vec![
+            c(-1., -1., -1.),
+            c(1., -1., -1.),
+            c(1., 1., -1.),
+            c(-1., 1., -1.),
+            c(-1., -1., 1.),
+            c(1., -1., 1.),
+            c(1., 1., 1.),
+            c(-1., 1., 1.),
+        ];
+        let faces = vec![
+            [0, 2, 1],
+            [0, 3, 2],
+            [4, 5, 6],
+            [4, 6, 7],
+            [0, 1, 5],
+            [0, 5, 4],
+            [3, 7, 6],
+            [3, 6, 2],
+            [0, 4, 7],
+            [0, 7, 3],
+            [1, 2, 6],
+            [1, 6, 5],
+        ];
         let sd = SignedDistance::new(&TriMesh::new(positions, faces));
         assert!((sd.at(Vec3::ZERO).unwrap() + 0.5).abs() < 1e-6);
         assert!((sd.at(Vec3::new(0.0, 0.0, 0.8)).unwrap() - 0.3).abs() < 1e-6);
         assert!((sd.at(Vec3::new(0.1, 0.4, 0.0)).unwrap() + 0.1).abs() < 1e-6);
-        assert!(SignedDistance::new(&TriMesh::new(Vec::new(), Vec::new())).at(Vec3::ZERO).is_none());
+        assert!(
+            SignedDistance::new(&TriMesh::new(Vec::new(), Vec::new())).at(Vec3::ZERO).is_none()
+        );
     }
 }

@@ -26,7 +26,11 @@ pub fn taubin(mesh: &mut TriMesh, iterations: usize) {
                     *out = p;
                     continue;
                 }
-                let mean = neighbours.indices[start..end].iter().map(|&k| mesh.positions[k as usize]).sum::<Vec3>() / (end - start) as f32;
+                let mean = neighbours.indices[start..end]
+                    .iter()
+                    .map(|&k| mesh.positions[k as usize])
+                    .sum::<Vec3>()
+                    / (end - start) as f32;
                 *out = p + factor * (mean - p);
             }
             std::mem::swap(&mut mesh.positions, &mut next);
@@ -72,7 +76,10 @@ mod tests {
             let theta = std::f32::consts::PI * r as f32 / rings as f32;
             for s in 0..segments {
                 let phi = std::f32::consts::TAU * s as f32 / segments as f32;
-                positions.push(Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()) * radius(r, s));
+                positions.push(
+                    Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin())
+                        * radius(r, s),
+                );
             }
         }
         positions.push(-Vec3::Y * radius(rings, 0));
@@ -109,7 +116,10 @@ mod tests {
         let (mean_after, spread_after) = radius_spread(&rough);
         assert!(spread_after < 0.2 * spread_before, "spread {spread_before} -> {spread_after}");
         // Plain Laplacian smoothing would shrink the sphere by several percent; Taubin keeps it.
-        assert!((mean_after - mean_before).abs() < 0.01, "mean radius {mean_before} -> {mean_after}");
+        assert!(
+            (mean_after - mean_before).abs() < 0.01,
+            "mean radius {mean_before} -> {mean_after}"
+        );
     }
 
     #[test]
@@ -119,7 +129,12 @@ mod tests {
         let before = smooth.positions.clone();
         taubin(&mut smooth, 10);
         // Off the surface, that is: vertices may slide along it (the UV sphere's poles do).
-        let off = before.iter().zip(&smooth.positions).take(before.len() - 1).map(|(_, b)| (b.length() - 1.0).abs()).fold(0.0, f32::max);
+        let off = before
+            .iter()
+            .zip(&smooth.positions)
+            .take(before.len() - 1)
+            .map(|(_, b)| (b.length() - 1.0).abs())
+            .fold(0.0, f32::max);
         assert!(off < 0.005, "moved off the sphere by {off}");
         assert_eq!(*smooth.positions.last().unwrap(), Vec3::splat(5.0));
     }

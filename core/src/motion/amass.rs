@@ -9,6 +9,9 @@ use std::path::Path;
 pub fn load_amass_clip(path: &Path) -> Result<MotionClip> {
     let mut seq = crate::capture::amass::read_amass(path)?;
     crate::capture::amass::z_up_to_y_up(&mut seq, crate::body::open_body_ref());
-    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "amass".into());
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "amass".into());
     Ok(MotionClip::new(name, seq.fps, seq.frames))
 }

@@ -81,7 +81,8 @@ impl BvhFile {
 
     /// Parse BVH text (errors are `Error::Invalid` with the line; `load` adds the file).
     pub fn parse(text: &str) -> Result<BvhFile> {
-        let mut p = Parser { tokens: tokenize(text), pos: 0, last_line: text.lines().count().max(1) };
+        let mut p =
+            Parser { tokens: tokenize(text), pos: 0, last_line: text.lines().count().max(1) };
         p.expect_keyword("HIERARCHY")?;
         let mut joints = Vec::new();
         let (kw, line) = p.next_token("ROOT")?;
@@ -99,14 +100,16 @@ impl BvhFile {
         }
         p.expect_keyword("Frames:")?;
         let (n, line) = p.next_token("the frame count")?;
-        let count: usize = n.parse().map_err(|_| at(line, format!("'Frames: {n}' is not a frame count")))?;
+        let count: usize =
+            n.parse().map_err(|_| at(line, format!("'Frames: {n}' is not a frame count")))?;
         if count == 0 {
             return Err(at(line, "the MOTION block has 0 frames"));
         }
         p.expect_keyword("Frame")?;
         p.expect_keyword("Time:")?;
         let (t, line) = p.next_token("the frame time")?;
-        let frame_time: f32 = t.parse().map_err(|_| at(line, format!("'Frame Time: {t}' is not a number")))?;
+        let frame_time: f32 =
+            t.parse().map_err(|_| at(line, format!("'Frame Time: {t}' is not a number")))?;
         if !(frame_time.is_finite() && frame_time > 0.0 && frame_time <= 10.0) {
             return Err(at(line, format!("frame time {t} s is not in (0, 10]")));
         }
@@ -116,21 +119,40 @@ impl BvhFile {
             let Some(line) = p.peek_line() else {
                 return Err(at(
                     p.last_line,
-                    format!("the MOTION block is truncated: 'Frames: {count}' but the file ends after {} frames", frames.len()),
+                    format!(
+                        "the MOTION block is truncated: 'Frames: {count}' but the file ends after {} frames",
+                        frames.len()
+                    ),
                 ));
             };
             let values = p.take_line(line);
             if values.len() != values_per_frame {
                 return Err(at(
                     line,
-                    format!("frame {} has {} values, the hierarchy's channels need {values_per_frame}", frames.len(), values.len()),
+                    format!(
+                        "frame {} has {} values, the hierarchy's channels need {values_per_frame}",
+                        frames.len(),
+                        values.len()
+                    ),
                 ));
             }
             let mut row = Vec::with_capacity(values_per_frame);
             for (k, s) in values.iter().enumerate() {
                 let v: f32 = s.parse().ok().filter(|v: &f32| v.is_finite()).ok_or_else(|| {
-                    let joint = joints.iter().rev().find(|j| j.first_value <= k).expect("the root starts at 0");
-                    at(line, format!("value {} ('{s}', {:?} of joint '{}') is not a finite number", k + 1, joint.channels[k - joint.first_value], joint.name))
+                    let joint = joints
+                        .iter()
+                        .rev()
+                        .find(|j| j.first_value <= k)
+                        .expect("the root starts at 0");
+                    at(
+                        line,
+                        format!(
+                            "value {} ('{s}', {:?} of joint '{}') is not a finite number",
+                            k + 1,
+                            joint.channels[k - joint.first_value],
+                            joint.name
+                        ),
+                    )
                 })?;
                 row.push(v);
             }
@@ -253,7 +275,9 @@ struct Parser {
 
 impl Parser {
     fn next_token(&mut self, what: &str) -> Result<(String, usize)> {
-        let t = self.tokens.get(self.pos).cloned().ok_or_else(|| at(self.last_line, format!("the file ends where {what} was expected")))?;
+        let t = self.tokens.get(self.pos).cloned().ok_or_else(|| {
+            at(self.last_line, format!("the file ends where {what} was expected"))
+        })?;
         self.pos += 1;
         Ok(t)
     }
@@ -272,7 +296,10 @@ impl Parser {
 
     fn number(&mut self, what: &str) -> Result<f32> {
         let (t, line) = self.next_token(what)?;
-        t.parse::<f32>().ok().filter(|v| v.is_finite()).ok_or_else(|| at(line, format!("{what}: '{t}' is not a finite number")))
+        t.parse::<f32>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| at(line, format!("{what}: '{t}' is not a finite number")))
     }
 
     fn offset(&mut self) -> Result<Vec3> {
@@ -299,7 +326,12 @@ impl Parser {
     }
 
     /// `name { OFFSET .. CHANNELS n .. (JOINT ..)* (End Site { OFFSET .. })? }` after ROOT/JOINT.
-    fn joint(&mut self, joints: &mut Vec<BvhJoint>, parent: Option<usize>, kw_line: usize) -> Result<()> {
+    fn joint(
+        &mut self,
+        joints: &mut Vec<BvhJoint>,
+        parent: Option<usize>,
+        kw_line: usize,
+    ) -> Result<()> {
         // The name: the rest of the keyword's line, up to a `{`.
         let mut name_parts = Vec::new();
         while let Some((t, l)) = self.peek() {
@@ -323,7 +355,9 @@ impl Parser {
             return Err(at(line, format!("joint '{name}' has no CHANNELS line (found '{t}')")));
         }
         let (n, nline) = self.next_token("the channel count")?;
-        let n: usize = n.parse().ok().filter(|&n| n <= 6).ok_or_else(|| at(nline, format!("joint '{name}': channel count '{n}' is not 0 to 6")))?;
+        let n: usize = n.parse().ok().filter(|&n| n <= 6).ok_or_else(|| {
+            at(nline, format!("joint '{name}': channel count '{n}' is not 0 to 6"))
+        })?;
         let mut channels = Vec::with_capacity(n);
         for _ in 0..n {
             let (c, cline) = self.next_token("a channel name")?;
@@ -337,7 +371,15 @@ impl Parser {
         }
         let first_value = joints.iter().map(|j| j.channels.len()).sum();
         let index = joints.len();
-        joints.push(BvhJoint { name, parent, offset, channels, first_value, end_site: None, line: kw_line });
+        joints.push(BvhJoint {
+            name,
+            parent,
+            offset,
+            channels,
+            first_value,
+            end_site: None,
+            line: kw_line,
+        });
         loop {
             let (t, line) = self.next_token("'}'")?;
             if t == "}" {
@@ -350,7 +392,13 @@ impl Parser {
                 joints[index].end_site = Some(self.offset()?);
                 self.expect_keyword("}")?;
             } else {
-                return Err(at(line, format!("expected JOINT, End Site or '}}' in joint '{}', found '{t}'", joints[index].name)));
+                return Err(at(
+                    line,
+                    format!(
+                        "expected JOINT, End Site or '}}' in joint '{}', found '{t}'",
+                        joints[index].name
+                    ),
+                ));
             }
         }
     }
@@ -382,20 +430,35 @@ mod tests {
     #[test]
     fn channel_order_is_the_listed_order() {
         // Zrotation Xrotation Yrotation = Rz * Rx * Ry.
-        let text = TWO_JOINTS.replace("1 90 2 0 0 0 90 0 0\n1 90 2 0 0 0 0 0 90\n", "0 0 0 30 40 50 0 0 0\n0 0 0 0 0 0 0 0 0\n");
+        let text = TWO_JOINTS.replace(
+            "1 90 2 0 0 0 90 0 0\n1 90 2 0 0 0 0 0 90\n",
+            "0 0 0 30 40 50 0 0 0\n0 0 0 0 0 0 0 0 0\n",
+        );
         let b = BvhFile::parse(&text).unwrap();
         let r = b.pose(0).rotations[0];
-        let expect = Mat3::from_rotation_z(30f32.to_radians()) * Mat3::from_rotation_x(40f32.to_radians()) * Mat3::from_rotation_y(50f32.to_radians());
+        let expect = Mat3::from_rotation_z(30f32.to_radians())
+            * Mat3::from_rotation_x(40f32.to_radians())
+            * Mat3::from_rotation_y(50f32.to_radians());
         assert!(r.abs_diff_eq(expect, 1e-6));
     }
 
     #[test]
     fn errors_name_the_line() {
-        let e = BvhFile::parse(&TWO_JOINTS.replace("1 90 2 0 0 0 0 0 90\n", "")).unwrap_err().to_string();
-        assert!(e.contains("truncated") && e.contains("line 18") && e.contains("after 1 frames"), "{e}");
-        let e = BvhFile::parse(&TWO_JOINTS.replace("0 0 90\n", "0 nan 90\n")).unwrap_err().to_string();
+        let e = BvhFile::parse(&TWO_JOINTS.replace("1 90 2 0 0 0 0 0 90\n", ""))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("truncated") && e.contains("line 18") && e.contains("after 1 frames"),
+            "{e}"
+        );
+        let e =
+            BvhFile::parse(&TWO_JOINTS.replace("0 0 90\n", "0 nan 90\n")).unwrap_err().to_string();
         assert!(e.contains("line 19") && e.contains("Yrotation of joint 'Chest'"), "{e}");
-        let e = BvhFile::parse(&TWO_JOINTS.replace("    CHANNELS 3 Xrotation Yrotation Zrotation\n", "")).unwrap_err().to_string();
+        let e = BvhFile::parse(
+            &TWO_JOINTS.replace("    CHANNELS 3 Xrotation Yrotation Zrotation\n", ""),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("line 8") && e.contains("no CHANNELS"), "{e}");
     }
 }

@@ -65,13 +65,17 @@ impl MotionClip {
     /// Reject empty clips, a bad frame rate and invalid frames (names the frame).
     pub fn validate(&self) -> Result<()> {
         if !(MIN_FPS..=MAX_FPS).contains(&self.fps) {
-            return Err(Error::invalid(format!("motion '{}': fps {} is not a plausible frame rate ({MIN_FPS} to {MAX_FPS})", self.name, self.fps)));
+            return Err(Error::invalid(format!(
+                "motion '{}': fps {} is not a plausible frame rate ({MIN_FPS} to {MAX_FPS})",
+                self.name, self.fps
+            )));
         }
         if self.frames.is_empty() {
             return Err(Error::invalid(format!("motion '{}' has no frames", self.name)));
         }
         for (i, f) in self.frames.iter().enumerate() {
-            f.validate().map_err(|e| Error::invalid(format!("motion '{}' frame {i}: {e}", self.name)))?;
+            f.validate()
+                .map_err(|e| Error::invalid(format!("motion '{}' frame {i}: {e}", self.name)))?;
         }
         Ok(())
     }
@@ -88,7 +92,8 @@ impl MotionClip {
         for (i, f) in self.frames.iter().enumerate() {
             let pose: Vec<String> = f.flat_pose().into_iter().map(num).collect();
             let trans: Vec<String> = f.trans.to_array().into_iter().map(num).collect();
-            let _ = write!(s, "  {{\"pose\": [{}], \"trans\": [{}]", pose.join(","), trans.join(","));
+            let _ =
+                write!(s, "  {{\"pose\": [{}], \"trans\": [{}]", pose.join(","), trans.join(","));
             if !f.betas.is_empty() {
                 let betas: Vec<String> = f.betas.iter().copied().map(num).collect();
                 let _ = write!(s, ", \"betas\": [{}]", betas.join(","));
@@ -106,20 +111,31 @@ impl MotionClip {
 
     /// Parse the JSON clip format; errors name the problem and the frame.
     pub fn from_json_str(text: &str) -> Result<Self> {
-        let file: ClipFile =
-            serde_json::from_str(text).map_err(|e| Error::invalid(format!("not a valid motion clip JSON ({e})")))?;
+        let file: ClipFile = serde_json::from_str(text)
+            .map_err(|e| Error::invalid(format!("not a valid motion clip JSON ({e})")))?;
         if file.format != MOTION_FORMAT {
-            return Err(Error::invalid(format!("format is '{}', expected '{MOTION_FORMAT}'", file.format)));
+            return Err(Error::invalid(format!(
+                "format is '{}', expected '{MOTION_FORMAT}'",
+                file.format
+            )));
         }
         if file.version != MOTION_VERSION {
-            return Err(Error::invalid(format!("version {} is not supported (expected {MOTION_VERSION})", file.version)));
+            return Err(Error::invalid(format!(
+                "version {} is not supported (expected {MOTION_VERSION})",
+                file.version
+            )));
         }
         let mut frames = Vec::with_capacity(file.frames.len());
         for (i, f) in file.frames.into_iter().enumerate() {
             let trans = match f.trans.as_deref() {
                 None => Vec3::ZERO,
                 Some([x, y, z]) => Vec3::new(*x, *y, *z),
-                Some(t) => return Err(Error::invalid(format!("frame {i}: trans has {} values, expected 3", t.len()))),
+                Some(t) => {
+                    return Err(Error::invalid(format!(
+                        "frame {i}: trans has {} values, expected 3",
+                        t.len()
+                    )));
+                }
             };
             let params = BodyParams::from_flat(&f.pose, f.betas.unwrap_or_default(), trans)
                 .map_err(|e| Error::invalid(format!("frame {i}: {e}")))?;

@@ -124,7 +124,11 @@ fn turn(t: f32) -> PoseBuilder {
     let a = bump(t, 0.0, 3.0);
     let lead = bump(t, 0.0, 2.6);
     let mut p = relaxed();
-    p.root(0.0, 100.0 * a, 0.0).neck(0.0, 25.0 * (lead - a).max(-1.0) + 10.0 * lead).spine(0.0, 0.0, 10.0 * (lead - a));
+    p.root(0.0, 100.0 * a, 0.0).neck(0.0, 25.0 * (lead - a).max(-1.0) + 10.0 * lead).spine(
+        0.0,
+        0.0,
+        10.0 * (lead - a),
+    );
     for s in [Left, Right] {
         p.shoulder(s, -75.0 + 10.0 * a, 0.0, 0.0);
     }
@@ -155,7 +159,12 @@ fn kick(t: f32) -> PoseBuilder {
     p.hip(Right, hip, 0.0, 0.0).knee(Right, knee).ankle(Right, -25.0 * bump(t, 0.7, 2.0));
     let bal = bump(t, 0.1, 2.4);
     p.knee(Left, 12.0 * bal).hip(Left, 6.0 * bal, 0.0, 0.0);
-    p.shoulder(Left, -75.0 + 40.0 * bal, 30.0 * bal, 0.0).shoulder(Right, -75.0 + 30.0 * bal, -25.0 * bal, 0.0);
+    p.shoulder(Left, -75.0 + 40.0 * bal, 30.0 * bal, 0.0).shoulder(
+        Right,
+        -75.0 + 30.0 * bal,
+        -25.0 * bal,
+        0.0,
+    );
     p.elbow(Left, 12.0 + 40.0 * bal).elbow(Right, 12.0 + 30.0 * bal);
     p.spine(-8.0 * bump(t, 0.5, 2.3), 0.0, 0.0);
     p.ground();
@@ -231,7 +240,12 @@ fn march(t: f32) -> PoseBuilder {
     }
     p.hip(Left, 75.0 * l, 0.0, 0.0).knee(Left, 90.0 * l).ankle(Left, -15.0 * l);
     p.hip(Right, 75.0 * r, 0.0, 0.0).knee(Right, 90.0 * r).ankle(Right, -15.0 * r);
-    p.shoulder(Left, -75.0, 35.0 * r - 20.0 * l, 0.0).shoulder(Right, -75.0, 35.0 * l - 20.0 * r, 0.0);
+    p.shoulder(Left, -75.0, 35.0 * r - 20.0 * l, 0.0).shoulder(
+        Right,
+        -75.0,
+        35.0 * l - 20.0 * r,
+        0.0,
+    );
     p.elbow(Left, 12.0 + 70.0 * r).elbow(Right, 12.0 + 70.0 * l);
     p.ground();
     p
@@ -255,8 +269,12 @@ fn side_stretch(t: f32) -> PoseBuilder {
     let r = bump(t, 1.5, 3.0);
     let mut p = relaxed();
     p.spine(0.0, 30.0 * (l - r), 0.0).neck(0.0, 0.0);
-    p.shoulder(Left, -75.0 + 165.0 * l, 0.0, 0.0).collar(Left, 20.0 * l).elbow(Left, 12.0 + 10.0 * l);
-    p.shoulder(Right, -75.0 + 165.0 * r, 0.0, 0.0).collar(Right, 20.0 * r).elbow(Right, 12.0 + 10.0 * r);
+    p.shoulder(Left, -75.0 + 165.0 * l, 0.0, 0.0)
+        .collar(Left, 20.0 * l)
+        .elbow(Left, 12.0 + 10.0 * l);
+    p.shoulder(Right, -75.0 + 165.0 * r, 0.0, 0.0)
+        .collar(Right, 20.0 * r)
+        .elbow(Right, 12.0 + 10.0 * r);
     p.hip(Left, 0.0, 6.0 * (l + r), 0.0).hip(Right, 0.0, 6.0 * (l + r), 0.0);
     p.ground();
     p
@@ -265,13 +283,24 @@ fn side_stretch(t: f32) -> PoseBuilder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::limits::check_clip_limits;
     use crate::body::NUM_JOINTS;
+    use crate::motion::limits::check_clip_limits;
 
     #[test]
     fn library_has_the_required_clips_with_30fps_and_2_to_4_seconds() {
         let lib = library();
-        for name in ["walk", "raise_arms", "squat", "turn", "bend", "kick", "arm_swing", "lunge", "jumping_jacks", "twist"] {
+        for name in [
+            "walk",
+            "raise_arms",
+            "squat",
+            "turn",
+            "bend",
+            "kick",
+            "arm_swing",
+            "lunge",
+            "jumping_jacks",
+            "twist",
+        ] {
             assert!(lib.iter().any(|c| c.name == name), "missing {name}");
         }
         for c in &lib {
@@ -325,9 +354,14 @@ mod tests {
                     let (w0, w1) = (omega(i - 1, j), omega(i, j));
                     assert!(w1.length() < 720.0, "{} frame {i} joint {j}: {w1} deg/s", c.name);
                     let acc = (w1 - w0) / dt;
-                    assert!(acc.length() < 8000.0, "{} frame {i} joint {j}: accel {acc} deg/s^2", c.name);
+                    assert!(
+                        acc.length() < 8000.0,
+                        "{} frame {i} joint {j}: accel {acc} deg/s^2",
+                        c.name
+                    );
                 }
-                let dv = (c.frames[i + 1].trans - 2.0 * c.frames[i].trans + c.frames[i - 1].trans) / (dt * dt);
+                let dv = (c.frames[i + 1].trans - 2.0 * c.frames[i].trans + c.frames[i - 1].trans)
+                    / (dt * dt);
                 assert!(dv.length() < 8.0, "{} frame {i}: trans accel {dv}", c.name);
             }
         }

@@ -46,8 +46,8 @@ const HAND: JointLimit = lim((-20.0, 20.0), (-30.0, 30.0), (-30.0, 30.0));
 /// Limits per SMPL joint (left-side convention; pelvis = global orientation, unrestricted
 /// except that |y| < 90 keeps the Euler decomposition unique).
 pub const JOINT_LIMITS: [JointLimit; NUM_JOINTS] = [
-    FREE, HIP, HIP, SPINE, KNEE, KNEE, SPINE, ANKLE, ANKLE, SPINE, FOOT, FOOT, NECK, COLLAR, COLLAR,
-    HEAD, SHOULDER, SHOULDER, ELBOW, ELBOW, WRIST, WRIST, HAND, HAND,
+    FREE, HIP, HIP, SPINE, KNEE, KNEE, SPINE, ANKLE, ANKLE, SPINE, FOOT, FOOT, NECK, COLLAR,
+    COLLAR, HEAD, SHOULDER, SHOULDER, ELBOW, ELBOW, WRIST, WRIST, HAND, HAND,
 ];
 
 /// Whether joint `j` is a right-side joint (its Euler y/z are mirrored before the check).
@@ -68,7 +68,11 @@ pub fn check_clip_limits(clip: &MotionClip, tol_deg: f32) -> Result<()> {
         for j in 1..NUM_JOINTS {
             let e = joint_euler(j, params.pose[j]);
             let l = JOINT_LIMITS[j];
-            for (axis, v, lo, hi) in [("x", e.x, l.min.x, l.max.x), ("y", e.y, l.min.y, l.max.y), ("z", e.z, l.min.z, l.max.z)] {
+            for (axis, v, lo, hi) in [
+                ("x", e.x, l.min.x, l.max.x),
+                ("y", e.y, l.min.y, l.max.y),
+                ("z", e.z, l.min.z, l.max.z),
+            ] {
                 if v < lo - tol_deg || v > hi + tol_deg {
                     return Err(Error::invalid(format!(
                         "clip '{}' frame {f}: {} {axis} = {v:.1} deg outside [{lo}, {hi}]",

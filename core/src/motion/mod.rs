@@ -16,8 +16,8 @@ pub mod open;
 pub mod pose_builder;
 pub mod retarget;
 
-pub use clip::{MotionClip, MAX_FPS, MIN_FPS};
-pub use library::{clip_by_name, clip_names, library, library_split, HELDOUT_CLIPS, LIBRARY_FPS};
-pub use limits::{check_clip_limits, JointLimit, JOINT_LIMITS};
+pub use clip::{MAX_FPS, MIN_FPS, MotionClip};
+pub use library::{HELDOUT_CLIPS, LIBRARY_FPS, clip_by_name, clip_names, library, library_split};
+pub use limits::{JOINT_LIMITS, JointLimit, check_clip_limits};
 pub use open::{clip_file, library_clip, open_clip};
 pub use pose_builder::{PoseBuilder, Side};

@@ -18,15 +18,22 @@ impl MotionClip {
             }
             Some("npz") => super::amass::load_amass_clip(path),
             Some("bvh") => super::retarget::load_bvh_clip(path),
-            _ => Err(Error::file(path, "unknown motion file type: expected .json (avatar-studio motion), .npz (AMASS) or .bvh (motion capture)")),
+            _ => Err(Error::file(
+                path,
+                "unknown motion file type: expected .json (avatar-studio motion), .npz (AMASS) or .bvh (motion capture)",
+            )),
         }
     }
-
 }
 
 /// A library clip by name (the error lists the library).
 pub fn library_clip(name: &str) -> Result<MotionClip> {
-    clip_by_name(name).ok_or_else(|| Error::invalid(format!("unknown motion clip {name:?}: the library has {}", clip_names().join(", "))))
+    clip_by_name(name).ok_or_else(|| {
+        Error::invalid(format!(
+            "unknown motion clip {name:?}: the library has {}",
+            clip_names().join(", ")
+        ))
+    })
 }
 
 /// The clip a `--motion` argument names: a library clip, else a clip file.
@@ -36,7 +43,10 @@ pub fn open_clip(name_or_file: &str) -> Result<MotionClip> {
     }
     let path = Path::new(name_or_file);
     if !path.exists() {
-        return Err(Error::invalid(format!("unknown motion clip {name_or_file:?}: not a file, and the library has {}", clip_names().join(", "))));
+        return Err(Error::invalid(format!(
+            "unknown motion clip {name_or_file:?}: not a file, and the library has {}",
+            clip_names().join(", ")
+        )));
     }
     MotionClip::load(path)
 }

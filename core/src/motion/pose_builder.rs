@@ -78,7 +78,8 @@ pub fn euler_order(j: usize) -> EulerRot {
 /// Rotation of Euler angles `(x, y, z)` in degrees, composed in `order` (XYZ or YXZ).
 pub fn euler_quat_ordered(deg: Vec3, order: EulerRot) -> Quat {
     let r = deg * (std::f32::consts::PI / 180.0);
-    let (qx, qy, qz) = (Quat::from_rotation_x(r.x), Quat::from_rotation_y(r.y), Quat::from_rotation_z(r.z));
+    let (qx, qy, qz) =
+        (Quat::from_rotation_x(r.x), Quat::from_rotation_y(r.y), Quat::from_rotation_z(r.z));
     match order {
         EulerRot::YXZ => qy * qx * qz,
         _ => qx * qy * qz,

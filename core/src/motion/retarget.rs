@@ -28,52 +28,196 @@ use std::path::{Path, PathBuf};
 /// Known skeletons: (profile, [(normalised BVH joint name, SMPL joint)]). Names are compared
 /// after [`normalise_name`]; the profile matching the most joints of a file is used.
 pub const PROFILES: [(&str, &[(&str, usize)]); 5] = [
-    ("mixamo", &[
-        ("hips", 0), ("leftupleg", 1), ("rightupleg", 2), ("spine", 3), ("leftleg", 4), ("rightleg", 5),
-        ("spine1", 6), ("leftfoot", 7), ("rightfoot", 8), ("spine2", 9), ("lefttoebase", 10), ("righttoebase", 11),
-        ("neck", 12), ("leftshoulder", 13), ("rightshoulder", 14), ("head", 15), ("leftarm", 16), ("rightarm", 17),
-        ("leftforearm", 18), ("rightforearm", 19), ("lefthand", 20), ("righthand", 21),
-        ("lefthandmiddle1", 22), ("righthandmiddle1", 23),
-    ]),
-    ("cmu", &[
-        ("hips", 0), ("leftupleg", 1), ("rightupleg", 2), ("lowerback", 3), ("leftleg", 4), ("rightleg", 5),
-        ("spine", 6), ("leftfoot", 7), ("rightfoot", 8), ("spine1", 9), ("lefttoebase", 10), ("righttoebase", 11),
-        ("neck", 12), ("leftshoulder", 13), ("rightshoulder", 14), ("head", 15), ("leftarm", 16), ("rightarm", 17),
-        ("leftforearm", 18), ("rightforearm", 19), ("lefthand", 20), ("righthand", 21),
-        ("leftfingerbase", 22), ("rightfingerbase", 23),
-    ]),
+    (
+        "mixamo",
+        &[
+            ("hips", 0),
+            ("leftupleg", 1),
+            ("rightupleg", 2),
+            ("spine", 3),
+            ("leftleg", 4),
+            ("rightleg", 5),
+            ("spine1", 6),
+            ("leftfoot", 7),
+            ("rightfoot", 8),
+            ("spine2", 9),
+            ("lefttoebase", 10),
+            ("righttoebase", 11),
+            ("neck", 12),
+            ("leftshoulder", 13),
+            ("rightshoulder", 14),
+            ("head", 15),
+            ("leftarm", 16),
+            ("rightarm", 17),
+            ("leftforearm", 18),
+            ("rightforearm", 19),
+            ("lefthand", 20),
+            ("righthand", 21),
+            ("lefthandmiddle1", 22),
+            ("righthandmiddle1", 23),
+        ],
+    ),
+    (
+        "cmu",
+        &[
+            ("hips", 0),
+            ("leftupleg", 1),
+            ("rightupleg", 2),
+            ("lowerback", 3),
+            ("leftleg", 4),
+            ("rightleg", 5),
+            ("spine", 6),
+            ("leftfoot", 7),
+            ("rightfoot", 8),
+            ("spine1", 9),
+            ("lefttoebase", 10),
+            ("righttoebase", 11),
+            ("neck", 12),
+            ("leftshoulder", 13),
+            ("rightshoulder", 14),
+            ("head", 15),
+            ("leftarm", 16),
+            ("rightarm", 17),
+            ("leftforearm", 18),
+            ("rightforearm", 19),
+            ("lefthand", 20),
+            ("righthand", 21),
+            ("leftfingerbase", 22),
+            ("rightfingerbase", 23),
+        ],
+    ),
     // Blender's human metarig (and Rigify's DEF- bones, the prefix is dropped).
-    ("blender", &[
-        ("spine", 0), ("thighl", 1), ("thighr", 2), ("spine001", 3), ("shinl", 4), ("shinr", 5),
-        ("spine002", 6), ("footl", 7), ("footr", 8), ("spine003", 9), ("toel", 10), ("toer", 11),
-        ("spine004", 12), ("shoulderl", 13), ("shoulderr", 14), ("spine006", 15), ("upperarml", 16), ("upperarmr", 17),
-        ("forearml", 18), ("forearmr", 19), ("handl", 20), ("handr", 21),
-    ]),
+    (
+        "blender",
+        &[
+            ("spine", 0),
+            ("thighl", 1),
+            ("thighr", 2),
+            ("spine001", 3),
+            ("shinl", 4),
+            ("shinr", 5),
+            ("spine002", 6),
+            ("footl", 7),
+            ("footr", 8),
+            ("spine003", 9),
+            ("toel", 10),
+            ("toer", 11),
+            ("spine004", 12),
+            ("shoulderl", 13),
+            ("shoulderr", 14),
+            ("spine006", 15),
+            ("upperarml", 16),
+            ("upperarmr", 17),
+            ("forearml", 18),
+            ("forearmr", 19),
+            ("handl", 20),
+            ("handr", 21),
+        ],
+    ),
     // Unreal-style names, common in Blender exports of game rigs.
-    ("unreal", &[
-        ("pelvis", 0), ("thighl", 1), ("thighr", 2), ("spine01", 3), ("calfl", 4), ("calfr", 5),
-        ("spine02", 6), ("footl", 7), ("footr", 8), ("spine03", 9), ("balll", 10), ("ballr", 11),
-        ("neck01", 12), ("claviclel", 13), ("clavicler", 14), ("head", 15), ("upperarml", 16), ("upperarmr", 17),
-        ("lowerarml", 18), ("lowerarmr", 19), ("handl", 20), ("handr", 21),
-    ]),
+    (
+        "unreal",
+        &[
+            ("pelvis", 0),
+            ("thighl", 1),
+            ("thighr", 2),
+            ("spine01", 3),
+            ("calfl", 4),
+            ("calfr", 5),
+            ("spine02", 6),
+            ("footl", 7),
+            ("footr", 8),
+            ("spine03", 9),
+            ("balll", 10),
+            ("ballr", 11),
+            ("neck01", 12),
+            ("claviclel", 13),
+            ("clavicler", 14),
+            ("head", 15),
+            ("upperarml", 16),
+            ("upperarmr", 17),
+            ("lowerarml", 18),
+            ("lowerarmr", 19),
+            ("handl", 20),
+            ("handr", 21),
+        ],
+    ),
     // SMPL's own names (left_hip or L_Hip), as SMPL-to-BVH converters write them.
-    ("smpl", &[
-        ("pelvis", 0), ("lefthip", 1), ("lhip", 1), ("righthip", 2), ("rhip", 2), ("spine1", 3),
-        ("leftknee", 4), ("lknee", 4), ("rightknee", 5), ("rknee", 5), ("spine2", 6),
-        ("leftankle", 7), ("lankle", 7), ("rightankle", 8), ("rankle", 8), ("spine3", 9),
-        ("leftfoot", 10), ("lfoot", 10), ("rightfoot", 11), ("rfoot", 11), ("neck", 12),
-        ("leftcollar", 13), ("lcollar", 13), ("rightcollar", 14), ("rcollar", 14), ("head", 15),
-        ("leftshoulder", 16), ("lshoulder", 16), ("rightshoulder", 17), ("rshoulder", 17),
-        ("leftelbow", 18), ("lelbow", 18), ("rightelbow", 19), ("relbow", 19),
-        ("leftwrist", 20), ("lwrist", 20), ("rightwrist", 21), ("rwrist", 21),
-        ("lefthand", 22), ("lhand", 22), ("righthand", 23), ("rhand", 23),
-    ]),
+    (
+        "smpl",
+        &[
+            ("pelvis", 0),
+            ("lefthip", 1),
+            ("lhip", 1),
+            ("righthip", 2),
+            ("rhip", 2),
+            ("spine1", 3),
+            ("leftknee", 4),
+            ("lknee", 4),
+            ("rightknee", 5),
+            ("rknee", 5),
+            ("spine2", 6),
+            ("leftankle", 7),
+            ("lankle", 7),
+            ("rightankle", 8),
+            ("rankle", 8),
+            ("spine3", 9),
+            ("leftfoot", 10),
+            ("lfoot", 10),
+            ("rightfoot", 11),
+            ("rfoot", 11),
+            ("neck", 12),
+            ("leftcollar", 13),
+            ("lcollar", 13),
+            ("rightcollar", 14),
+            ("rcollar", 14),
+            ("head", 15),
+            ("leftshoulder", 16),
+            ("lshoulder", 16),
+            ("rightshoulder", 17),
+            ("rshoulder", 17),
+            ("leftelbow", 18),
+            ("lelbow", 18),
+            ("rightelbow", 19),
+            ("relbow", 19),
+            ("leftwrist", 20),
+            ("lwrist", 20),
+            ("rightwrist", 21),
+            ("rwrist", 21),
+            ("lefthand", 22),
+            ("lhand", 22),
+            ("righthand", 23),
+            ("rhand", 23),
+        ],
+    ),
 ];
 
 /// The SMPL child whose direction defines each joint's bone for the rest correction.
 const BONE_CHILD: [Option<usize>; NUM_JOINTS] = [
-    None, Some(4), Some(5), Some(6), Some(7), Some(8), Some(9), Some(10), Some(11), Some(12), None, None,
-    Some(15), Some(16), Some(17), None, Some(18), Some(19), Some(20), Some(21), Some(22), Some(23), None, None,
+    None,
+    Some(4),
+    Some(5),
+    Some(6),
+    Some(7),
+    Some(8),
+    Some(9),
+    Some(10),
+    Some(11),
+    Some(12),
+    None,
+    None,
+    Some(15),
+    Some(16),
+    Some(17),
+    None,
+    Some(18),
+    Some(19),
+    Some(20),
+    Some(21),
+    Some(22),
+    Some(23),
+    None,
+    None,
 ];
 
 /// Lower case, without a namespace (`mixamorig:`), Rigify's `DEF-` and separators.
@@ -121,7 +265,10 @@ impl JointMap {
             }
             let count = bvh_of.iter().flatten().count();
             if bvh_of[0].is_some() && best.as_ref().is_none_or(|(c, _)| count > *c) {
-                best = Some((count, JointMap { source: profile.to_string(), bvh_of, scale: None, z_up: false }));
+                best = Some((
+                    count,
+                    JointMap { source: profile.to_string(), bvh_of, scale: None, z_up: false },
+                ));
             }
         }
         match best {
@@ -137,13 +284,22 @@ impl JointMap {
     /// A mapping file's joints (exact BVH names) and settings.
     pub fn from_file(path: &Path, bvh: &BvhFile) -> Result<JointMap> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let file: MappingFile = serde_json::from_str(&text).map_err(|e| Error::file(path, format!("not a valid BVH mapping file: {e}")))?;
+        let file: MappingFile = serde_json::from_str(&text)
+            .map_err(|e| Error::file(path, format!("not a valid BVH mapping file: {e}")))?;
         let mut bvh_of = [None; NUM_JOINTS];
         for (bvh_name, smpl_name) in &file.joints {
             let smpl = JOINT_NAMES.iter().position(|n| n == smpl_name).ok_or_else(|| {
-                Error::file(path, format!("'{smpl_name}' is not an SMPL joint (use one of {})", JOINT_NAMES.join(", ")))
+                Error::file(
+                    path,
+                    format!(
+                        "'{smpl_name}' is not an SMPL joint (use one of {})",
+                        JOINT_NAMES.join(", ")
+                    ),
+                )
             })?;
-            let b = bvh.joint_index(bvh_name).ok_or_else(|| Error::file(path, format!("the BVH file has no joint '{bvh_name}'")))?;
+            let b = bvh.joint_index(bvh_name).ok_or_else(|| {
+                Error::file(path, format!("the BVH file has no joint '{bvh_name}'"))
+            })?;
             if bvh_of[smpl].replace(b).is_some() {
                 return Err(Error::file(path, format!("SMPL joint '{smpl_name}' is mapped twice")));
             }
@@ -154,10 +310,15 @@ impl JointMap {
         let z_up = match file.up.as_deref().map(str::to_ascii_lowercase).as_deref() {
             None | Some("y") => false,
             Some("z") => true,
-            Some(other) => return Err(Error::file(path, format!("\"up\" is '{other}': use \"y\" or \"z\""))),
+            Some(other) => {
+                return Err(Error::file(path, format!("\"up\" is '{other}': use \"y\" or \"z\"")));
+            }
         };
         if let Some(s) = file.scale.filter(|s| !(s.is_finite() && *s > 0.0)) {
-            return Err(Error::file(path, format!("\"scale\" {s} must be positive (metres per file unit)")));
+            return Err(Error::file(
+                path,
+                format!("\"scale\" {s} must be positive (metres per file unit)"),
+            ));
         }
         Ok(JointMap { source: path.display().to_string(), bvh_of, scale: file.scale, z_up })
     }
@@ -173,7 +334,13 @@ pub fn mapping_file_for(bvh_path: &Path) -> Option<PathBuf> {
 
 /// Metres per file unit: the candidate that makes the rest skeleton's height nearest 1.6 m.
 pub fn guess_scale(height: f32) -> (f32, &'static str) {
-    const UNITS: [(f32, &str); 5] = [(1.0, "m"), (0.01, "cm"), (0.001, "mm"), (0.0254, "inches"), (0.0254 / 0.45, "CMU ASF units")];
+    const UNITS: [(f32, &str); 5] = [
+        (1.0, "m"),
+        (0.01, "cm"),
+        (0.001, "mm"),
+        (0.0254, "inches"),
+        (0.0254 / 0.45, "CMU ASF units"),
+    ];
     let off = |s: f32| (s * height / 1.6).ln().abs();
     UNITS.into_iter().min_by(|a, b| off(a.0).total_cmp(&off(b.0))).expect("non-empty")
 }
@@ -186,21 +353,30 @@ pub fn load_bvh_clip(path: &Path) -> Result<MotionClip> {
         Some(m) => JointMap::from_file(&m, &bvh)?,
         None => JointMap::by_names(&bvh).map_err(|e| e.in_file(path))?,
     };
-    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "bvh".into());
+    let name =
+        path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "bvh".into());
     retarget(&bvh, &map, crate::body::open_body_ref(), &name).map_err(|e| e.in_file(path))
 }
 
 /// Retarget every frame of `bvh` onto `body`'s skeleton (its rest shape, no betas).
 pub fn retarget(bvh: &BvhFile, map: &JointMap, body: &BodyModel, name: &str) -> Result<MotionClip> {
     // The file's world to the studio's: Z up to Y up, then the facing turn (below).
-    let mut world = if map.z_up { Mat3::from_rotation_x(-std::f32::consts::FRAC_PI_2) } else { Mat3::IDENTITY };
+    let mut world =
+        if map.z_up { Mat3::from_rotation_x(-std::f32::consts::FRAC_PI_2) } else { Mat3::IDENTITY };
     let rest: Vec<Vec3> = bvh.rest_positions().iter().map(|p| world * *p).collect();
     let ends: Vec<Vec3> = bvh.rest_end_sites().iter().map(|p| world * *p).collect();
-    let (lo, hi) = rest.iter().chain(&ends).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| (lo.min(p.y), hi.max(p.y)));
+    let (lo, hi) = rest
+        .iter()
+        .chain(&ends)
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| (lo.min(p.y), hi.max(p.y)));
     let scale = match map.scale {
         Some(s) => s,
         None if hi - lo > 0.0 => guess_scale(hi - lo).0,
-        None => return Err(Error::invalid("the rest skeleton has no height: cannot tell its units (give \"scale\" in a mapping file)")),
+        None => {
+            return Err(Error::invalid(
+                "the rest skeleton has no height: cannot tell its units (give \"scale\" in a mapping file)",
+            ));
+        }
     };
     let smpl_rest = body.rest_joints(&[]);
     if let (Some(l), Some(r)) = (map.bvh_of[1], map.bvh_of[2]) {
@@ -217,12 +393,16 @@ pub fn retarget(bvh: &BvhFile, map: &JointMap, body: &BodyModel, name: &str) -> 
     for j in 1..NUM_JOINTS {
         let (Some(b), Some(c)) = (map.bvh_of[j], BONE_CHILD[j]) else { continue };
         let Some(bc) = map.bvh_of[c] else { continue };
-        let (ds, db) = ((smpl_rest[c] - smpl_rest[j]).normalize_or_zero(), (rest[bc] - rest[b]).normalize_or_zero());
+        let (ds, db) = (
+            (smpl_rest[c] - smpl_rest[j]).normalize_or_zero(),
+            (rest[bc] - rest[b]).normalize_or_zero(),
+        );
         if ds != Vec3::ZERO && db != Vec3::ZERO {
             correction[j] = Mat3::from_quat(Quat::from_rotation_arc(ds, db));
         }
     }
-    let root = map.bvh_of[0].ok_or_else(|| Error::invalid("no BVH joint drives the SMPL pelvis"))?;
+    let root =
+        map.bvh_of[0].ok_or_else(|| Error::invalid("no BVH joint drives the SMPL pelvis"))?;
     // The rest skeleton's hips height above its lowest point: a standing frame's root height.
     let standing = (rest[root].y - lo * scale).max(0.0);
     let world_t = world.transpose();

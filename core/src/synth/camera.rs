@@ -29,12 +29,28 @@ impl PinholeCamera {
     /// MetaAvatar's protocol camera: 250 x 250, f = 250 px, principal point at the centre,
     /// near 1 m, far 10 m.
     pub fn metaavatar() -> Self {
-        PinholeCamera { fx: 250.0, fy: 250.0, cx: 125.0, cy: 125.0, width: 250, height: 250, near: 1.0, far: 10.0 }
+        PinholeCamera {
+            fx: 250.0,
+            fy: 250.0,
+            cx: 125.0,
+            cy: 125.0,
+            width: 250,
+            height: 250,
+            near: 1.0,
+            far: 10.0,
+        }
     }
 
     /// What a capture written with this camera records as its intrinsics.
     pub fn intrinsics(&self) -> Intrinsics {
-        Intrinsics { fx: self.fx, fy: self.fy, cx: self.cx, cy: self.cy, width: self.width, height: self.height }
+        Intrinsics {
+            fx: self.fx,
+            fy: self.fy,
+            cx: self.cx,
+            cy: self.cy,
+            width: self.width,
+            height: self.height,
+        }
     }
 
     /// Camera-space point -> pixel coordinates.
@@ -60,7 +76,12 @@ pub fn look_at(eye: Vec3, target: Vec3) -> Mat4 {
     let down = Vec3::NEG_Y;
     let x = down.cross(z).normalize();
     let y = z.cross(x);
-    Mat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), Vec4::new(eye.x, eye.y, eye.z, 1.0))
+    Mat4::from_cols(
+        x.extend(0.0),
+        y.extend(0.0),
+        z.extend(0.0),
+        Vec4::new(eye.x, eye.y, eye.z, 1.0),
+    )
 }
 
 /// A camera on a horizontal circle of radius `distance` around `target`, at `azimuth`

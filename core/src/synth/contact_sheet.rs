@@ -1,9 +1,9 @@
 //! A contact sheet: every outfit at a few poses, shaded, in one PNG (for docs and eyeballing).
 
-use super::camera::{look_at, PinholeCamera};
-use super::deform::{canonical_surface, pose_surface, PoseFeatures};
+use super::camera::{PinholeCamera, look_at};
+use super::deform::{PoseFeatures, canonical_surface, pose_surface};
 use super::outfit::{ClothedTemplate, Outfit};
-use super::raster::{render_depth, NO_TRIANGLE};
+use super::raster::{NO_TRIANGLE, render_depth};
 use crate::body::{BodyModel, BodyParams};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
@@ -23,12 +23,24 @@ fn shade(cam: &PinholeCamera, eye: Vec3, target: Vec3, mesh: &TriMesh) -> Vec<u8
     render
         .triangle
         .iter()
-        .map(|&t| if t == NO_TRIANGLE { 255 } else { (40.0 + 200.0 * normals[t as usize].dot(light).abs()) as u8 })
+        .map(|&t| {
+            if t == NO_TRIANGLE {
+                255
+            } else {
+                (40.0 + 200.0 * normals[t as usize].dot(light).abs()) as u8
+            }
+        })
         .collect()
 }
 
 /// Rows = outfits, columns = poses. Writes an 8-bit greyscale PNG (atomic).
-pub fn write_contact_sheet(path: &Path, body: &BodyModel, betas: &[f32], outfits: &[Outfit], poses: &[BodyParams]) -> Result<()> {
+pub fn write_contact_sheet(
+    path: &Path,
+    body: &BodyModel,
+    betas: &[f32],
+    outfits: &[Outfit],
+    poses: &[BodyParams],
+) -> Result<()> {
     let rows: Vec<Vec<TriMesh>> = outfits
         .iter()
         .map(|&outfit| {
@@ -37,8 +49,12 @@ pub fn write_contact_sheet(path: &Path, body: &BodyModel, betas: &[f32], outfits
                 .iter()
                 .map(|p| {
                     let posed_body = body.pose(p);
-                    let canonical = canonical_surface(&template, &PoseFeatures::of(&posed_body.bones), 0);
-                    TriMesh::new(pose_surface(&template, &canonical, &posed_body.bones), template.faces.clone())
+                    let canonical =
+                        canonical_surface(&template, &PoseFeatures::of(&posed_body.bones), 0);
+                    TriMesh::new(
+                        pose_surface(&template, &canonical, &posed_body.bones),
+                        template.faces.clone(),
+                    )
                 })
                 .collect()
         })
@@ -50,7 +66,16 @@ pub fn write_contact_sheet(path: &Path, body: &BodyModel, betas: &[f32], outfits
 /// from a three-quarter view. Writes an 8-bit greyscale PNG (atomic).
 pub fn write_mesh_sheet(path: &Path, rows: &[Vec<TriMesh>]) -> Result<()> {
     let cols = rows.iter().map(|r| r.len()).max().unwrap_or(0);
-    let cam = PinholeCamera { fx: 230.0, fy: 230.0, cx: TILE_W as f32 / 2.0, cy: TILE_H as f32 / 2.0, width: TILE_W, height: TILE_H, near: 0.5, far: 10.0 };
+    let cam = PinholeCamera {
+        fx: 230.0,
+        fy: 230.0,
+        cx: TILE_W as f32 / 2.0,
+        cy: TILE_H as f32 / 2.0,
+        width: TILE_W,
+        height: TILE_H,
+        near: 0.5,
+        far: 10.0,
+    };
     let (w, h) = (TILE_W * cols as u32, TILE_H * rows.len() as u32);
     let mut img = vec![255u8; (w * h) as usize];
     for (r, row) in rows.iter().enumerate() {
@@ -62,7 +87,8 @@ pub fn write_mesh_sheet(path: &Path, rows: &[Vec<TriMesh>]) -> Result<()> {
             let tile = shade(&cam, eye, target, mesh);
             for y in 0..TILE_H {
                 for x in 0..TILE_W {
-                    img[((r as u32 * TILE_H + y) * w + c as u32 * TILE_W + x) as usize] = tile[(y * TILE_W + x) as usize];
+                    img[((r as u32 * TILE_H + y) * w + c as u32 * TILE_W + x) as usize] =
+                        tile[(y * TILE_W + x) as usize];
                 }
             }
         }
@@ -80,7 +106,16 @@ pub fn write_mesh_sheet(path: &Path, rows: &[Vec<TriMesh>]) -> Result<()> {
 pub fn write_view_sheet(path: &Path, meshes: &[TriMesh], views: &[Vec3]) -> Result<()> {
     const W: u32 = 180;
     const H: u32 = 270;
-    let cam = PinholeCamera { fx: 300.0, fy: 300.0, cx: W as f32 / 2.0, cy: H as f32 / 2.0, width: W, height: H, near: 0.5, far: 10.0 };
+    let cam = PinholeCamera {
+        fx: 300.0,
+        fy: 300.0,
+        cx: W as f32 / 2.0,
+        cy: H as f32 / 2.0,
+        width: W,
+        height: H,
+        near: 0.5,
+        far: 10.0,
+    };
     let (lo, hi) = meshes.first().and_then(|m| m.bounds()).unwrap_or((Vec3::ZERO, Vec3::ZERO));
     let target = (lo + hi) * 0.5;
     let (w, h) = (W * meshes.len() as u32, H * views.len() as u32);
@@ -93,7 +128,8 @@ pub fn write_view_sheet(path: &Path, meshes: &[TriMesh], views: &[Vec3]) -> Resu
                 for x in 0..W {
                     // A thin grey frame separates the tiles.
                     let edge = x == 0 || y == 0;
-                    img[((r as u32 * H + y) * w + c as u32 * W + x) as usize] = if edge { 180 } else { tile[(y * W + x) as usize] };
+                    img[((r as u32 * H + y) * w + c as u32 * W + x) as usize] =
+                        if edge { 180 } else { tile[(y * W + x) as usize] };
                 }
             }
         }

@@ -5,8 +5,8 @@
 //! - free panels (skirt, tails) swing with the thighs and flare when the legs spread.
 //! The canonical surface is then posed by linear blend skinning with the garment's weights.
 
-use super::outfit::{joint::*, ClothedTemplate};
-use crate::body::{blend_transform, Bones, NUM_JOINTS};
+use super::outfit::{ClothedTemplate, joint::*};
+use crate::body::{Bones, NUM_JOINTS, blend_transform};
 use glam::{Mat3, Vec3};
 
 /// Pose quantities the clothing responds to, read off the posed skeleton (so they do not
@@ -30,10 +30,13 @@ impl PoseFeatures {
     pub fn of(bones: &Bones) -> PoseFeatures {
         let j = bones.posed_joints();
         let r = bones.rest_joints;
-        let bend = |p: usize, m: usize, c: usize| (angle(j[m] - j[p], j[c] - j[m]) - angle(r[m] - r[p], r[c] - r[m])).max(0.0);
+        let bend = |p: usize, m: usize, c: usize| {
+            (angle(j[m] - j[p], j[c] - j[m]) - angle(r[m] - r[p], r[c] - r[m])).max(0.0)
+        };
         let up = (j[SPINE3] - j[PELVIS]).normalize_or(Vec3::Y);
         let pelvis: Mat3 = bones.global_rotations()[PELVIS];
-        let thigh = |h: usize, k: usize| pelvis.transpose() * (j[k] - j[h]).normalize_or(Vec3::NEG_Y);
+        let thigh =
+            |h: usize, k: usize| pelvis.transpose() * (j[k] - j[h]).normalize_or(Vec3::NEG_Y);
         PoseFeatures {
             elbow_flex: [bend(L_SHOULDER, L_ELBOW, L_WRIST), bend(R_SHOULDER, R_ELBOW, R_WRIST)],
             knee_flex: [bend(L_HIP, L_KNEE, L_ANKLE), bend(R_HIP, R_KNEE, R_ANKLE)],
@@ -59,9 +62,16 @@ const FOLD_DEPTH: f32 = 0.025;
 
 /// The clothed surface in canonical space for this pose (same vertex order as the template).
 /// `phase_seed` shifts the folds per subject so two subjects do not wrinkle identically.
-pub fn canonical_surface(t: &ClothedTemplate, features: &PoseFeatures, phase_seed: u64) -> Vec<Vec3> {
+pub fn canonical_surface(
+    t: &ClothedTemplate,
+    features: &PoseFeatures,
+    phase_seed: u64,
+) -> Vec<Vec3> {
     let spec = t.outfit.spec();
-    let lift = spec.hem_lift * 0.5 * (smoothstep(-0.7, 0.9, features.arm_elevation[0]) + smoothstep(-0.7, 0.9, features.arm_elevation[1]));
+    let lift = spec.hem_lift
+        * 0.5
+        * (smoothstep(-0.7, 0.9, features.arm_elevation[0])
+            + smoothstep(-0.7, 0.9, features.arm_elevation[1]));
     let offsets = t.offsets(lift);
     let joints = rest_joints_of(t);
     // (joint, parent, child, flexion) of every fold site.
@@ -71,7 +81,14 @@ pub fn canonical_surface(t: &ClothedTemplate, features: &PoseFeatures, phase_see
         (L_KNEE, L_HIP, L_ANKLE, features.knee_flex[0]),
         (R_KNEE, R_HIP, R_ANKLE, features.knee_flex[1]),
     ];
-    let phase = |k: usize| ((phase_seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add((k as u64).wrapping_mul(0x632B_E59B_D9B4_E019))) >> 40) as f32 / (1u64 << 24) as f32 * std::f32::consts::TAU;
+    let phase = |k: usize| {
+        ((phase_seed
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            .wrapping_add((k as u64).wrapping_mul(0x632B_E59B_D9B4_E019)))
+            >> 40) as f32
+            / (1u64 << 24) as f32
+            * std::f32::consts::TAU
+    };
     let mut out = Vec::with_capacity(t.vertices.len());
     for v in 0..t.body_vertices {
         let p = t.body_rest[v];
@@ -88,8 +105,13 @@ pub fn canonical_surface(t: &ClothedTemplate, features: &PoseFeatures, phase_see
                 let axis = (joints[child] - joints[parent]).normalize_or_zero();
                 let s = (p - joints[jt]).dot(axis);
                 let envelope = (-(s / FOLD_BAND).powi(2)).exp();
-                let wave = 0.5 + 0.5 * (std::f32::consts::TAU * s / FOLD_WAVELENGTH + phase(k)).sin();
-                d += FOLD_DEPTH * (flex / std::f32::consts::FRAC_PI_2).min(1.4) * envelope * wave * w.min(1.0);
+                let wave =
+                    0.5 + 0.5 * (std::f32::consts::TAU * s / FOLD_WAVELENGTH + phase(k)).sin();
+                d += FOLD_DEPTH
+                    * (flex / std::f32::consts::FRAC_PI_2).min(1.4)
+                    * envelope
+                    * wave
+                    * w.min(1.0);
             }
         }
         out.push(p + t.normals[v] * d);
@@ -119,5 +141,9 @@ fn rest_joints_of(t: &ClothedTemplate) -> [Vec3; NUM_JOINTS] {
 
 /// Pose a canonical surface by LBS with the template's weights.
 pub fn pose_surface(t: &ClothedTemplate, canonical: &[Vec3], bones: &Bones) -> Vec<Vec3> {
-    canonical.iter().zip(&t.weights).map(|(&p, w)| blend_transform(&bones.transforms, w).transform_point3(p)).collect()
+    canonical
+        .iter()
+        .zip(&t.weights)
+        .map(|(&p, w)| blend_transform(&bones.transforms, w).transform_point3(p))
+        .collect()
 }

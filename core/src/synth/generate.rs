@@ -2,14 +2,14 @@
 //! motion clip in front of a fixed depth camera, turning 45 degrees between frames (the
 //! MetaAvatar protocol); depth PNGs, capture.json and the ground truth are written.
 
-use super::camera::{look_at, PinholeCamera};
-use super::deform::{canonical_surface, pose_surface, PoseFeatures};
-use super::ground_truth::{GroundTruth, GtFrame, GtHeader, GT_FORMAT};
+use super::camera::{PinholeCamera, look_at};
+use super::deform::{PoseFeatures, canonical_surface, pose_surface};
+use super::ground_truth::{GT_FORMAT, GroundTruth, GtFrame, GtHeader};
 use super::noise::DepthNoise;
 use super::outfit::{ClothedTemplate, Outfit};
-use super::raster::{render_depth, NO_TRIANGLE};
+use super::raster::{NO_TRIANGLE, render_depth};
 use crate::body::{BodyModel, BodyParams};
-use crate::capture::{write_depth_png, CaptureManifest, FrameRecord, DEPTH_SCALE_MM};
+use crate::capture::{CaptureManifest, DEPTH_SCALE_MM, FrameRecord, write_depth_png};
 use crate::error::{Error, Result};
 use crate::motion::MotionClip;
 use glam::{Quat, Vec3};
@@ -25,7 +25,10 @@ pub const CAMERA_DISTANCE: f32 = 2.4;
 /// Shape coefficients of subject `seed`: uniform within 60% of each direction's limits.
 pub fn subject_betas(body: &BodyModel, seed: u64) -> Vec<f32> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5ab1_ec75);
-    body.shape_limits.iter().map(|&(lo, hi)| rng.random_range(0.6 * lo..=0.6 * hi.max(lo + 1e-6))).collect()
+    body.shape_limits
+        .iter()
+        .map(|&(lo, hi)| rng.random_range(0.6 * lo..=0.6 * hi.max(lo + 1e-6)))
+        .collect()
 }
 
 #[derive(Debug, Clone)]

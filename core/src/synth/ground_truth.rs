@@ -9,12 +9,12 @@
 //! All arrays are float32 (integers stored exactly).
 
 use crate::body::skeleton::BodyPart;
-use crate::body::{Weights, NUM_JOINTS};
+use crate::body::{NUM_JOINTS, Weights};
 use crate::error::{Error, Result};
-use crate::io::npz::{write_f32_npz, Npz};
+use crate::io::npz::{Npz, write_f32_npz};
+use crate::mesh::TriMesh;
 use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
-use crate::mesh::TriMesh;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -60,19 +60,45 @@ impl GroundTruth {
         let dir = capture_dir.as_ref().join(GT_DIR);
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         let (n, v) = (self.frames.len(), self.rest.len());
-        let json = serde_json::to_string_pretty(&self.header).map_err(|e| Error::invalid(e.to_string()))?;
+        let json = serde_json::to_string_pretty(&self.header)
+            .map_err(|e| Error::invalid(e.to_string()))?;
         crate::io::write_bytes_atomic(dir.join("ground_truth.json"), json.as_bytes())?;
-        write_f32_npz(dir.join("mesh.npz"), &[
-            ("faces", vec![self.faces.len(), 3], self.faces.iter().flat_map(|f| f.map(|i| i as f32)).collect()),
-            ("vertex_joint", vec![v], self.vertex_joint.iter().map(|&j| j as f32).collect()),
-            ("weights", vec![v, NUM_JOINTS], self.weights.iter().flat_map(|w| w.iter().copied()).collect()),
-            ("rest", vec![v, 3], flat(&self.rest)),
-        ])?;
-        write_f32_npz(dir.join("frames.npz"), &[
-            ("posed", vec![n, v, 3], self.frames.iter().flat_map(|f| flat(&f.posed)).collect()),
-            ("canonical", vec![n, v, 3], self.frames.iter().flat_map(|f| flat(&f.canonical)).collect()),
-            ("visible", vec![n, v], self.frames.iter().flat_map(|f| f.visible.iter().map(|&b| b as u8 as f32)).collect()),
-        ])
+        write_f32_npz(
+            dir.join("mesh.npz"),
+            &[
+                (
+                    "faces",
+                    vec![self.faces.len(), 3],
+                    self.faces.iter().flat_map(|f| f.map(|i| i as f32)).collect(),
+                ),
+                ("vertex_joint", vec![v], self.vertex_joint.iter().map(|&j| j as f32).collect()),
+                (
+                    "weights",
+                    vec![v, NUM_JOINTS],
+                    self.weights.iter().flat_map(|w| w.iter().copied()).collect(),
+                ),
+                ("rest", vec![v, 3], flat(&self.rest)),
+            ],
+        )?;
+        write_f32_npz(
+            dir.join("frames.npz"),
+            &[
+                ("posed", vec![n, v, 3], self.frames.iter().flat_map(|f| flat(&f.posed)).collect()),
+                (
+                    "canonical",
+                    vec![n, v, 3],
+                    self.frames.iter().flat_map(|f| flat(&f.canonical)).collect(),
+                ),
+                (
+                    "visible",
+                    vec![n, v],
+                    self.frames
+                        .iter()
+                        .flat_map(|f| f.visible.iter().map(|&b| b as u8 as f32))
+                        .collect(),
+                ),
+            ],
+        )
     }
 
     /// Load `gt/` from a capture folder.
@@ -80,23 +106,45 @@ impl GroundTruth {
         let dir = capture_dir.as_ref().join(GT_DIR);
         let hp = dir.join("ground_truth.json");
         let text = std::fs::read_to_string(&hp).map_err(|e| Error::io(&hp, e))?;
-        let header: GtHeader = serde_json::from_str(&text).map_err(|e| Error::file(&hp, format!("not a ground-truth header: {e}")))?;
+        let header: GtHeader = serde_json::from_str(&text)
+            .map_err(|e| Error::file(&hp, format!("not a ground-truth header: {e}")))?;
         if header.format != GT_FORMAT {
-            return Err(Error::file(&hp, format!("format is {:?}, expected {GT_FORMAT:?}", header.format)));
+            return Err(Error::file(
+                &hp,
+                format!("format is {:?}, expected {GT_FORMAT:?}", header.format),
+            ));
         }
         let (n, v) = (header.num_frames, header.num_vertices);
         let mp = dir.join("mesh.npz");
         let mut mesh = Npz::open(&mp)?;
-        let shape_err = |p: &Path, k: &str, got: &[usize]| Error::file(p, format!("'{k}' has shape {got:?}, which does not match the header ({n} frames, {v} vertices)"));
+        let shape_err = |p: &Path, k: &str, got: &[usize]| {
+            Error::file(
+                p,
+                format!(
+                    "'{k}' has shape {got:?}, which does not match the header ({n} frames, {v} vertices)"
+                ),
+            )
+        };
         let faces = mesh.require("faces")?;
         let vj = mesh.require("vertex_joint")?;
         let w = mesh.require("weights")?;
         let rest = mesh.require("rest")?;
-        if vj.shape != [v] { return Err(shape_err(&mp, "vertex_joint", &vj.shape)); }
-        if w.shape != [v, NUM_JOINTS] { return Err(shape_err(&mp, "weights", &w.shape)); }
-        if rest.shape != [v, 3] { return Err(shape_err(&mp, "rest", &rest.shape)); }
-        let to_vec3 = |d: &[f64]| d.chunks_exact(3).map(|c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32)).collect::<Vec<_>>();
-        let faces: Vec<[u32; 3]> = faces.data.chunks_exact(3).map(|c| [c[0] as u32, c[1] as u32, c[2] as u32]).collect();
+        if vj.shape != [v] {
+            return Err(shape_err(&mp, "vertex_joint", &vj.shape));
+        }
+        if w.shape != [v, NUM_JOINTS] {
+            return Err(shape_err(&mp, "weights", &w.shape));
+        }
+        if rest.shape != [v, 3] {
+            return Err(shape_err(&mp, "rest", &rest.shape));
+        }
+        let to_vec3 = |d: &[f64]| {
+            d.chunks_exact(3)
+                .map(|c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))
+                .collect::<Vec<_>>()
+        };
+        let faces: Vec<[u32; 3]> =
+            faces.data.chunks_exact(3).map(|c| [c[0] as u32, c[1] as u32, c[2] as u32]).collect();
         if faces.iter().flatten().any(|&i| i as usize >= v) {
             return Err(Error::file(&mp, "'faces' refers to a vertex beyond 'rest'"));
         }
@@ -106,9 +154,13 @@ impl GroundTruth {
         let canonical = fr.require("canonical")?;
         let visible = fr.require("visible")?;
         for (k, a) in [("posed", &posed), ("canonical", &canonical)] {
-            if a.shape != [n, v, 3] { return Err(shape_err(&fp, k, &a.shape)); }
+            if a.shape != [n, v, 3] {
+                return Err(shape_err(&fp, k, &a.shape));
+            }
         }
-        if visible.shape != [n, v] { return Err(shape_err(&fp, "visible", &visible.shape)); }
+        if visible.shape != [n, v] {
+            return Err(shape_err(&fp, "visible", &visible.shape));
+        }
         let frames = (0..n)
             .map(|i| GtFrame {
                 posed: to_vec3(&posed.data[i * v * 3..(i + 1) * v * 3]),
@@ -120,7 +172,11 @@ impl GroundTruth {
             header,
             faces,
             vertex_joint: vj.data.iter().map(|&x| x as u8).collect(),
-            weights: w.data.chunks_exact(NUM_JOINTS).map(|c| std::array::from_fn(|j| c[j] as f32)).collect(),
+            weights: w
+                .data
+                .chunks_exact(NUM_JOINTS)
+                .map(|c| std::array::from_fn(|j| c[j] as f32))
+                .collect(),
             rest: to_vec3(&rest.data),
             frames,
         })

@@ -11,11 +11,11 @@ pub mod outfit;
 pub mod raster;
 pub mod smpl_stand_in;
 
-pub use camera::{look_at, orbit, PinholeCamera};
-pub use deform::{canonical_surface, pose_surface, PoseFeatures};
-pub use generate::{generate_capture, subject_betas, SynthJob, SynthReport};
+pub use camera::{PinholeCamera, look_at, orbit};
+pub use deform::{PoseFeatures, canonical_surface, pose_surface};
+pub use generate::{SynthJob, SynthReport, generate_capture, subject_betas};
 pub use ground_truth::{GroundTruth, GtFrame};
 pub use noise::DepthNoise;
-pub use outfit::{ClothedTemplate, Outfit, ALL_OUTFITS};
-pub use raster::{render_depth, DepthRender, NO_TRIANGLE};
+pub use outfit::{ALL_OUTFITS, ClothedTemplate, Outfit};
+pub use raster::{DepthRender, NO_TRIANGLE, render_depth};
 pub use smpl_stand_in::{generate_smpl_capture, smpl_stand_in};

@@ -46,7 +46,13 @@ impl DepthNoise {
     }
 
     pub fn kinect_v2() -> Self {
-        DepthNoise { sigma_base: 0.0015, sigma_quad: 0.0005, sigma_z0: 0.0, disparity_step: 0.0, ..Self::kinect_v1() }
+        DepthNoise {
+            sigma_base: 0.0015,
+            sigma_quad: 0.0005,
+            sigma_z0: 0.0,
+            disparity_step: 0.0,
+            ..Self::kinect_v1()
+        }
     }
 
     pub fn preset(name: &str) -> Option<Self> {
@@ -93,7 +99,11 @@ impl DepthNoise {
         }
         // Blobs centred on valid pixels.
         let valid: Vec<usize> = (0..depth.len()).filter(|&i| clean[i] > 0.0).collect();
-        let blobs = if self.max_blobs == 0 || valid.is_empty() { 0 } else { rng.random_range(0..=self.max_blobs) };
+        let blobs = if self.max_blobs == 0 || valid.is_empty() {
+            0
+        } else {
+            rng.random_range(0..=self.max_blobs)
+        };
         for _ in 0..blobs {
             let c = valid[rng.random_range(0..valid.len())];
             let (cu, cv) = ((c % width) as f32, (c / width) as f32);
@@ -173,7 +183,13 @@ mod tests {
 
     #[test]
     fn kinect_v1_quantises_depth_in_steps_of_z_squared() {
-        let n = DepthNoise { sigma_base: 0.0, sigma_quad: 0.0, edge_dropout: 0.0, max_blobs: 0, ..DepthNoise::kinect_v1() };
+        let n = DepthNoise {
+            sigma_base: 0.0,
+            sigma_quad: 0.0,
+            edge_dropout: 0.0,
+            max_blobs: 0,
+            ..DepthNoise::kinect_v1()
+        };
         let mut d = plane(3.0);
         n.apply(&mut d, 100, 100, &mut ChaCha8Rng::seed_from_u64(2));
         let z = d[50 * 100 + 50];
@@ -183,7 +199,12 @@ mod tests {
 
     #[test]
     fn holes_appear_at_edges_and_in_blobs() {
-        let n = DepthNoise { sigma_base: 0.0, sigma_quad: 0.0, max_blobs: 3, ..DepthNoise::kinect_v2() };
+        let n = DepthNoise {
+            sigma_base: 0.0,
+            sigma_quad: 0.0,
+            max_blobs: 3,
+            ..DepthNoise::kinect_v2()
+        };
         let mut lost_edges = 0;
         let mut lost_inside = 0;
         for seed in 0..10 {
@@ -192,11 +213,18 @@ mod tests {
             for v in 20..80 {
                 for u in 20..80 {
                     if d[v * 100 + u] == 0.0 {
-                        if u == 20 || u == 79 || v == 20 || v == 79 { lost_edges += 1 } else { lost_inside += 1 }
+                        if u == 20 || u == 79 || v == 20 || v == 79 {
+                            lost_edges += 1
+                        } else {
+                            lost_inside += 1
+                        }
                     }
                 }
             }
-            assert!(d.iter().enumerate().all(|(i, &z)| z == 0.0 || plane(2.0)[i] > 0.0), "no depth appears from nothing");
+            assert!(
+                d.iter().enumerate().all(|(i, &z)| z == 0.0 || plane(2.0)[i] > 0.0),
+                "no depth appears from nothing"
+            );
         }
         // 236 edge pixels a frame, 60% dropped: about 1400 over 10 frames.
         assert!((1100..1700).contains(&lost_edges), "{lost_edges}");

@@ -3,7 +3,7 @@
 //! panels that do not follow the legs (a dress skirt, blazer tails) as tubes hanging from the
 //! waist, skinned to the pelvis and both hips so they swing as a whole.
 
-use crate::body::{BodyModel, Weights, NUM_JOINTS};
+use crate::body::{BodyModel, NUM_JOINTS, Weights};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use glam::Vec3;
@@ -41,7 +41,13 @@ pub enum Outfit {
     BlazerTails,
 }
 
-pub const ALL_OUTFITS: [Outfit; 5] = [Outfit::TshirtShorts, Outfit::LongsleeveTrousers, Outfit::PoloLoose, Outfit::Dress, Outfit::BlazerTails];
+pub const ALL_OUTFITS: [Outfit; 5] = [
+    Outfit::TshirtShorts,
+    Outfit::LongsleeveTrousers,
+    Outfit::PoloLoose,
+    Outfit::Dress,
+    Outfit::BlazerTails,
+];
 
 /// A free panel hanging from the waist: a (partial) elliptic tube.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -98,13 +104,41 @@ impl Outfit {
     }
 
     pub fn spec(self) -> OutfitSpec {
-        let none = OutfitSpec { shirt: 0.0, hem_flare: 0.0, upper_sleeve: 0.0, lower_sleeve: 0.0, pants: 0.0, lower_legs: 0.0, hem_lift: 0.0, panel: None };
+        let none = OutfitSpec {
+            shirt: 0.0,
+            hem_flare: 0.0,
+            upper_sleeve: 0.0,
+            lower_sleeve: 0.0,
+            pants: 0.0,
+            lower_legs: 0.0,
+            hem_lift: 0.0,
+            panel: None,
+        };
         match self {
-            Outfit::TshirtShorts => OutfitSpec { shirt: 0.008, upper_sleeve: 0.008, pants: 0.010, hem_lift: 0.05, ..none },
-            Outfit::LongsleeveTrousers => {
-                OutfitSpec { shirt: 0.012, upper_sleeve: 0.012, lower_sleeve: 0.012, pants: 0.015, lower_legs: 0.015, hem_lift: 0.05, ..none }
-            }
-            Outfit::PoloLoose => OutfitSpec { shirt: 0.022, hem_flare: 0.045, upper_sleeve: 0.016, pants: 0.012, hem_lift: 0.07, ..none },
+            Outfit::TshirtShorts => OutfitSpec {
+                shirt: 0.008,
+                upper_sleeve: 0.008,
+                pants: 0.010,
+                hem_lift: 0.05,
+                ..none
+            },
+            Outfit::LongsleeveTrousers => OutfitSpec {
+                shirt: 0.012,
+                upper_sleeve: 0.012,
+                lower_sleeve: 0.012,
+                pants: 0.015,
+                lower_legs: 0.015,
+                hem_lift: 0.05,
+                ..none
+            },
+            Outfit::PoloLoose => OutfitSpec {
+                shirt: 0.022,
+                hem_flare: 0.045,
+                upper_sleeve: 0.016,
+                pants: 0.012,
+                hem_lift: 0.07,
+                ..none
+            },
             Outfit::Dress => OutfitSpec {
                 shirt: 0.010,
                 upper_sleeve: 0.008,
@@ -191,8 +225,11 @@ impl ClothedTemplate {
             let thigh = weight_of(w, &[L_HIP, R_HIP]);
             let shin = weight_of(w, &[L_KNEE, R_KNEE]);
             // The neck and head stay bare: fade the shirt out towards the neck joint.
-            let neck_fade = 1.0 - smoothstep(joints[NECK].y - 0.08, joints[NECK].y - 0.02, rest[v].y);
-            shirt_offset[v] = (torso * spec.shirt + upper * spec.upper_sleeve + lower * spec.lower_sleeve) * neck_fade;
+            let neck_fade =
+                1.0 - smoothstep(joints[NECK].y - 0.08, joints[NECK].y - 0.02, rest[v].y);
+            shirt_offset[v] =
+                (torso * spec.shirt + upper * spec.upper_sleeve + lower * spec.lower_sleeve)
+                    * neck_fade;
             // Pants cover the pelvis below the waist and the legs.
             let below_waist = 1.0 - smoothstep(waist_y - 0.02, waist_y + 0.02, rest[v].y);
             base_offset[v] = (torso * below_waist + thigh) * spec.pants + shin * spec.lower_legs;
@@ -238,7 +275,11 @@ impl ClothedTemplate {
                 let below = smoothstep(hem - 0.015, hem + 0.015, y);
                 // A loose hem: extra room in the 12 cm above the hem.
                 let flare = spec.hem_flare * (1.0 - smoothstep(hem, hem + 0.12, y)) * below;
-                let shirt = if on_torso { (self.shirt_offset[v] + flare) * below + self.sleeve_part(v) * (1.0 - below) } else { 0.0 };
+                let shirt = if on_torso {
+                    (self.shirt_offset[v] + flare) * below + self.sleeve_part(v) * (1.0 - below)
+                } else {
+                    0.0
+                };
                 shirt.max(self.base_offset[v])
             })
             .collect()
@@ -248,20 +289,29 @@ impl ClothedTemplate {
     fn sleeve_part(&self, v: usize) -> f32 {
         let spec = self.outfit.spec();
         let w = &self.weights[v];
-        weight_of(w, &[L_SHOULDER, R_SHOULDER]) * spec.upper_sleeve + weight_of(w, &[L_ELBOW, R_ELBOW]) * spec.lower_sleeve
+        weight_of(w, &[L_SHOULDER, R_SHOULDER]) * spec.upper_sleeve
+            + weight_of(w, &[L_ELBOW, R_ELBOW]) * spec.lower_sleeve
     }
 
     fn add_panel(&mut self, rest: &[Vec3], joints: &[Vec3; NUM_JOINTS], panel: Panel) {
         const RINGS: usize = 24;
         const SEGMENTS: usize = 72;
         // The waist ring: the body's extent at waist height, plus the shirt's offset and a gap.
-        let near_waist: Vec<Vec3> = rest.iter().copied().filter(|p| (p.y - self.waist_y).abs() < 0.02 && p.x.abs() < 0.25).collect();
+        let near_waist: Vec<Vec3> = rest
+            .iter()
+            .copied()
+            .filter(|p| (p.y - self.waist_y).abs() < 0.02 && p.x.abs() < 0.25)
+            .collect();
         let cx = joints[PELVIS].x;
         let cz = near_waist.iter().map(|p| p.z).sum::<f32>() / near_waist.len().max(1) as f32;
         let rx = near_waist.iter().map(|p| (p.x - cx).abs()).fold(0.1f32, f32::max) + 0.025;
         let rz = near_waist.iter().map(|p| (p.z - cz).abs()).fold(0.08f32, f32::max) + 0.025;
         // Hips are wider than the waist: the skirt must clear them.
-        let hips: Vec<Vec3> = rest.iter().copied().filter(|p| (p.y - joints[L_HIP].y).abs() < 0.05 && p.x.abs() < 0.3).collect();
+        let hips: Vec<Vec3> = rest
+            .iter()
+            .copied()
+            .filter(|p| (p.y - joints[L_HIP].y).abs() < 0.05 && p.x.abs() < 0.3)
+            .collect();
         let hip_rx = hips.iter().map(|p| (p.x - cx).abs()).fold(rx, f32::max) + 0.03;
         let hip_rz = hips.iter().map(|p| (p.z - cz).abs()).fold(rz, f32::max) + 0.03;
         let full = panel.extent >= std::f32::consts::TAU - 1e-3;
@@ -279,7 +329,8 @@ impl ClothedTemplate {
                 let a = if full {
                     c as f32 / cols as f32 * std::f32::consts::TAU
                 } else {
-                    std::f32::consts::PI - panel.extent / 2.0 + panel.extent * c as f32 / (cols - 1) as f32
+                    std::f32::consts::PI - panel.extent / 2.0
+                        + panel.extent * c as f32 / (cols - 1) as f32
                 };
                 let dir = Vec3::new(a.sin(), 0.0, a.cos());
                 self.vertices.push(Vec3::new(cx + ex * dir.x, y, cz + ez * dir.z));

@@ -36,7 +36,12 @@ impl DepthRender {
 }
 
 /// Render a triangle mesh (world coordinates) seen by `camera` placed at `camera_to_world`.
-pub fn render_depth(camera: &PinholeCamera, camera_to_world: Mat4, positions: &[Vec3], faces: &[[u32; 3]]) -> DepthRender {
+pub fn render_depth(
+    camera: &PinholeCamera,
+    camera_to_world: Mat4,
+    positions: &[Vec3],
+    faces: &[[u32; 3]],
+) -> DepthRender {
     let w2c = camera_to_world.inverse();
     let cam: Vec<Vec3> = positions.iter().map(|&p| w2c.transform_point3(p)).collect();
     let (w, h) = (camera.width as usize, camera.height as usize);
@@ -78,7 +83,16 @@ pub fn render_depth(camera: &PinholeCamera, camera_to_world: Mat4, positions: &[
         if umax < umin as i64 || vmax < vmin as i64 {
             continue;
         }
-        tris.push(Tri { id: id as u32, a: p[0], n, s, umin, umax: umax as usize, vmin, vmax: vmax as usize });
+        tris.push(Tri {
+            id: id as u32,
+            a: p[0],
+            n,
+            s,
+            umin,
+            umax: umax as usize,
+            vmin,
+            vmax: vmax as usize,
+        });
     }
     let mut binned: Vec<Vec<u32>> = vec![Vec::new(); bands];
     for (k, t) in tris.iter().enumerate() {
@@ -235,7 +249,8 @@ pub(crate) mod tests {
                         // The same triangle, unless the ray passes through a shared edge.
                         if tri != k {
                             let t = f[tri as usize].map(|i| pc[i as usize]);
-                            let again = ray_triangle(Vec3::ZERO, dir, t).expect("raster triangle is hit by the ray");
+                            let again = ray_triangle(Vec3::ZERO, dir, t)
+                                .expect("raster triangle is hit by the ray");
                             assert!((again - s).abs() < 1e-5);
                         }
                         hits += 1;

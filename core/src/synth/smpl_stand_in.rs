@@ -5,8 +5,8 @@
 //! scale, height and girth about the pelvis: coefficients read as the open body's seven
 //! MakeHuman directions give another person.
 
-use super::generate::{generate_capture, SynthJob, SynthReport};
-use crate::body::{open_body_lowpoly_ref, BodyModel};
+use super::generate::{SynthJob, SynthReport, generate_capture};
+use crate::body::{BodyModel, open_body_lowpoly_ref};
 use crate::capture::{BodyModelRef, CaptureManifest};
 use crate::error::Result;
 use glam::Vec3;
@@ -24,9 +24,14 @@ pub fn smpl_stand_in() -> BodyModel {
     for (v, &p) in open.v_template.iter().enumerate() {
         shapedirs.extend((0..k0).map(|k| open.shapedirs[v * k0 + k0 - 1 - k] * 0.5));
         let d = p - root;
-        shapedirs.extend([d * 0.05, Vec3::new(0.0, d.y, 0.0) * 0.05, Vec3::new(d.x, 0.0, d.z) * 0.05]);
+        shapedirs.extend([
+            d * 0.05,
+            Vec3::new(0.0, d.y, 0.0) * 0.05,
+            Vec3::new(d.x, 0.0, d.z) * 0.05,
+        ]);
     }
-    let mut limits: Vec<(f32, f32)> = open.shape_limits.iter().rev().map(|&(lo, hi)| (2.0 * lo, 2.0 * hi)).collect();
+    let mut limits: Vec<(f32, f32)> =
+        open.shape_limits.iter().rev().map(|&(lo, hi)| (2.0 * lo, 2.0 * hi)).collect();
     limits.extend([(-1.5, 1.5); EXTRA_DIRECTIONS]);
     BodyModel {
         label: "SMPL stand-in (the open body in SMPL layout)".into(),

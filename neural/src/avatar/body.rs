@@ -17,8 +17,8 @@
 //! (6,890 vertices, 13,776 faces) adds about 0.3 MB plus 8 bytes per non-zero weight.
 
 use crate::capture_points::CapturePoints;
-use avatar_core::body::{open_body_ref, BodyModel, Weights, NUM_JOINTS};
 use crate::error::{Error, Result};
+use avatar_core::body::{BodyModel, NUM_JOINTS, Weights, open_body_ref};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -46,7 +46,11 @@ pub struct BodySection {
 impl BodySection {
     /// Float32 values the section occupies in the file.
     pub fn len(&self) -> usize {
-        self.vertices * 3 + NUM_JOINTS * 3 + self.faces * 3 + self.vertices + 2 * self.weight_entries
+        self.vertices * 3
+            + NUM_JOINTS * 3
+            + self.faces * 3
+            + self.vertices
+            + 2 * self.weight_entries
     }
 
     pub fn is_empty(&self) -> bool {
@@ -61,7 +65,9 @@ pub fn of_capture(capture: &CapturePoints) -> (BodyModel, &'static str, u32, Opt
         return (capture.body.clone(), OPEN_BODY, VERSION_OPEN_BODY, None);
     };
     let body = capture.body.frozen(&capture.betas);
-    let label = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let label = file
+        .file_name()
+        .map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
     let section = BodySection {
         label,
         vertices: body.num_vertices(),
@@ -75,7 +81,9 @@ pub fn of_capture(capture: &CapturePoints) -> (BodyModel, &'static str, u32, Opt
 pub fn check_version(version: u32, section: Option<&BodySection>) -> Result<()> {
     if (version == VERSION_WITH_BODY) != section.is_some() {
         let has = if section.is_some() { "a stored body" } else { "no stored body" };
-        return Err(Error::invalid(format!("version {version} with {has} (version {VERSION_OPEN_BODY}: none, version {VERSION_WITH_BODY}: one)")));
+        return Err(Error::invalid(format!(
+            "version {version} with {has} (version {VERSION_OPEN_BODY}: none, version {VERSION_WITH_BODY}: one)"
+        )));
     }
     Ok(())
 }
@@ -97,16 +105,43 @@ pub fn encode(body: &BodyModel, section: &BodySection) -> Vec<f32> {
 
 /// Split a file's values into the network's `num_params` weights and the body it poses with:
 /// the frozen body of its section, or the embedded open body. Errors name the file.
-pub fn split(path: &Path, body_model: &str, section: Option<&BodySection>, mut values: Vec<f32>, num_params: usize) -> Result<(Vec<f32>, BodyModel)> {
+pub fn split(
+    path: &Path,
+    body_model: &str,
+    section: Option<&BodySection>,
+    mut values: Vec<f32>,
+    num_params: usize,
+) -> Result<(Vec<f32>, BodyModel)> {
     let extra = section.map_or(0, BodySection::len);
     if values.len() != num_params + extra {
-        return Err(Error::file(path, format!("truncated avatar file: {} values, expected {} ({num_params} weights and {extra} of its body)", values.len(), num_params + extra)));
+        return Err(Error::file(
+            path,
+            format!(
+                "truncated avatar file: {} values, expected {} ({num_params} weights and {extra} of its body)",
+                values.len(),
+                num_params + extra
+            ),
+        ));
     }
     let body = match (body_model, section) {
         (OPEN_BODY, None) => open_body_ref().clone(),
         (SMPL, Some(s)) => decode(s, &values[num_params..]).map_err(|e| e.in_file(path))?,
-        (name, None) => return Err(Error::file(path, format!("the avatar's body model {name:?} is not the open body and the file carries no body"))),
-        (name, Some(_)) => return Err(Error::file(path, format!("body model {name:?} with a stored body (this build reads {OPEN_BODY:?} without one, {SMPL:?} with one)"))),
+        (name, None) => {
+            return Err(Error::file(
+                path,
+                format!(
+                    "the avatar's body model {name:?} is not the open body and the file carries no body"
+                ),
+            ));
+        }
+        (name, Some(_)) => {
+            return Err(Error::file(
+                path,
+                format!(
+                    "body model {name:?} with a stored body (this build reads {OPEN_BODY:?} without one, {SMPL:?} with one)"
+                ),
+            ));
+        }
     };
     values.truncate(num_params);
     Ok((values, body))
@@ -118,8 +153,11 @@ fn decode(s: &BodySection, data: &[f32]) -> Result<BodyModel> {
     if nv == 0 || nv >= 1 << 24 {
         return Err(bad(&format!("{nv} vertices")));
     }
-    let index = |x: f32, below: usize| (x >= 0.0 && x.fract() == 0.0 && (x as usize) < below).then_some(x as u32);
-    let vec3s = |d: &[f32]| d.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect::<Vec<_>>();
+    let index = |x: f32, below: usize| {
+        (x >= 0.0 && x.fract() == 0.0 && (x as usize) < below).then_some(x as u32)
+    };
+    let vec3s =
+        |d: &[f32]| d.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect::<Vec<_>>();
     let (rest, data) = data.split_at(nv * 3);
     let (joints, data) = data.split_at(NUM_JOINTS * 3);
     let (faces, data) = data.split_at(nf * 3);
@@ -132,11 +170,13 @@ fn decode(s: &BodySection, data: &[f32]) -> Result<BodyModel> {
     let mut weights: Vec<Weights> = Vec::with_capacity(nv);
     let mut pairs = pairs.chunks_exact(2);
     for (v, &n) in counts.iter().enumerate() {
-        let n = index(n, NUM_JOINTS + 1).ok_or_else(|| bad(&format!("vertex {v} has a bad skinning-weight count")))?;
+        let n = index(n, NUM_JOINTS + 1)
+            .ok_or_else(|| bad(&format!("vertex {v} has a bad skinning-weight count")))?;
         let mut w = [0f32; NUM_JOINTS];
         for _ in 0..n {
             let p = pairs.next().ok_or_else(|| bad("fewer skinning weights than counted"))?;
-            let j = index(p[0], NUM_JOINTS).ok_or_else(|| bad(&format!("vertex {v} has a joint index out of range")))?;
+            let j = index(p[0], NUM_JOINTS)
+                .ok_or_else(|| bad(&format!("vertex {v} has a joint index out of range")))?;
             w[j as usize] = p[1];
         }
         weights.push(w);
@@ -145,5 +185,11 @@ fn decode(s: &BodySection, data: &[f32]) -> Result<BodyModel> {
         return Err(bad("more skinning weights than counted"));
     }
     let joints: [Vec3; NUM_JOINTS] = vec3s(joints).try_into().expect("24 joints");
-    Ok(BodyModel::from_frozen_parts(&format!("{} (frozen in the avatar)", s.label), vec3s(rest), faces, weights, joints)?)
+    Ok(BodyModel::from_frozen_parts(
+        &format!("{} (frozen in the avatar)", s.label),
+        vec3s(rest),
+        faces,
+        weights,
+        joints,
+    )?)
 }

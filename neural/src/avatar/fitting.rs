@@ -11,14 +11,14 @@ use crate::avatar::meta_avatar::{Init, MetaAvatar, SCRATCH_ENCODER_RATE};
 use crate::avatar::static_avatar::StaticAvatar;
 use crate::avatar::{AnyAvatar, PartialFit};
 use crate::capture_points::CapturePoints;
-use avatar_core::canonical::{ShellOptions, SurfaceChoice};
-use crate::fit::{fit_sdf_resuming, FitOptions, Progress, SdfOptimiser, SignPrior};
-use crate::hyper_fit::{fit_hyper, HyperFitOptions, HyperOptimisers};
-use crate::pose_refine::{refine_round, PoseRefiner};
+use crate::error::Result;
+use crate::fit::{FitOptions, Progress, SdfOptimiser, SignPrior, fit_sdf_resuming};
+use crate::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
+use crate::pose_refine::{PoseRefiner, refine_round};
 use crate::siren::{Siren, SirenConfig};
+use avatar_core::canonical::{ShellOptions, SurfaceChoice};
 use burn::module::Module;
 use glam::Vec3;
-use crate::error::Result;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -56,7 +56,12 @@ pub struct FitReport {
 
 impl FitReport {
     fn of(capture: &CapturePoints) -> FitReport {
-        FitReport { frames: capture.frames.len(), points: capture.num_points(), dropped: capture.dropped, warnings: capture.warnings.clone() }
+        FitReport {
+            frames: capture.frames.len(),
+            points: capture.num_points(),
+            dropped: capture.dropped,
+            warnings: capture.warnings.clone(),
+        }
     }
 }
 
@@ -71,14 +76,27 @@ pub enum FitEvent {
 }
 
 /// Fit an avatar to a canonicalized capture.
-pub fn fit_avatar(capture: &CapturePoints, fit: &AvatarFit, on_event: &mut dyn FnMut(FitEvent)) -> (AnyAvatar, FitReport) {
+pub fn fit_avatar(
+    capture: &CapturePoints,
+    fit: &AvatarFit,
+    on_event: &mut dyn FnMut(FitEvent),
+) -> (AnyAvatar, FitReport) {
     match &fit.kind {
         FitKind::Meta(init) => {
-            let (avatar, report) = fit_meta(capture, init, &fit.options, fit.chunk, fit.cancel, on_event);
+            let (avatar, report) =
+                fit_meta(capture, init, &fit.options, fit.chunk, fit.cancel, on_event);
             (AnyAvatar::Meta(avatar), report)
         }
         FitKind::Static { siren, init } => {
-            let (avatar, report) = fit_static(capture, *siren, init.clone(), &fit.options.static_equivalent(), fit.chunk, fit.cancel, on_event);
+            let (avatar, report) = fit_static(
+                capture,
+                *siren,
+                init.clone(),
+                &fit.options.static_equivalent(),
+                fit.chunk,
+                fit.cancel,
+                on_event,
+            );
             (AnyAvatar::Static(avatar), report)
         }
     }
@@ -106,7 +124,16 @@ enum Chunk<'a> {
 /// calls are the steps that ran when a cancel stops it early (neural/tests/partial_fit.rs
 /// checks the count).
 #[allow(clippy::too_many_arguments)]
-fn in_chunks(from: usize, steps: usize, chunk: usize, breaks: &[usize], cancel: Option<&AtomicBool>, prior: SignPrior, on_event: &mut dyn FnMut(FitEvent), fit: &mut dyn FnMut(Chunk) -> Option<AnyAvatar>) -> usize {
+fn in_chunks(
+    from: usize,
+    steps: usize,
+    chunk: usize,
+    breaks: &[usize],
+    cancel: Option<&AtomicBool>,
+    prior: SignPrior,
+    on_event: &mut dyn FnMut(FitEvent),
+    fit: &mut dyn FnMut(Chunk) -> Option<AnyAvatar>,
+) -> usize {
     let every = chunk_len(chunk, steps);
     let steps_run = AtomicUsize::new(from);
     let counted = |p: &[Vec3]| {
@@ -119,7 +146,9 @@ fn in_chunks(from: usize, steps: usize, chunk: usize, breaks: &[usize], cancel: 
         let next_break = breaks.iter().copied().find(|&s| s > done).unwrap_or(usize::MAX);
         let base = done;
         let n = next_look.min(next_break).min(steps) - base;
-        let mut progress = |step: usize, loss: f32, terms: [f32; 4]| on_event(FitEvent::Progress { step: base + step, steps, loss, terms });
+        let mut progress = |step: usize, loss: f32, terms: [f32; 4]| {
+            on_event(FitEvent::Progress { step: base + step, steps, loss, terms })
+        };
         fit(Chunk::Run { steps: n, done: base, prior: &counted, progress: &mut progress });
         done = steps_run.load(Ordering::Relaxed).min(base + n);
         if done < base + n {
@@ -150,7 +179,14 @@ const PREALIGN_MIN_NEAR: f32 = 0.65;
 const SECOND_ROUND_MIN_NEAR: f32 = 0.85;
 
 /// The hypernetwork's fine-tuning: every frame of the capture is one pose sample.
-pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, chunk: usize, cancel: Option<&AtomicBool>, on_event: &mut dyn FnMut(FitEvent)) -> (MetaAvatar, FitReport) {
+pub(crate) fn fit_meta(
+    capture: &CapturePoints,
+    init: &Init,
+    options: &HyperFitOptions,
+    chunk: usize,
+    cancel: Option<&AtomicBool>,
+    on_event: &mut dyn FnMut(FitEvent),
+) -> (MetaAvatar, FitReport) {
     let encoding = init.config().encoding;
     let mut samples = capture.pose_samples(encoding);
     let device = crate::compute::training_device();
@@ -159,7 +195,9 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
     // A frozen encoder keeps meta-learned pose features; a random one must learn (the
     // from-scratch baseline trains it at the reference's 1e-4).
     let options = &match init {
-        Init::Scratch { .. } if options.lr_encoder == 0.0 => HyperFitOptions { lr_encoder: SCRATCH_ENCODER_RATE, ..options.clone() },
+        Init::Scratch { .. } if options.lr_encoder == 0.0 => {
+            HyperFitOptions { lr_encoder: SCRATCH_ENCODER_RATE, ..options.clone() }
+        }
         _ => options.clone(),
     };
     // Pose refinement (PINA 3.2) runs between chunks, after the steps `rounds` names. Its
@@ -188,7 +226,11 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
             Some("on")
         } else {
             // Elsewhere session 3's rounds against the avatar's SDF, after the upper body alone.
-            let upper = r.options.prealign_upper_body.then(|| r.prealign_upper_body(&sdf)).map(|_| "upper body only");
+            let upper = r
+                .options
+                .prealign_upper_body
+                .then(|| r.prealign_upper_body(&sdf))
+                .map(|_| "upper body only");
             r.options = r.options.without_prealignment();
             upper
         };
@@ -198,11 +240,16 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
             r.update_samples(&mut samples, encoding);
         }
         if r.truth.is_some() {
-            eprintln!("pose trace: {:.0} % of the points near the body: pre-alignment {}", share * 100.0, aligned.unwrap_or("off"));
+            eprintln!(
+                "pose trace: {:.0} % of the points near the body: pre-alignment {}",
+                share * 100.0,
+                aligned.unwrap_or("off")
+            );
         }
     }
     // The diagnostic needs the truth (`AVATAR_POSE_TRUTH`); without it the fit is left as it is.
-    let snap = crate::pose_trace::snap_from_env().filter(|_| refiner.as_ref().is_some_and(|r| r.truth.is_some()));
+    let snap = crate::pose_trace::snap_from_env()
+        .filter(|_| refiner.as_ref().is_some_and(|r| r.truth.is_some()));
     if let (Some(r), Some((joints, translation))) = (refiner.as_mut(), snap.as_ref()) {
         r.snap_to_truth(joints, *translation);
         r.redraw_shells(&ShellOptions::default());
@@ -213,8 +260,23 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
     let prior = capture.sign_prior();
     let mut run = |c: Chunk| match c {
         Chunk::Run { steps, done, prior, progress } => {
-            let chunk_options = HyperFitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
-            model = model.take().map(|m| fit_hyper(m, &samples, &chunk_options, &mut optimisers, &device, Some(prior), cancel, progress));
+            let chunk_options = HyperFitOptions {
+                steps,
+                seed: options.seed.wrapping_add(done as u64),
+                ..options.clone()
+            };
+            model = model.take().map(|m| {
+                fit_hyper(
+                    m,
+                    &samples,
+                    &chunk_options,
+                    &mut optimisers,
+                    &device,
+                    Some(prior),
+                    cancel,
+                    progress,
+                )
+            });
             None
         }
         Chunk::Break => {
@@ -227,14 +289,24 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
             }
             None
         }
-        Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Meta(MetaAvatar::from_fitted(capture, init, done, total.get(), m, refiner.as_ref()))),
+        Chunk::Partial(done) => model.as_ref().map(|m| {
+            AnyAvatar::Meta(MetaAvatar::from_fitted(
+                capture,
+                init,
+                done,
+                total.get(),
+                m,
+                refiner.as_ref(),
+            ))
+        }),
     };
     let mut done = in_chunks(0, options.steps, chunk, &rounds, cancel, &prior, on_event, &mut run);
     // Loose cloth is still being reconstructed where the body-hugging kinds have converged:
     // an avatar with loose pieces by then goes on (`HyperFitOptions::loose_step_factor`). Not
     // from scratch: a barely trained random SDF's blobs are no cloth, and the baseline keeps
     // the budget it is compared at.
-    let longer = if matches!(init, Init::MetaLearned(_)) { options.loose_steps() } else { options.steps };
+    let longer =
+        if matches!(init, Init::MetaLearned(_)) { options.loose_steps() } else { options.steps };
     if done == options.steps && longer > done && !cancelled(cancel) {
         let has_loose = matches!(run(Chunk::Partial(done)), Some(AnyAvatar::Meta(a)) if a.surface_kind() == SurfaceChoice::WrappedWithLoose);
         if has_loose {
@@ -245,30 +317,92 @@ pub(crate) fn fit_meta(capture: &CapturePoints, init: &Init, options: &HyperFitO
     if let Some(e) = refiner.as_ref().and_then(|r| r.errors()) {
         eprintln!("pose trace: refined: {e}\n  per joint: {}", e.per_joint());
     }
-    (MetaAvatar::from_fitted(capture, init, done, total.get(), &model.expect("the fit returns its network"), refiner.as_ref()), FitReport::of(capture))
+    (
+        MetaAvatar::from_fitted(
+            capture,
+            init,
+            done,
+            total.get(),
+            &model.expect("the fit returns its network"),
+            refiner.as_ref(),
+        ),
+        FitReport::of(capture),
+    )
 }
 
 /// The static SDF's fit: all frames pooled (the SDF ignores the pose), the capture's sign prior.
-pub(crate) fn fit_static(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, chunk: usize, cancel: Option<&AtomicBool>, on_event: &mut dyn FnMut(FitEvent)) -> (StaticAvatar, FitReport) {
+pub(crate) fn fit_static(
+    capture: &CapturePoints,
+    siren: SirenConfig,
+    init: Option<Siren>,
+    options: &FitOptions,
+    chunk: usize,
+    cancel: Option<&AtomicBool>,
+    on_event: &mut dyn FnMut(FitEvent),
+) -> (StaticAvatar, FitReport) {
     let points: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.points.iter().copied()).collect();
-    let normals: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
+    let normals: Vec<Vec3> =
+        capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
     let outside: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.outside()).collect();
     let device = crate::compute::training_device();
     let mut model = Some(init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device));
     let mut optimiser = SdfOptimiser::default();
-    let done = in_chunks(0, options.steps, chunk, &[], cancel, &capture.sign_prior(), on_event, &mut |c| match c {
-        Chunk::Run { steps, done, prior, progress } => {
-            let chunk_options = FitOptions { steps, seed: options.seed.wrapping_add(done as u64), ..options.clone() };
-            model = model.take().map(|m| fit_sdf_resuming(m, &points, &normals, &outside, &chunk_options, &mut optimiser, &device, Some(prior), cancel, progress));
-            None
-        }
-        Chunk::Break => None,
-        Chunk::Partial(done) => model.as_ref().map(|m| AnyAvatar::Static(static_avatar(capture, siren, m, done, options.steps))),
-    });
-    (static_avatar(capture, siren, &model.expect("the fit returns its network"), done, options.steps), FitReport::of(capture))
+    let done = in_chunks(
+        0,
+        options.steps,
+        chunk,
+        &[],
+        cancel,
+        &capture.sign_prior(),
+        on_event,
+        &mut |c| match c {
+            Chunk::Run { steps, done, prior, progress } => {
+                let chunk_options = FitOptions {
+                    steps,
+                    seed: options.seed.wrapping_add(done as u64),
+                    ..options.clone()
+                };
+                model = model.take().map(|m| {
+                    fit_sdf_resuming(
+                        m,
+                        &points,
+                        &normals,
+                        &outside,
+                        &chunk_options,
+                        &mut optimiser,
+                        &device,
+                        Some(prior),
+                        cancel,
+                        progress,
+                    )
+                });
+                None
+            }
+            Chunk::Break => None,
+            Chunk::Partial(done) => model
+                .as_ref()
+                .map(|m| AnyAvatar::Static(static_avatar(capture, siren, m, done, options.steps))),
+        },
+    );
+    (
+        static_avatar(
+            capture,
+            siren,
+            &model.expect("the fit returns its network"),
+            done,
+            options.steps,
+        ),
+        FitReport::of(capture),
+    )
 }
 
-fn static_avatar(capture: &CapturePoints, siren: SirenConfig, model: &Siren, done: usize, requested: usize) -> StaticAvatar {
+fn static_avatar(
+    capture: &CapturePoints,
+    siren: SirenConfig,
+    model: &Siren,
+    done: usize,
+    requested: usize,
+) -> StaticAvatar {
     let mut avatar = StaticAvatar::from_fitted(capture, siren, model);
     avatar.header.partial = PartialFit::of(done, requested);
     avatar
@@ -286,14 +420,27 @@ pub(crate) fn progress_only(progress: crate::fit::Progress<'_>) -> impl FnMut(Fi
 /// One-chunk fits of either kind with a progress callback (tests, examples and benches).
 impl MetaAvatar {
     /// Fine-tune on the first `frames` usable frames of a capture.
-    pub fn fit_capture(dir: &Path, frames: usize, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(MetaAvatar, FitReport)> {
+    pub fn fit_capture(
+        dir: &Path,
+        frames: usize,
+        init: &Init,
+        options: &HyperFitOptions,
+        cancel: Option<&AtomicBool>,
+        progress: Progress,
+    ) -> Result<(MetaAvatar, FitReport)> {
         let capture = CapturePoints::open(dir, frames)?;
         Ok(Self::fit_points(&capture, init, options, cancel, progress))
     }
 
     /// Fine-tune on a canonicalized capture: every frame is one pose sample (one chunk of
     /// [`crate::avatar::fitting::fit_avatar`]).
-    pub fn fit_points(capture: &CapturePoints, init: &Init, options: &HyperFitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (MetaAvatar, FitReport) {
+    pub fn fit_points(
+        capture: &CapturePoints,
+        init: &Init,
+        options: &HyperFitOptions,
+        cancel: Option<&AtomicBool>,
+        progress: Progress,
+    ) -> (MetaAvatar, FitReport) {
         fit_meta(capture, init, options, 0, cancel, &mut progress_only(progress))
     }
 }
@@ -301,7 +448,15 @@ impl MetaAvatar {
 impl StaticAvatar {
     /// Fit to the first `frames` usable frames of a capture, from SIREN's random
     /// initialisation (`init` None) or from given weights (the static meta-SDF).
-    pub fn fit_capture(dir: &Path, frames: usize, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> Result<(StaticAvatar, FitReport)> {
+    pub fn fit_capture(
+        dir: &Path,
+        frames: usize,
+        siren: SirenConfig,
+        init: Option<Siren>,
+        options: &FitOptions,
+        cancel: Option<&AtomicBool>,
+        progress: Progress,
+    ) -> Result<(StaticAvatar, FitReport)> {
         let capture = CapturePoints::open(dir, frames)?;
         Ok(Self::fit_points(&capture, siren, init, options, cancel, progress))
     }
@@ -309,7 +464,14 @@ impl StaticAvatar {
     /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose) with
     /// these options (one chunk of `fit_static`; the avatars of `fit_avatar` take theirs
     /// from `HyperFitOptions::static_equivalent`).
-    pub fn fit_points(capture: &CapturePoints, siren: SirenConfig, init: Option<Siren>, options: &FitOptions, cancel: Option<&AtomicBool>, progress: Progress) -> (StaticAvatar, FitReport) {
+    pub fn fit_points(
+        capture: &CapturePoints,
+        siren: SirenConfig,
+        init: Option<Siren>,
+        options: &FitOptions,
+        cancel: Option<&AtomicBool>,
+        progress: Progress,
+    ) -> (StaticAvatar, FitReport) {
         fit_static(capture, siren, init, options, 0, cancel, &mut progress_only(progress))
     }
 }
@@ -348,11 +510,20 @@ mod tests {
             }
             None
         };
-        let done = in_chunks(from, steps, chunk, breaks, None, &prior, &mut |e| {
-            if let FitEvent::Progress { step, steps, .. } = e {
-                events.push((step, steps));
-            }
-        }, &mut fit);
+        let done = in_chunks(
+            from,
+            steps,
+            chunk,
+            breaks,
+            None,
+            &prior,
+            &mut |e| {
+                if let FitEvent::Progress { step, steps, .. } = e {
+                    events.push((step, steps));
+                }
+            },
+            &mut fit,
+        );
         calls.progress = events;
         (done, calls)
     }
@@ -383,7 +554,10 @@ mod tests {
     fn loose_cloth_gets_the_factor_of_the_steps_and_a_factor_of_one_none() {
         let o = HyperFitOptions::default();
         assert_eq!((o.steps, o.loose_steps()), (256, 512));
-        assert_eq!(HyperFitOptions { steps: 100, loose_step_factor: 1.5, ..o.clone() }.loose_steps(), 150);
+        assert_eq!(
+            HyperFitOptions { steps: 100, loose_step_factor: 1.5, ..o.clone() }.loose_steps(),
+            150
+        );
         assert_eq!(HyperFitOptions { loose_step_factor: 1.0, ..o.clone() }.loose_steps(), 256);
         assert_eq!(HyperFitOptions { loose_step_factor: 0.0, ..o }.loose_steps(), 256);
     }

@@ -6,21 +6,26 @@
 //! the wrapped body).
 
 use crate::avatar::body::{self as avatar_body, BodySection};
-use crate::avatar::header::{avatar_field, check_avatar_header, check_subject, PartialFit, AVATAR_FORMAT};
+use crate::avatar::header::{
+    AVATAR_FORMAT, PartialFit, avatar_field, check_avatar_header, check_subject,
+};
 use crate::avatar::refined_poses::{self, RefinedPose};
-use crate::pose_refine::PoseRefiner;
 use crate::capture_points::CapturePoints;
+use crate::error::{Error, Result};
+use crate::flat_params::{flatten, load_flat};
 use crate::hyper::{HyperConfig, HyperNet};
 use crate::model_file::MetaModel;
-use crate::flat_params::{flatten, load_flat};
+use crate::pose_refine::PoseRefiner;
 use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
-use avatar_core::body::{BodyModel, BodyParams, Weights, NUM_JOINTS};
-use avatar_core::canonical::{field_weights, forward_skin_with_weights, BodyWrap, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice};
-use crate::error::{Error, Result};
 use avatar_core::avatar::AvatarSource;
-use avatar_core::mesh::extract::extract;
+use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, Weights};
+use avatar_core::canonical::{
+    BodyWrap, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice, field_weights,
+    forward_skin_with_weights,
+};
 use avatar_core::mesh::TriMesh;
+use avatar_core::mesh::extract::extract;
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 use glam::Vec3;
@@ -123,8 +128,22 @@ pub struct MetaAvatar {
 impl MetaAvatar {
     /// The avatar of a fitted hypernetwork (inference copy of its weights) after `done` of
     /// `requested` steps.
-    pub(crate) fn from_fitted(capture: &CapturePoints, init: &Init, done: usize, requested: usize, model: &HyperNet, refiner: Option<&PoseRefiner>) -> MetaAvatar {
-        let refined_poses = refiner.map(|r| capture.frames.iter().zip(r.refined()).map(|(f, refined)| RefinedPose { given: f.params.clone(), refined }).collect());
+    pub(crate) fn from_fitted(
+        capture: &CapturePoints,
+        init: &Init,
+        done: usize,
+        requested: usize,
+        model: &HyperNet,
+        refiner: Option<&PoseRefiner>,
+    ) -> MetaAvatar {
+        let refined_poses = refiner.map(|r| {
+            capture
+                .frames
+                .iter()
+                .zip(r.refined())
+                .map(|(f, refined)| RefinedPose { given: f.params.clone(), refined })
+                .collect()
+        });
         let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = MetaAvatarHeader {
             format: AVATAR_FORMAT.into(),
@@ -143,7 +162,19 @@ impl MetaAvatar {
             refined_poses,
         };
         let wrap = Arc::new(BodyWrap::new(&body, &capture.betas));
-        MetaAvatar { header, model: model.valid().to_device(&crate::cpu_device()), skinner: GarmentSkinner::with_body(capture.rest_sdf.clone()), body, field: capture.field.clone(), rest_joints: capture.rest_joints(), device: crate::cpu_device(), resolution: super::header::OUTPUT_RESOLUTION, surface: SurfaceChoice::default(), wrap, decided: OnceLock::new() }
+        MetaAvatar {
+            header,
+            model: model.valid().to_device(&crate::cpu_device()),
+            skinner: GarmentSkinner::with_body(capture.rest_sdf.clone()),
+            body,
+            field: capture.field.clone(),
+            rest_joints: capture.rest_joints(),
+            device: crate::cpu_device(),
+            resolution: super::header::OUTPUT_RESOLUTION,
+            surface: SurfaceChoice::default(),
+            wrap,
+            decided: OnceLock::new(),
+        }
     }
 
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
@@ -157,34 +188,61 @@ impl MetaAvatar {
     pub fn load(path: impl AsRef<Path>) -> Result<MetaAvatar> {
         let path = path.as_ref();
         check_avatar_header(path, META_AVATAR_KIND)?;
-        let (header, values): (MetaAvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &MetaAvatarHeader| {
-            h.config.check()?;
-            check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
-            avatar_body::check_version(h.version, h.body.as_ref())?;
-            if let Some(p) = h.partial
-                && p.steps_done != h.steps
-            {
-                return Err(Error::invalid(format!("\"steps\" {} and \"partial\" ({p}) disagree", h.steps)));
-            }
-            if let Some(poses) = &h.refined_poses {
-                refined_poses::check(poses, h.frames)?;
-            }
-            Ok(h.config.num_params() + h.body.as_ref().map_or(0, BodySection::len))
-        })?;
-        let (weights, body) = avatar_body::split(path, &header.body_model, header.body.as_ref(), values, header.config.num_params())?;
+        let (header, values): (MetaAvatarHeader, Vec<f32>) =
+            weights_file::read_expecting(path, |h: &MetaAvatarHeader| {
+                h.config.check()?;
+                check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
+                avatar_body::check_version(h.version, h.body.as_ref())?;
+                if let Some(p) = h.partial
+                    && p.steps_done != h.steps
+                {
+                    return Err(Error::invalid(format!(
+                        "\"steps\" {} and \"partial\" ({p}) disagree",
+                        h.steps
+                    )));
+                }
+                if let Some(poses) = &h.refined_poses {
+                    refined_poses::check(poses, h.frames)?;
+                }
+                Ok(h.config.num_params() + h.body.as_ref().map_or(0, BodySection::len))
+            })?;
+        let (weights, body) = avatar_body::split(
+            path,
+            &header.body_model,
+            header.body.as_ref(),
+            values,
+            header.config.num_params(),
+        )?;
         let device = crate::cpu_device();
         let blank = header.config.init(header.config.siren.init(0, &device), 0, &device);
         let model = load_flat(blank, &weights).map_err(|e| e.in_file(path))?;
-        let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
+        let field =
+            avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let rest_joints = body.regress_joints(&body.shaped_vertices(&header.betas));
         let skinner = GarmentSkinner::new(&body, &header.betas);
         let wrap = Arc::new(BodyWrap::new(&body, &header.betas));
-        Ok(MetaAvatar { header, model, skinner, body, field, rest_joints, device, resolution: super::header::OUTPUT_RESOLUTION, surface: SurfaceChoice::default(), wrap, decided: OnceLock::new() })
+        Ok(MetaAvatar {
+            header,
+            model,
+            skinner,
+            body,
+            field,
+            rest_joints,
+            device,
+            resolution: super::header::OUTPUT_RESOLUTION,
+            surface: SurfaceChoice::default(),
+            wrap,
+            decided: OnceLock::new(),
+        })
     }
 
     /// The SIREN layers of a pose, as burn tensors (the hypernetwork's prediction).
     pub fn siren_at(&self, params: &BodyParams) -> (Vec<Tensor<2>>, Vec<Tensor<1>>) {
-        let input = self.header.config.encoding.input(params, &self.rest_joints, &self.header.normalisation);
+        let input = self.header.config.encoding.input(
+            params,
+            &self.rest_joints,
+            &self.header.normalisation,
+        );
         self.model.siren_for(&input, &self.device)
     }
 
@@ -192,7 +250,10 @@ impl MetaAvatar {
     /// needs (fast CPU path: `siren_eval`).
     pub fn sdf_at(&self, params: &BodyParams) -> MetricSdf {
         let (w, b) = self.siren_at(params);
-        MetricSdf { siren: SirenEval::from_tensors(&w, &b), normalisation: self.header.normalisation }
+        MetricSdf {
+            siren: SirenEval::from_tensors(&w, &b),
+            normalisation: self.header.normalisation,
+        }
     }
 
     /// [`MetaAvatar::sdf_at`] through burn's forward (the path before `siren_eval`, kept as its
@@ -203,11 +264,26 @@ impl MetaAvatar {
         let (n, device) = (self.header.normalisation, self.device.clone());
         move |points: &[Vec3]| -> Vec<f32> {
             points
-                .par_chunks(points.len().div_ceil(rayon::current_num_threads().max(1)).clamp(1024, 16_384))
+                .par_chunks(
+                    points.len().div_ceil(rayon::current_num_threads().max(1)).clamp(1024, 16_384),
+                )
                 .flat_map_iter(|chunk| {
-                    let flat: Vec<f32> = chunk.iter().flat_map(|p| n.to_unit(*p).to_array()).collect();
-                    let f = crate::siren::sdf_only(&w, &b, Tensor::from_data(burn::tensor::TensorData::new(flat, [chunk.len(), 3]), &device));
-                    f.into_data().as_slice::<f32>().expect("f32 tensor").iter().map(|v| v * n.metres_per_unit()).collect::<Vec<f32>>()
+                    let flat: Vec<f32> =
+                        chunk.iter().flat_map(|p| n.to_unit(*p).to_array()).collect();
+                    let f = crate::siren::sdf_only(
+                        &w,
+                        &b,
+                        Tensor::from_data(
+                            burn::tensor::TensorData::new(flat, [chunk.len(), 3]),
+                            &device,
+                        ),
+                    );
+                    f.into_data()
+                        .as_slice::<f32>()
+                        .expect("f32 tensor")
+                        .iter()
+                        .map(|v| v * n.metres_per_unit())
+                        .collect::<Vec<f32>>()
                 })
                 .collect()
         }
@@ -222,14 +298,23 @@ impl MetaAvatar {
             SurfaceChoice::WrappedBody => Ok(self.wrapped_surface(&sdf, self.wrap.options.outside)),
             SurfaceChoice::WrappedWithLoose => {
                 let extracted = self.extracted_surface(&sdf, resolution.min(LOOSE_RESOLUTION))?;
-                Ok(self.wrap.with_loose_pieces(&self.wrapped_surface(&sdf, self.wrap.options.tight_outside), &extracted))
+                Ok(self.wrap.with_loose_pieces(
+                    &self.wrapped_surface(&sdf, self.wrap.options.tight_outside),
+                    &extracted,
+                ))
             }
             _ => self.extracted_surface(&sdf, resolution),
         }
     }
 
     fn extracted_surface(&self, sdf: &MetricSdf, resolution: usize) -> Result<TriMesh> {
-        Ok(self.skinner.finish_surface(extract(|p: &[Vec3]| sdf.sdf(p), &super::header::extract_options(&self.header.normalisation, resolution))?.mesh))
+        Ok(self.skinner.finish_surface(
+            extract(
+                |p: &[Vec3]| sdf.sdf(p),
+                &super::header::extract_options(&self.header.normalisation, resolution),
+            )?
+            .mesh,
+        ))
     }
 
     fn wrapped_surface(&self, sdf: &MetricSdf, outside: f32) -> TriMesh {
@@ -254,7 +339,14 @@ impl MetaAvatar {
     fn rest_surface_kind(&self) -> Result<SurfaceChoice> {
         let sdf = self.sdf_at(&self.rest_params());
         let extracted = self.extracted_surface(&sdf, self.resolution)?;
-        Ok(if self.wrap.covers(&self.wrapped_surface(&sdf, self.wrap.options.outside), &extracted) { SurfaceChoice::WrappedBody } else { SurfaceChoice::WrappedWithLoose })
+        Ok(
+            if self.wrap.covers(&self.wrapped_surface(&sdf, self.wrap.options.outside), &extracted)
+            {
+                SurfaceChoice::WrappedBody
+            } else {
+                SurfaceChoice::WrappedWithLoose
+            },
+        )
     }
 
     /// The zero pose with the avatar's shape: where the surface kind is decided and where the
@@ -267,7 +359,11 @@ impl MetaAvatar {
     pub fn posed_mesh(&self, params: &BodyParams) -> Result<TriMesh> {
         // AVATAR_POSE_AT_REST (diagnostic): the rest pose's canonical surface at every pose, to
         // measure what the pose-conditioned SDF adds (docs/evaluation.md, session 17).
-        let conditioned = if std::env::var_os("AVATAR_POSE_AT_REST").is_some() { self.rest_params() } else { params.clone() };
+        let conditioned = if std::env::var_os("AVATAR_POSE_AT_REST").is_some() {
+            self.rest_params()
+        } else {
+            params.clone()
+        };
         let canonical = self.canonical_mesh_at(&conditioned, self.resolution)?;
         let mut p = params.clone();
         p.betas = self.header.betas.clone();
@@ -281,7 +377,11 @@ impl MetaAvatar {
     fn mesh_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
         match self.surface_kind() {
             SurfaceChoice::WrappedBody | SurfaceChoice::WrappedWithLoose => {
-                let own = self.wrap.own_weights(&self.body.weights, mesh, field_weights(&self.field, mesh));
+                let own = self.wrap.own_weights(
+                    &self.body.weights,
+                    mesh,
+                    field_weights(&self.field, mesh),
+                );
                 self.skinner.weights_from(own, mesh)
             }
             _ => self.skinner.weights(&self.field, mesh),
@@ -307,7 +407,12 @@ impl AvatarSource for MetaAvatar {
         Ok(self.sdf_at(params).sdf(points))
     }
     /// Newton steps with the analytic gradient (reverse mode, `siren_eval`).
-    fn project(&self, params: &BodyParams, points: &[Vec3], steps: usize) -> avatar_core::Result<Vec<Vec3>> {
+    fn project(
+        &self,
+        params: &BodyParams,
+        points: &[Vec3],
+        steps: usize,
+    ) -> avatar_core::Result<Vec<Vec3>> {
         Ok(self.sdf_at(params).project(points, steps))
     }
     fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights> {
@@ -318,7 +423,10 @@ impl AvatarSource for MetaAvatar {
     }
     /// A wrapped body's reference (the rest pose's, as the studio and the exporter take it)
     /// keeps the body vertices its surface swallowed where they are at every pose.
-    fn surface_smoother(&self, reference: &TriMesh) -> Option<avatar_core::canonical::SurfaceSmoother> {
+    fn surface_smoother(
+        &self,
+        reference: &TriMesh,
+    ) -> Option<avatar_core::canonical::SurfaceSmoother> {
         let smoother = self.skinner.surface_smoother(reference);
         let outside = match self.surface_kind() {
             SurfaceChoice::WrappedBody => self.wrap.options.outside,
@@ -329,7 +437,8 @@ impl AvatarSource for MetaAvatar {
             return Some(smoother);
         }
         let sdf = self.sdf_at(&self.rest_params());
-        let mut swallowed: Vec<bool> = self.wrap.wrap_within(|p| sdf.sdf(p), outside).found.iter().map(|f| !f).collect();
+        let mut swallowed: Vec<bool> =
+            self.wrap.wrap_within(|p| sdf.sdf(p), outside).found.iter().map(|f| !f).collect();
         swallowed.resize(reference.positions.len(), false);
         Some(smoother.pin(reference, &swallowed))
     }

@@ -20,12 +20,12 @@ pub mod refined_poses;
 pub mod static_avatar;
 
 use crate::weights_file;
-pub use fitting::{fit_avatar, AvatarFit, FitEvent, FitKind, FitReport};
+pub use avatar_core::avatar::{AvatarSource, PROJECTION_STEPS, PoseSurface};
+pub use avatar_core::export::{ExportOptions, export_glb};
+pub use fitting::{AvatarFit, FitEvent, FitKind, FitReport, fit_avatar};
 pub use header::PartialFit;
-pub use meta_avatar::{Init, MetaAvatar, META_AVATAR_KIND};
-pub use static_avatar::{StaticAvatar, STATIC_AVATAR_KIND};
-pub use avatar_core::avatar::{AvatarSource, PoseSurface, PROJECTION_STEPS};
-pub use avatar_core::export::{export_glb, ExportOptions};
+pub use meta_avatar::{Init, META_AVATAR_KIND, MetaAvatar};
+pub use static_avatar::{STATIC_AVATAR_KIND, StaticAvatar};
 
 /// An avatar file of either kind, routed by its header.
 pub enum AnyAvatar {
@@ -40,7 +40,11 @@ impl AnyAvatar {
         match id.kind.as_str() {
             STATIC_AVATAR_KIND => Ok(AnyAvatar::Static(StaticAvatar::load(path)?)),
             META_AVATAR_KIND => Ok(AnyAvatar::Meta(MetaAvatar::load(path)?)),
-            other => Err(crate::error::Error::AvatarKind { path: path.into(), kind: other.into(), known: format!("{STATIC_AVATAR_KIND} or {META_AVATAR_KIND}") }),
+            other => Err(crate::error::Error::AvatarKind {
+                path: path.into(),
+                kind: other.into(),
+                known: format!("{STATIC_AVATAR_KIND} or {META_AVATAR_KIND}"),
+            }),
         }
     }
 

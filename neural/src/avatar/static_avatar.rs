@@ -4,18 +4,18 @@
 //! (`meta_avatar`) replaces the static SDF with a pose-conditioned one.
 
 use crate::avatar::body::{self as avatar_body, BodySection};
-use crate::avatar::header::{avatar_field, check_avatar_header, check_subject, PartialFit};
+use crate::avatar::header::{PartialFit, avatar_field, check_avatar_header, check_subject};
 use crate::capture_points::CapturePoints;
-use crate::siren_eval::MetricSdf;
+use crate::error::Result;
 use crate::flat_params::{flatten, load_flat};
 use crate::siren::{Siren, SirenConfig};
+use crate::siren_eval::MetricSdf;
 use crate::weights_file;
+use avatar_core::avatar::AvatarSource;
 use avatar_core::body::{BodyModel, BodyParams, Weights};
 use avatar_core::canonical::{GarmentSkinner, Normalisation, SkinningField};
-use crate::error::Result;
-use avatar_core::avatar::AvatarSource;
-use avatar_core::mesh::extract::extract;
 use avatar_core::mesh::TriMesh;
+use avatar_core::mesh::extract::extract;
 use burn::module::Module;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -61,7 +61,11 @@ pub struct StaticAvatar {
 
 impl StaticAvatar {
     /// The avatar of a SIREN fitted to a canonicalized capture (not marked partial).
-    pub(crate) fn from_fitted(capture: &CapturePoints, siren: SirenConfig, model: &Siren) -> StaticAvatar {
+    pub(crate) fn from_fitted(
+        capture: &CapturePoints,
+        siren: SirenConfig,
+        model: &Siren,
+    ) -> StaticAvatar {
         let (body, body_model, version, section) = avatar_body::of_capture(capture);
         let header = AvatarHeader {
             format: AVATAR_FORMAT.into(),
@@ -77,7 +81,15 @@ impl StaticAvatar {
         };
         let model = model.valid().to_device(&crate::cpu_device());
         let sdf = MetricSdf::of(&model, header.normalisation);
-        StaticAvatar { header, model, sdf, skinner: GarmentSkinner::with_body(capture.rest_sdf.clone()), body, field: capture.field.clone(), resolution: super::header::OUTPUT_RESOLUTION }
+        StaticAvatar {
+            header,
+            model,
+            sdf,
+            skinner: GarmentSkinner::with_body(capture.rest_sdf.clone()),
+            body,
+            field: capture.field.clone(),
+            resolution: super::header::OUTPUT_RESOLUTION,
+        }
     }
 
     /// The skinning field of the avatar's body shape.
@@ -101,19 +113,36 @@ impl StaticAvatar {
     pub fn load(path: impl AsRef<Path>) -> Result<StaticAvatar> {
         let path = path.as_ref();
         check_avatar_header(path, STATIC_AVATAR_KIND)?;
-        let (header, values): (AvatarHeader, Vec<f32>) = weights_file::read_expecting(path, |h: &AvatarHeader| {
-            h.siren.check()?;
-            check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
-            avatar_body::check_version(h.version, h.body.as_ref())?;
-            Ok(h.siren.num_params() + h.body.as_ref().map_or(0, BodySection::len))
-        })?;
-        let (weights, body) = avatar_body::split(path, &header.body_model, header.body.as_ref(), values, header.siren.num_params())?;
+        let (header, values): (AvatarHeader, Vec<f32>) =
+            weights_file::read_expecting(path, |h: &AvatarHeader| {
+                h.siren.check()?;
+                check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
+                avatar_body::check_version(h.version, h.body.as_ref())?;
+                Ok(h.siren.num_params() + h.body.as_ref().map_or(0, BodySection::len))
+            })?;
+        let (weights, body) = avatar_body::split(
+            path,
+            &header.body_model,
+            header.body.as_ref(),
+            values,
+            header.siren.num_params(),
+        )?;
         let device = crate::cpu_device();
-        let model = load_flat(header.siren.init(0, &device), &weights).map_err(|e| e.in_file(path))?;
-        let field = avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
+        let model =
+            load_flat(header.siren.init(0, &device), &weights).map_err(|e| e.in_file(path))?;
+        let field =
+            avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
         let sdf = MetricSdf::of(&model, header.normalisation);
         let skinner = GarmentSkinner::new(&body, &header.betas);
-        Ok(StaticAvatar { header, model, sdf, skinner, body, field, resolution: super::header::OUTPUT_RESOLUTION })
+        Ok(StaticAvatar {
+            header,
+            model,
+            sdf,
+            skinner,
+            body,
+            field,
+            resolution: super::header::OUTPUT_RESOLUTION,
+        })
     }
 }
 
@@ -127,7 +156,13 @@ impl AvatarSource for StaticAvatar {
     /// Pose-independent: the same canonical surface for every pose (coarse-to-fine marching
     /// cubes over the normalised cube, largest component).
     fn canonical_mesh(&self, _params: &BodyParams) -> avatar_core::Result<TriMesh> {
-        Ok(self.skinner.finish_surface(extract(|p: &[Vec3]| self.sdf_metres(p), &super::header::extract_options(&self.header.normalisation, self.resolution))?.mesh))
+        Ok(self.skinner.finish_surface(
+            extract(
+                |p: &[Vec3]| self.sdf_metres(p),
+                &super::header::extract_options(&self.header.normalisation, self.resolution),
+            )?
+            .mesh,
+        ))
     }
     fn sdf(&self, _params: &BodyParams, points: &[Vec3]) -> avatar_core::Result<Vec<f32>> {
         Ok(self.sdf_metres(points))
@@ -141,7 +176,12 @@ impl AvatarSource for StaticAvatar {
     /// The surface does not change with the pose: reference vertices already lie on it. (So no
     /// `surface_smoother` either: the reference is `canonical_mesh`, already smoothed, and
     /// smoothing its unmoved vertices at every pose would smooth them twice.)
-    fn project(&self, _params: &BodyParams, points: &[Vec3], _steps: usize) -> avatar_core::Result<Vec<Vec3>> {
+    fn project(
+        &self,
+        _params: &BodyParams,
+        points: &[Vec3],
+        _steps: usize,
+    ) -> avatar_core::Result<Vec<Vec3>> {
         Ok(points.to_vec())
     }
 }

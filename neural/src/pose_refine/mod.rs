@@ -16,12 +16,14 @@
 //! nearer the truth). The derivative of the skinned point comes from
 //! `avatar_core::body::pose_jacobian`; `dx_c = -A^-1 dy` with `A` the blended linear part.
 
-use crate::capture_points::{shell_samples_of, CapturePoints};
-use avatar_core::canonical::ShellOptions;
+use crate::capture_points::{CapturePoints, shell_samples_of};
 use crate::encoder::PoseEncoding;
 use crate::pose_sample::PoseSample;
 use crate::siren_eval::SirenEval;
-use avatar_core::body::{blend_transform, skinned_point_jacobian, BodyParams, PoseCorrection, NUM_JOINTS, POSE_DOF};
+use avatar_core::body::{
+    BodyParams, NUM_JOINTS, POSE_DOF, PoseCorrection, blend_transform, skinned_point_jacobian,
+};
+use avatar_core::canonical::ShellOptions;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
@@ -248,12 +250,32 @@ impl<'a> PoseRefiner<'a> {
                     .zip(&f.normals)
                     .map(|(&x, &n)| {
                         let a = blend_transform(&bones.transforms, &capture.field.weights_at(x));
-                        (a.transform_point3(x), (Mat3::from_mat4(a).inverse().transpose() * n).normalize_or_zero())
+                        (
+                            a.transform_point3(x),
+                            (Mat3::from_mat4(a).inverse().transpose() * n).normalize_or_zero(),
+                        )
                     })
                     .unzip();
-                let free_canonical: Vec<Vec3> = f.outside().iter().map(|q| norm.from_unit(*q)).collect();
-                let free_posed = free_canonical.par_iter().map(|&x| blend_transform(&bones.transforms, &capture.field.weights_at(x)).transform_point3(x)).collect();
-                Frame { given: f.params.clone(), correction, anchor: correction, posed, posed_normals, canonical, free_posed, free_canonical, shells_from: f.free_space.len() }
+                let free_canonical: Vec<Vec3> =
+                    f.outside().iter().map(|q| norm.from_unit(*q)).collect();
+                let free_posed = free_canonical
+                    .par_iter()
+                    .map(|&x| {
+                        blend_transform(&bones.transforms, &capture.field.weights_at(x))
+                            .transform_point3(x)
+                    })
+                    .collect();
+                Frame {
+                    given: f.params.clone(),
+                    correction,
+                    anchor: correction,
+                    posed,
+                    posed_normals,
+                    canonical,
+                    free_posed,
+                    free_canonical,
+                    shells_from: f.free_space.len(),
+                }
             })
             .collect();
         let given: Vec<BodyParams> = capture.frames.iter().map(|f| f.params.clone()).collect();
@@ -272,7 +294,9 @@ impl<'a> PoseRefiner<'a> {
 
     /// The refined fittings' errors against the truth, when it is known.
     pub fn errors(&self) -> Option<crate::pose_trace::PoseErrors> {
-        self.truth.as_ref().map(|t| crate::pose_trace::pose_errors(&self.refined(), t, &self.rest_joints))
+        self.truth
+            .as_ref()
+            .map(|t| crate::pose_trace::pose_errors(&self.refined(), t, &self.rest_joints))
     }
 
     /// Diagnostic (`AVATAR_POSE_SNAP`, with `AVATAR_POSE_TRUTH`): set these joints' rotations
@@ -284,7 +308,8 @@ impl<'a> PoseRefiner<'a> {
             let f = &mut self.frames[k];
             for &j in joints.iter().filter(|&&j| j < NUM_JOINTS) {
                 let given = glam::Quat::from_scaled_axis(f.given.pose[j]);
-                f.correction.rotations[j] = (given.inverse() * glam::Quat::from_scaled_axis(t.pose[j])).to_scaled_axis();
+                f.correction.rotations[j] =
+                    (given.inverse() * glam::Quat::from_scaled_axis(t.pose[j])).to_scaled_axis();
             }
             if translation {
                 f.correction.translation = t.trans - f.given.trans;
@@ -316,7 +341,12 @@ impl<'a> PoseRefiner<'a> {
         }
         self.rounds_done += 1;
         if let Some(e) = self.errors() {
-            eprintln!("pose trace: round {}: |sdf| {:.2} -> {:.2} mm; {e}", self.rounds_done, report.residual_before * 1e3, report.residual_after * 1e3);
+            eprintln!(
+                "pose trace: round {}: |sdf| {:.2} -> {:.2} mm; {e}",
+                self.rounds_done,
+                report.residual_before * 1e3,
+                report.residual_after * 1e3
+            );
         }
         report
     }
@@ -329,7 +359,10 @@ impl<'a> PoseRefiner<'a> {
         let n = self.frames.len() as f32;
         let mut mean = vec![0f32; POSE_DOF];
         for f in &self.frames {
-            mean.iter_mut().zip(f.correction.to_vec()).zip(f.anchor.to_vec()).for_each(|((m, v), a)| *m += (v - a) / n);
+            mean.iter_mut()
+                .zip(f.correction.to_vec())
+                .zip(f.anchor.to_vec())
+                .for_each(|((m, v), a)| *m += (v - a) / n);
         }
         let minus: Vec<f32> = mean.iter().map(|v| -v).collect();
         for f in self.frames.iter_mut() {
@@ -344,7 +377,8 @@ impl<'a> PoseRefiner<'a> {
             sample.points = frame.canonical.iter().map(|x| norm.to_unit(*x)).collect();
             sample.free_space = frame.free_canonical.iter().map(|x| norm.to_unit(*x)).collect();
             sample.normals = self.canonical_normals(k);
-            sample.pose_input = encoding.input(&frame.correction.apply(&frame.given), &self.rest_joints, &norm);
+            sample.pose_input =
+                encoding.input(&frame.correction.apply(&frame.given), &self.rest_joints, &norm);
         }
     }
 
@@ -357,7 +391,10 @@ impl<'a> PoseRefiner<'a> {
             .par_iter()
             .zip(&frame.posed_normals)
             .map(|(&x, &n)| {
-                let a = Mat3::from_mat4(blend_transform(&bones.transforms, &self.capture.field.weights_at(x)));
+                let a = Mat3::from_mat4(blend_transform(
+                    &bones.transforms,
+                    &self.capture.field.weights_at(x),
+                ));
                 (a.transpose() * n).normalize_or_zero()
             })
             .collect()
@@ -369,7 +406,8 @@ impl<'a> PoseRefiner<'a> {
     /// outfit at 5 deg / 2 cm: Chamfer 0.329 -> 0.435 cm when the shells came).
     pub fn redraw_shells(&mut self, options: &ShellOptions) {
         let points: Vec<Vec<Vec3>> = self.frames.iter().map(|f| f.canonical.clone()).collect();
-        let normals: Vec<Vec<Vec3>> = (0..self.frames.len()).map(|k| self.canonical_normals(k)).collect();
+        let normals: Vec<Vec<Vec3>> =
+            (0..self.frames.len()).map(|k| self.canonical_normals(k)).collect();
         let normals: Vec<&[Vec3]> = normals.iter().map(Vec::as_slice).collect();
         let shells = shell_samples_of(&self.capture.rest_sdf, &points, &normals, options);
         let field = &self.capture.field;
@@ -377,7 +415,9 @@ impl<'a> PoseRefiner<'a> {
             let bones = frame.correction.bones(&self.rest_joints, &frame.given);
             frame.free_canonical.truncate(frame.shells_from);
             frame.free_posed.truncate(frame.shells_from);
-            frame.free_posed.extend(samples.iter().map(|&x| blend_transform(&bones.transforms, &field.weights_at(x)).transform_point3(x)));
+            frame.free_posed.extend(samples.iter().map(|&x| {
+                blend_transform(&bones.transforms, &field.weights_at(x)).transform_point3(x)
+            }));
             frame.free_canonical.extend(samples);
         }
     }
@@ -391,10 +431,24 @@ impl<'a> PoseRefiner<'a> {
 
     /// `iterations` Gauss-Newton steps of frame `k`; residuals outside `keep` (metres, below
     /// and above) are left out.
-    fn refine_frame(&mut self, k: usize, sdf: FrameSdf, iterations: usize, keep: (f32, f32), points: RoundPoints) -> RoundReport {
+    fn refine_frame(
+        &mut self,
+        k: usize,
+        sdf: FrameSdf,
+        iterations: usize,
+        keep: (f32, f32),
+        points: RoundPoints,
+    ) -> RoundReport {
         let field = &self.capture.field;
         let frame = &self.frames[k];
-        let mut idx = self.subset(k, if points == RoundPoints::All { self.options.points_per_frame } else { self.options.prealign_points_per_frame });
+        let mut idx = self.subset(
+            k,
+            if points == RoundPoints::All {
+                self.options.points_per_frame
+            } else {
+                self.options.prealign_points_per_frame
+            },
+        );
         if points != RoundPoints::All {
             idx.retain(|&i| points.takes(&field.weights_at(frame.canonical[i])));
         }
@@ -405,8 +459,10 @@ impl<'a> PoseRefiner<'a> {
         for _ in 0..iterations.max(1) {
             let frame = &self.frames[k];
             let bones = frame.correction.bones(&self.rest_joints, &frame.given);
-            let blends: Vec<_> = weights.iter().map(|w| blend_transform(&bones.transforms, w)).collect();
-            let xc: Vec<Vec3> = blends.iter().zip(&posed).map(|(a, &y)| a.inverse().transform_point3(y)).collect();
+            let blends: Vec<_> =
+                weights.iter().map(|w| blend_transform(&bones.transforms, w)).collect();
+            let xc: Vec<Vec3> =
+                blends.iter().zip(&posed).map(|(a, &y)| a.inverse().transform_point3(y)).collect();
             let (f, g) = sdf(k, &xc);
             let mean_abs = f.iter().map(|v| v.abs()).sum::<f32>() / f.len().max(1) as f32;
             before.get_or_insert(mean_abs);
@@ -445,13 +501,20 @@ impl<'a> PoseRefiner<'a> {
                     },
                 );
             let mut step = self.solve_step(k, h, b, xc.len());
-            step.iter_mut().enumerate().filter(|(i, _)| !points.moves(*i)).for_each(|(_, v)| *v = 0.0);
+            step.iter_mut()
+                .enumerate()
+                .filter(|(i, _)| !points.moves(*i))
+                .for_each(|(_, v)| *v = 0.0);
             self.frames[k].correction.add(&step);
         }
         // The residual after the last step (one more evaluation).
         let frame = &self.frames[k];
         let bones = frame.correction.bones(&self.rest_joints, &frame.given);
-        let xc: Vec<Vec3> = weights.iter().zip(&posed).map(|(w, &y)| blend_transform(&bones.transforms, w).inverse().transform_point3(y)).collect();
+        let xc: Vec<Vec3> = weights
+            .iter()
+            .zip(&posed)
+            .map(|(w, &y)| blend_transform(&bones.transforms, w).inverse().transform_point3(y))
+            .collect();
         let (f, _) = sdf(k, &xc);
         let after = f.iter().map(|v| v.abs()).sum::<f32>() / f.len().max(1) as f32;
         RoundReport { residual_before: before.unwrap_or(after), residual_after: after }
@@ -465,7 +528,8 @@ impl<'a> PoseRefiner<'a> {
         b.iter_mut().for_each(|x| *x *= scale);
         let current = self.frames[k].correction.to_vec();
         for i in 0..POSE_DOF {
-            let prior = if i < 3 * NUM_JOINTS { o.rotation_prior } else { o.translation_prior } as f64;
+            let prior =
+                if i < 3 * NUM_JOINTS { o.rotation_prior } else { o.translation_prior } as f64;
             // Levenberg-Marquardt damping on the data's diagonal, then the prior toward zero.
             h[i * POSE_DOF + i] *= 1.0 + 1e-3;
             h[i * POSE_DOF + i] += prior;
@@ -497,14 +561,25 @@ impl<'a> PoseRefiner<'a> {
     /// fitting; where that fitting chose another root (a skirt point between the thighs) the
     /// point stays there.
     fn recanonicalise_fully(&mut self, k: usize) {
-        use avatar_core::canonical::{canonicalize_points, choose_nearest, Root, RootOptions};
+        use avatar_core::canonical::{Root, RootOptions, canonicalize_points, choose_nearest};
         let capture = self.capture;
         let frame = &self.frames[k];
         let params = frame.correction.apply(&frame.given);
         let posed_body = capture.body.pose(&params);
-        let chooser = |roots: &[Root]| choose_nearest(roots, |x| capture.rest_sdf.at(x).map_or(f32::INFINITY, f32::abs));
+        let chooser = |roots: &[Root]| {
+            choose_nearest(roots, |x| capture.rest_sdf.at(x).map_or(f32::INFINITY, f32::abs))
+        };
         let options = RootOptions::default();
-        let c = canonicalize_points(&capture.field, &posed_body.bones, &posed_body.vertices, &capture.body.weights, &frame.posed, &frame.posed_normals, &options, Some(&chooser));
+        let c = canonicalize_points(
+            &capture.field,
+            &posed_body.bones,
+            &posed_body.vertices,
+            &capture.body.weights,
+            &frame.posed,
+            &frame.posed_normals,
+            &options,
+            Some(&chooser),
+        );
         // A pose that loses most of the frame's points to the 2 cm filter is not trusted with
         // them: the points move by the fixed-point iterations instead.
         if c.points.len() * 2 < frame.posed.len() {
@@ -535,7 +610,12 @@ impl<'a> PoseRefiner<'a> {
 
 /// Two fixed-point iterations of the inverse skinning of each `posed` point, from its current
 /// canonical point in `canonical` (kept where an iterate leaves the field or is not finite).
-fn fixed_point_inverse(field: &avatar_core::canonical::SkinningField, bones: &avatar_core::body::Bones, canonical: &mut [Vec3], posed: &[Vec3]) {
+fn fixed_point_inverse(
+    field: &avatar_core::canonical::SkinningField,
+    bones: &avatar_core::body::Bones,
+    canonical: &mut [Vec3],
+    posed: &[Vec3],
+) {
     canonical.par_iter_mut().zip(posed).for_each(|(x, &y)| {
         for _ in 0..2 {
             let a = blend_transform(&bones.transforms, &field.weights_at(*x));
@@ -583,7 +663,12 @@ fn cholesky_solve(h: &[f64], b: &[f64], n: usize) -> Option<Vec<f64>> {
 /// One round during a fit: the SDF of each frame is the hypernetwork's SIREN for the frame's
 /// current pose input (frozen for the round); afterwards `samples` hold the refined points,
 /// normals and pose inputs.
-pub fn refine_round(refiner: &mut PoseRefiner, model: &crate::hyper::HyperNet, samples: &mut [PoseSample], encoding: PoseEncoding) -> RoundReport {
+pub fn refine_round(
+    refiner: &mut PoseRefiner,
+    model: &crate::hyper::HyperNet,
+    samples: &mut [PoseSample],
+    encoding: PoseEncoding,
+) -> RoundReport {
     use burn::module::Module;
     let device = crate::cpu_device();
     let inference = model.valid().to_device(&device);

@@ -3,7 +3,7 @@
 //! from the misaligned points (docs/neural.md, "Pose refinement").
 
 use super::{FrameSdf, PoseRefiner, RoundPoints, RoundReport};
-use avatar_core::body::{blend_transform, PoseCorrection};
+use avatar_core::body::{PoseCorrection, blend_transform};
 use glam::Vec3;
 
 /// Rounds, and Gauss-Newton steps a round, of the upper body's pre-alignment: session 10's 4 of
@@ -70,7 +70,8 @@ impl PoseRefiner<'_> {
         self.prealign_trunk(sdf);
         let report = self.prealign_points(sdf, RoundPoints::Body, schedule);
         let trunk_residuals = self.body_residuals(sdf);
-        let whole_better: Vec<bool> = whole_residuals.iter().zip(&trunk_residuals).map(|(w, t)| w <= t).collect();
+        let whole_better: Vec<bool> =
+            whole_residuals.iter().zip(&trunk_residuals).map(|(w, t)| w <= t).collect();
         self.restore(&whole, |k| whole_better[k]);
         if whole_better.iter().any(|&w| !w) && whole_better.iter().any(|&w| w) {
             // Frames from both starts: their shared translation along the body's axis back to
@@ -84,16 +85,27 @@ impl PoseRefiner<'_> {
             f.anchor = f.correction;
         }
         if let Some(e) = self.errors() {
-            eprintln!("pose trace: pre-alignment from the trunk first kept for {} of {} frames; {e}", whole_better.iter().filter(|&&w| !w).count(), whole_better.len());
+            eprintln!(
+                "pose trace: pre-alignment from the trunk first kept for {} of {} frames; {e}",
+                whole_better.iter().filter(|&&w| !w).count(),
+                whole_better.len()
+            );
         }
         // Both starts begin at the given fittings.
-        let after = if whole_better.iter().all(|&w| w) { whole_report.residual_after } else { report.residual_after };
+        let after = if whole_better.iter().all(|&w| w) {
+            whole_report.residual_after
+        } else {
+            report.residual_after
+        };
         RoundReport { residual_before: whole_report.residual_before, residual_after: after }
     }
 
     /// Each frame's correction and canonical points (pre-alignment moves nothing else).
     fn state(&self) -> Vec<FrameState> {
-        self.frames.iter().map(|f| (f.correction, f.canonical.clone(), f.free_canonical.clone())).collect()
+        self.frames
+            .iter()
+            .map(|f| (f.correction, f.canonical.clone(), f.free_canonical.clone()))
+            .collect()
     }
 
     /// Back to `state` for the frames `which` names.
@@ -131,7 +143,9 @@ impl PoseRefiner<'_> {
             .into_iter()
             .map(|i| (i, field.weights_at(frame.canonical[i])))
             .filter(|(_, w)| RoundPoints::Body.takes(w))
-            .map(|(i, w)| blend_transform(&bones.transforms, &w).inverse().transform_point3(frame.posed[i]))
+            .map(|(i, w)| {
+                blend_transform(&bones.transforms, &w).inverse().transform_point3(frame.posed[i])
+            })
             .collect();
         sdf(k, &xc).0
     }
@@ -145,8 +159,14 @@ impl PoseRefiner<'_> {
         }
         let n = self.frames.len() as f32;
         // Each frame's body axis: the root's rotation of canonical up.
-        let up: Vec<Vec3> = self.frames.iter().map(|f| glam::Quat::from_scaled_axis(f.correction.apply(&f.given).pose[0]) * Vec3::Y).collect();
-        let mean = self.frames.iter().zip(&up).map(|(f, u)| f.correction.translation.dot(*u)).sum::<f32>() / n;
+        let up: Vec<Vec3> = self
+            .frames
+            .iter()
+            .map(|f| glam::Quat::from_scaled_axis(f.correction.apply(&f.given).pose[0]) * Vec3::Y)
+            .collect();
+        let mean =
+            self.frames.iter().zip(&up).map(|(f, u)| f.correction.translation.dot(*u)).sum::<f32>()
+                / n;
         self.frames.iter_mut().zip(&up).for_each(|(f, u)| f.correction.translation -= *u * mean);
     }
 
@@ -157,7 +177,12 @@ impl PoseRefiner<'_> {
     }
 
     /// `schedule`: rounds, and Gauss-Newton steps a round.
-    fn prealign_points(&mut self, sdf: FrameSdf, points: RoundPoints, (rounds, iterations): (usize, usize)) -> RoundReport {
+    fn prealign_points(
+        &mut self,
+        sdf: FrameSdf,
+        points: RoundPoints,
+        (rounds, iterations): (usize, usize),
+    ) -> RoundReport {
         let o = self.options;
         let mut report: Option<RoundReport> = None;
         let n = self.frames.len().max(1) as f32;
@@ -167,7 +192,13 @@ impl PoseRefiner<'_> {
             let start: Vec<PoseCorrection> = self.frames.iter().map(|f| f.correction).collect();
             let mut r = RoundReport { residual_before: 0.0, residual_after: 0.0 };
             for k in 0..self.frames.len() {
-                let f = self.refine_frame(k, sdf, iterations, (-o.prealign_cutoff, o.prealign_cutoff), points);
+                let f = self.refine_frame(
+                    k,
+                    sdf,
+                    iterations,
+                    (-o.prealign_cutoff, o.prealign_cutoff),
+                    points,
+                );
                 r.residual_before += f.residual_before / n;
                 r.residual_after += f.residual_after / n;
             }
@@ -184,7 +215,13 @@ impl PoseRefiner<'_> {
                     self.recanonicalise(k);
                 }
                 if let Some(e) = self.errors() {
-                    eprintln!("pose trace: pre-alignment {}: |sdf| {:.2} mm, no better than {:.2}: back to round {}'s start; {e}", round + 1, r.residual_before * 1e3, best_residual * 1e3, round);
+                    eprintln!(
+                        "pose trace: pre-alignment {}: |sdf| {:.2} mm, no better than {:.2}: back to round {}'s start; {e}",
+                        round + 1,
+                        r.residual_before * 1e3,
+                        best_residual * 1e3,
+                        round
+                    );
                 }
                 break;
             }
@@ -194,9 +231,17 @@ impl PoseRefiner<'_> {
                 self.recanonicalise(k);
             }
             if let Some(e) = self.errors() {
-                eprintln!("pose trace: pre-alignment {}: |sdf| {:.2} -> {:.2} mm; {e}", round + 1, r.residual_before * 1e3, r.residual_after * 1e3);
+                eprintln!(
+                    "pose trace: pre-alignment {}: |sdf| {:.2} -> {:.2} mm; {e}",
+                    round + 1,
+                    r.residual_before * 1e3,
+                    r.residual_after * 1e3
+                );
             }
-            report = Some(report.map_or(r, |first| RoundReport { residual_before: first.residual_before, residual_after: r.residual_after }));
+            report = Some(report.map_or(r, |first| RoundReport {
+                residual_before: first.residual_before,
+                residual_after: r.residual_after,
+            }));
         }
         for f in self.frames.iter_mut() {
             f.anchor = f.correction;

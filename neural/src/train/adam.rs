@@ -32,7 +32,12 @@ impl Adam {
             let k = match self.groups.iter().position(|g| g.range == *range) {
                 Some(k) => k,
                 None => {
-                    self.groups.push(Group { range: range.clone(), m: vec![0f32; range.len()], v: vec![0f32; range.len()], time: 0 });
+                    self.groups.push(Group {
+                        range: range.clone(),
+                        m: vec![0f32; range.len()],
+                        v: vec![0f32; range.len()],
+                        time: 0,
+                    });
                     self.groups.len() - 1
                 }
             };
@@ -49,7 +54,9 @@ impl Adam {
                 .zip(grad[range.clone()].par_chunks(CHUNK))
                 .zip(g.m.par_chunks_mut(CHUNK))
                 .zip(g.v.par_chunks_mut(CHUNK))
-                .for_each(|(((p, gr), m), v)| super::elementwise::adam_update(p, gr, m, v, first, lr, factor, eps));
+                .for_each(|(((p, gr), m), v)| {
+                    super::elementwise::adam_update(p, gr, m, v, first, lr, factor, eps)
+                });
         }
     }
 }

@@ -5,7 +5,9 @@
 //! its cache from block to block. Parts, scratch and buffers are kept across steps (no
 //! allocation in the loop once the largest step has run).
 
-use super::siren_grad::{siren_backward, transpose_weights, LossTerms, PointLoss, SirenScratch, SirenShape};
+use super::siren_grad::{
+    LossTerms, PointLoss, SirenScratch, SirenShape, siren_backward, transpose_weights,
+};
 use rayon::prelude::*;
 use std::sync::Mutex;
 
@@ -42,7 +44,13 @@ impl BlockRunner {
 
     /// Loss terms of every group and the gradient of each group's SIREN into `grads[group]`
     /// (overwritten). `params[g]`: group g's SIREN; `points[g]`: its rows.
-    pub fn run(&mut self, params: &[&[f32]], points: &[&[[f32; 3]]], loss: &dyn PointLoss, grads: &mut [Vec<f32>]) -> LossTerms {
+    pub fn run(
+        &mut self,
+        params: &[&[f32]],
+        points: &[&[[f32; 3]]],
+        loss: &dyn PointLoss,
+        grads: &mut [Vec<f32>],
+    ) -> LossTerms {
         let threads = rayon::current_num_threads().max(1);
         let per_group = threads.div_ceil(points.len().max(1));
         let mut k = 0;
@@ -54,7 +62,13 @@ impl BlockRunner {
             for p in 0..parts {
                 let end = (blocks * (p + 1) / parts * BLOCK).min(pts.len());
                 if k == self.parts.len() {
-                    self.parts.push(Part { grad: vec![0f32; self.shape.len()], group, first, rows: 0, terms: LossTerms::default() });
+                    self.parts.push(Part {
+                        grad: vec![0f32; self.shape.len()],
+                        group,
+                        first,
+                        rows: 0,
+                        terms: LossTerms::default(),
+                    });
                 }
                 let part = &mut self.parts[k];
                 (part.group, part.first, part.rows) = (group, first, end - first);
@@ -78,7 +92,18 @@ impl BlockRunner {
             while first < part.first + part.rows {
                 let rows = BLOCK.min(part.first + part.rows - first);
                 let pts = &points[part.group][first..first + rows];
-                let t = siren_backward(shape, params[part.group], &wt[part.group], pts, loss, part.group, first, &mut s, &mut part.grad, first > part.first);
+                let t = siren_backward(
+                    shape,
+                    params[part.group],
+                    &wt[part.group],
+                    pts,
+                    loss,
+                    part.group,
+                    first,
+                    &mut s,
+                    &mut part.grad,
+                    first > part.first,
+                );
                 part.terms.add(&t);
                 first += rows;
             }

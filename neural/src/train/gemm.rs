@@ -67,14 +67,19 @@ pub fn gemm_then(a: Mat, b: Mat, out: &mut [f32], ep: Epilogue) {
     let (m, k) = a.shape();
     let (k2, n) = b.shape();
     assert_eq!(k, k2, "inner dimensions of a matrix product");
-    assert!(a.data.len() >= a.rows * a.cols && b.data.len() >= b.rows * b.cols, "operand views larger than their buffers");
+    assert!(
+        a.data.len() >= a.rows * a.cols && b.data.len() >= b.rows * b.cols,
+        "operand views larger than their buffers"
+    );
     let size = m * n;
     assert!(out.len() >= size, "product buffer too small");
     let sized = match &ep {
         Epilogue::Store { .. } => true,
         Epilogue::Sine { bias, deriv, .. } => bias.len() >= n && deriv.len() >= size,
         Epilogue::AlsoTimes { factor, times } => factor.len() >= size && times.len() >= size,
-        Epilogue::GradChain { v, h, c, .. } => v.len() >= size && h.len() >= size && c.len() >= size,
+        Epilogue::GradChain { v, h, c, .. } => {
+            v.len() >= size && h.len() >= size && c.len() >= size
+        }
         Epilogue::AddTimes { factor } => factor.len() >= size,
     };
     assert!(sized, "epilogue buffers smaller than the product");
@@ -87,21 +92,34 @@ pub fn gemm_then(a: Mat, b: Mat, out: &mut [f32], ep: Epilogue) {
         use kernel::Raw;
         let raw = match ep {
             Epilogue::Store { beta } => Raw::Store { beta },
-            Epilogue::Sine { w0, bias, deriv } => Raw::Sine { w0, bias: bias.as_ptr(), deriv: deriv.as_mut_ptr() },
-            Epilogue::AlsoTimes { factor, times } => Raw::AlsoTimes { factor: factor.as_ptr(), times: times.as_mut_ptr() },
-            Epilogue::GradChain { scale, v, h, c } => Raw::GradChain { scale, v: v.as_mut_ptr(), h: h.as_ptr(), c: c.as_ptr() },
+            Epilogue::Sine { w0, bias, deriv } => {
+                Raw::Sine { w0, bias: bias.as_ptr(), deriv: deriv.as_mut_ptr() }
+            }
+            Epilogue::AlsoTimes { factor, times } => {
+                Raw::AlsoTimes { factor: factor.as_ptr(), times: times.as_mut_ptr() }
+            }
+            Epilogue::GradChain { scale, v, h, c } => {
+                Raw::GradChain { scale, v: v.as_mut_ptr(), h: h.as_ptr(), c: c.as_ptr() }
+            }
             Epilogue::AddTimes { factor } => Raw::AddTimes { factor: factor.as_ptr() },
         };
         // SAFETY: the CPU has AVX-512F (checked); a's strides address its m x k view inside
         // its buffer, b is row-major k x n, out and the epilogue's buffers hold m x n (all
         // checked above).
-        unsafe { kernel::gemm(m, k, n, a.data.as_ptr(), rsa, csa, b.data.as_ptr(), out.as_mut_ptr(), raw) };
+        unsafe {
+            kernel::gemm(m, k, n, a.data.as_ptr(), rsa, csa, b.data.as_ptr(), out.as_mut_ptr(), raw)
+        };
         return;
     }
     // a b^T with b row-major: dot products of rows, in place (matrixmultiply would pack b,
     // and the heads' b is a whole weight matrix multiplied by a few rows).
     #[cfg(target_arch = "x86_64")]
-    if b.t && !a.t && k > 0 && kernel::available() && let Epilogue::Store { beta } = ep {
+    if b.t
+        && !a.t
+        && k > 0
+        && kernel::available()
+        && let Epilogue::Store { beta } = ep
+    {
         // SAFETY: the CPU has AVX-512F (checked); a holds m x k, b's buffer n x k, out m x n.
         unsafe { kernel::dots(m, k, n, a.data.as_ptr(), b.data.as_ptr(), beta, out.as_mut_ptr()) };
         return;
@@ -110,7 +128,24 @@ pub fn gemm_then(a: Mat, b: Mat, out: &mut [f32], ep: Epilogue) {
     let plain = |beta: f32, c: &mut [f32]| {
         // SAFETY: the views hold rows*cols elements (checked above), and the strides address
         // exactly those elements; c holds m*n.
-        unsafe { matrixmultiply::sgemm(m, k, n, 1.0, a.data.as_ptr(), rsa, csa, b.data.as_ptr(), rsb, csb, beta, c.as_mut_ptr(), n as isize, 1) }
+        unsafe {
+            matrixmultiply::sgemm(
+                m,
+                k,
+                n,
+                1.0,
+                a.data.as_ptr(),
+                rsa,
+                csa,
+                b.data.as_ptr(),
+                rsb,
+                csb,
+                beta,
+                c.as_mut_ptr(),
+                n as isize,
+                1,
+            )
+        }
     };
     let out = &mut out[..size];
     match ep {
@@ -178,7 +213,7 @@ pub fn add_column_sums(m: &[f32], sums: &mut [f32]) {
 
 #[cfg(test)]
 mod tests {
-    use super::{dots, gemm, gemm_then, Epilogue, Mat};
+    use super::{Epilogue, Mat, dots, gemm, gemm_then};
 
     fn naive(a: &[f32], b: &[f32], m: usize, k: usize, n: usize, at: bool, bt: bool) -> Vec<f32> {
         let mut c = vec![0f32; m * n];
@@ -198,11 +233,21 @@ mod tests {
 
     #[test]
     fn products_match_a_plain_sum_for_every_layout_and_edge() {
-        for &(m, k, n) in &[(13, 128, 128), (256, 128, 128), (128, 37, 128), (9, 3, 64), (5, 128, 3), (33, 7, 1), (8, 256, 32)] {
+        for &(m, k, n) in &[
+            (13, 128, 128),
+            (256, 128, 128),
+            (128, 37, 128),
+            (9, 3, 64),
+            (5, 128, 3),
+            (33, 7, 1),
+            (8, 256, 32),
+        ] {
             for at in [false, true] {
                 for bt in [false, true] {
-                    let a: Vec<f32> = (0..m * k).map(|i| ((i * 37 % 101) as f32 - 50.0) * 0.01).collect();
-                    let b: Vec<f32> = (0..k * n).map(|i| ((i * 53 % 97) as f32 - 48.0) * 0.01).collect();
+                    let a: Vec<f32> =
+                        (0..m * k).map(|i| ((i * 37 % 101) as f32 - 50.0) * 0.01).collect();
+                    let b: Vec<f32> =
+                        (0..k * n).map(|i| ((i * 53 % 97) as f32 - 48.0) * 0.01).collect();
                     let am = if at { Mat::new(&a, k, m).t() } else { Mat::new(&a, m, k) };
                     let bm = if bt { Mat::new(&b, n, k).t() } else { Mat::new(&b, k, n) };
                     let expected = naive(&a, &b, m, k, n, at, bt);
@@ -211,8 +256,16 @@ mod tests {
                     let mut acc = vec![1f32; m * n];
                     gemm(am, bm, 1.0, &mut acc);
                     for i in 0..m * n {
-                        assert!((c[i] - expected[i]).abs() < 1e-4, "{m}x{k}x{n} at {at} bt {bt}: {} vs {}", c[i], expected[i]);
-                        assert!((acc[i] - 1.0 - expected[i]).abs() < 1e-4, "accumulate {m}x{k}x{n}");
+                        assert!(
+                            (c[i] - expected[i]).abs() < 1e-4,
+                            "{m}x{k}x{n} at {at} bt {bt}: {} vs {}",
+                            c[i],
+                            expected[i]
+                        );
+                        assert!(
+                            (acc[i] - 1.0 - expected[i]).abs() < 1e-4,
+                            "accumulate {m}x{k}x{n}"
+                        );
                     }
                 }
             }
@@ -233,10 +286,15 @@ mod tests {
             let mut p = vec![0f32; m * n];
             gemm(Mat::new(&a, m, k), Mat::new(&b, k, n), 0.0, &mut p);
             let reference = naive(&a, &b, m, k, n, false, false);
-            assert!(p.iter().zip(&reference).all(|(x, y)| (x - y).abs() < 1e-4), "plain product {m}x{k}x{n}");
+            assert!(
+                p.iter().zip(&reference).all(|(x, y)| (x - y).abs() < 1e-4),
+                "plain product {m}x{k}x{n}"
+            );
             let (f1, f2, f3) = (data(m * n, 3), data(m * n, 4), data(m * n, 5));
             let bias = data(n, 6);
-            let close = |x: f32, y: f32, what: &str| assert!((x - y).abs() <= 1e-4 * (1.0 + y.abs()), "{what} {m}x{k}x{n}: {x} vs {y}");
+            let close = |x: f32, y: f32, what: &str| {
+                assert!((x - y).abs() <= 1e-4 * (1.0 + y.abs()), "{what} {m}x{k}x{n}: {x} vs {y}")
+            };
             let (am, bm) = (Mat::new(&a, m, k), Mat::new(&b, k, n));
 
             let (mut h, mut c) = (vec![0f32; m * n], vec![0f32; m * n]);
@@ -253,7 +311,12 @@ mod tests {
                 close(times[i], p[i] * f1[i], "times");
             }
             let mut v = f2.clone();
-            gemm_then(am, bm, &mut out, Epilogue::GradChain { scale: -2.0, v: &mut v, h: &f1, c: &f3 });
+            gemm_then(
+                am,
+                bm,
+                &mut out,
+                Epilogue::GradChain { scale: -2.0, v: &mut v, h: &f1, c: &f3 },
+            );
             for i in 0..m * n {
                 close(v[i], -2.0 * p[i] * f2[i] * f1[i], "chain v");
                 close(out[i], p[i] * f3[i], "chain out");
@@ -274,7 +337,12 @@ mod tests {
             let mut out = vec![1f32; m * r];
             dots(&a, &rows, k, 1.0, &mut out);
             for i in 0..m * r {
-                assert!((out[i] - 1.0 - expected[i]).abs() < 1e-5 * (1.0 + expected[i].abs()), "{m}x{k}x{r}: {} vs {}", out[i] - 1.0, expected[i]);
+                assert!(
+                    (out[i] - 1.0 - expected[i]).abs() < 1e-5 * (1.0 + expected[i].abs()),
+                    "{m}x{k}x{r}: {} vs {}",
+                    out[i] - 1.0,
+                    expected[i]
+                );
             }
         }
     }

@@ -2,7 +2,7 @@
 //! encoder (pose -> condition) and the heads (condition -> per-layer residuals), for a batch
 //! of poses. Shapes are tiny next to the SIREN's (a few poses), so plain products suffice.
 
-use super::gemm::{add_column_sums, gemm, Mat};
+use super::gemm::{Mat, add_column_sums, gemm};
 use super::layout::{Block, EncoderLayout, HeadLayout};
 use crate::encoder::{BONE_FEATURES, BONE_INPUTS};
 use avatar_core::body::skeleton::{NUM_JOINTS, SMPL_PARENTS};
@@ -20,18 +20,37 @@ fn linear(x: &[f32], rows: usize, p: &[f32], w: &Block, bias: &Block, out: &mut 
     for row in out[..rows * cols].chunks_exact_mut(cols) {
         row.copy_from_slice(slice(p, bias));
     }
-    gemm(Mat::new(x, rows, w.rows), Mat::new(slice(p, w), w.rows, w.cols), 1.0, &mut out[..rows * cols]);
+    gemm(
+        Mat::new(x, rows, w.rows),
+        Mat::new(slice(p, w), w.rows, w.cols),
+        1.0,
+        &mut out[..rows * cols],
+    );
 }
 
 /// Reverse of [`linear`]: gW += x^T d_out, gb += column sums of d_out, and (if asked)
 /// d_x = d_out W^T.
 #[allow(clippy::too_many_arguments)]
-fn linear_back(x: &[f32], rows: usize, p: &[f32], w: &Block, bias: &Block, d_out: &[f32], grad: &mut [f32], d_x: Option<&mut [f32]>) {
+fn linear_back(
+    x: &[f32],
+    rows: usize,
+    p: &[f32],
+    w: &Block,
+    bias: &Block,
+    d_out: &[f32],
+    grad: &mut [f32],
+    d_x: Option<&mut [f32]>,
+) {
     let cols = w.cols;
     gemm(Mat::new(x, rows, w.rows).t(), Mat::new(d_out, rows, cols), 1.0, &mut grad[w.range()]);
     add_column_sums(&d_out[..rows * cols], &mut grad[bias.range()]);
     if let Some(d_x) = d_x {
-        gemm(Mat::new(d_out, rows, cols), Mat::new(slice(p, w), w.rows, cols).t(), 0.0, &mut d_x[..rows * w.rows]);
+        gemm(
+            Mat::new(d_out, rows, cols),
+            Mat::new(slice(p, w), w.rows, cols).t(),
+            0.0,
+            &mut d_x[..rows * w.rows],
+        );
     }
 }
 
@@ -47,7 +66,14 @@ pub struct EncoderPass {
 }
 
 /// Inputs [rows, 24 x 13] -> condition [rows, 24 x 6].
-pub fn encoder_forward(e: &EncoderLayout, p: &[f32], input: &[f32], rows: usize, pass: &mut EncoderPass, cond: &mut [f32]) {
+pub fn encoder_forward(
+    e: &EncoderLayout,
+    p: &[f32],
+    input: &[f32],
+    rows: usize,
+    pass: &mut EncoderPass,
+    cond: &mut [f32],
+) {
     let n = BONE_INPUTS + BONE_FEATURES;
     let cond_len = NUM_JOINTS * BONE_FEATURES;
     pass.rows = rows;
@@ -67,9 +93,15 @@ pub fn encoder_forward(e: &EncoderLayout, p: &[f32], input: &[f32], rows: usize,
     for j in 0..NUM_JOINTS {
         for r in 0..rows {
             let x = &mut pass.x[j][r * n..(r + 1) * n];
-            x[..BONE_INPUTS].copy_from_slice(&input[r * NUM_JOINTS * BONE_INPUTS + j * BONE_INPUTS..][..BONE_INPUTS]);
+            x[..BONE_INPUTS].copy_from_slice(
+                &input[r * NUM_JOINTS * BONE_INPUTS + j * BONE_INPUTS..][..BONE_INPUTS],
+            );
             let parent = SMPL_PARENTS[j];
-            let pf = if parent < 0 { &prior[r * BONE_FEATURES..][..BONE_FEATURES] } else { &cond[r * cond_len + parent as usize * BONE_FEATURES..][..BONE_FEATURES] };
+            let pf = if parent < 0 {
+                &prior[r * BONE_FEATURES..][..BONE_FEATURES]
+            } else {
+                &cond[r * cond_len + parent as usize * BONE_FEATURES..][..BONE_FEATURES]
+            };
             x[BONE_INPUTS..].copy_from_slice(pf);
         }
         linear(&pass.x[j], rows, p, &e.w1[j], &e.b1[j], &mut pass.pre[j]);
@@ -78,13 +110,20 @@ pub fn encoder_forward(e: &EncoderLayout, p: &[f32], input: &[f32], rows: usize,
         }
         linear(&pass.act[j], rows, p, &e.w2[j], &e.b2[j], &mut feature);
         for r in 0..rows {
-            cond[r * cond_len + j * BONE_FEATURES..][..BONE_FEATURES].copy_from_slice(&feature[r * BONE_FEATURES..][..BONE_FEATURES]);
+            cond[r * cond_len + j * BONE_FEATURES..][..BONE_FEATURES]
+                .copy_from_slice(&feature[r * BONE_FEATURES..][..BONE_FEATURES]);
         }
     }
 }
 
 /// Reverse of [`encoder_forward`]: adds the encoder's gradient given d(loss)/d(condition).
-pub fn encoder_backward(e: &EncoderLayout, p: &[f32], pass: &EncoderPass, d_cond: &[f32], grad: &mut [f32]) {
+pub fn encoder_backward(
+    e: &EncoderLayout,
+    p: &[f32],
+    pass: &EncoderPass,
+    d_cond: &[f32],
+    grad: &mut [f32],
+) {
     let rows = pass.rows;
     let n = BONE_INPUTS + BONE_FEATURES;
     let cond_len = NUM_JOINTS * BONE_FEATURES;
@@ -96,7 +135,8 @@ pub fn encoder_backward(e: &EncoderLayout, p: &[f32], pass: &EncoderPass, d_cond
     let mut d_x = vec![0f32; rows * n];
     for j in (0..NUM_JOINTS).rev() {
         for r in 0..rows {
-            d_f[r * BONE_FEATURES..][..BONE_FEATURES].copy_from_slice(&d_feat[r * cond_len + j * BONE_FEATURES..][..BONE_FEATURES]);
+            d_f[r * BONE_FEATURES..][..BONE_FEATURES]
+                .copy_from_slice(&d_feat[r * cond_len + j * BONE_FEATURES..][..BONE_FEATURES]);
         }
         linear_back(&pass.act[j], rows, p, &e.w2[j], &e.b2[j], &d_f, grad, Some(&mut d_act));
         for (d, z) in d_act.iter_mut().zip(&pass.pre[j]) {
@@ -108,7 +148,11 @@ pub fn encoder_backward(e: &EncoderLayout, p: &[f32], pass: &EncoderPass, d_cond
         let parent = SMPL_PARENTS[j];
         for r in 0..rows {
             let src = &d_x[r * n + BONE_INPUTS..(r + 1) * n];
-            let dst = if parent < 0 { &mut d_prior[r * BONE_FEATURES..][..BONE_FEATURES] } else { &mut d_feat[r * cond_len + parent as usize * BONE_FEATURES..][..BONE_FEATURES] };
+            let dst = if parent < 0 {
+                &mut d_prior[r * BONE_FEATURES..][..BONE_FEATURES]
+            } else {
+                &mut d_feat[r * cond_len + parent as usize * BONE_FEATURES..][..BONE_FEATURES]
+            };
             for (d, s) in dst.iter_mut().zip(src) {
                 *d += s;
             }
@@ -139,7 +183,12 @@ pub fn head_forward(h: &HeadLayout, p: &[f32], cond: &[f32], rows: usize, pass: 
         let input: &[f32] = if l == 0 { cond } else { &pass.a[0] };
         linear(input, rows, p, &h.w[l], &h.b[l], &mut z);
         let (gamma, beta) = (slice(p, &h.gamma[l]), slice(p, &h.beta[l]));
-        let (mut y, mut nn, mut a, mut rstd) = (vec![0f32; rows * width], vec![0f32; rows * width], vec![0f32; rows * width], vec![0f32; rows]);
+        let (mut y, mut nn, mut a, mut rstd) = (
+            vec![0f32; rows * width],
+            vec![0f32; rows * width],
+            vec![0f32; rows * width],
+            vec![0f32; rows],
+        );
         for r in 0..rows {
             let zr = &z[r * width..(r + 1) * width];
             let mean = zr.iter().sum::<f32>() / width as f32;
@@ -166,7 +215,15 @@ pub fn head_forward(h: &HeadLayout, p: &[f32], cond: &[f32], rows: usize, pass: 
 
 /// Reverse of [`head_forward`]: adds the head's gradient given d(loss)/d(out) and, if asked,
 /// adds d(loss)/d(condition) into `d_cond`.
-pub fn head_backward(h: &HeadLayout, p: &[f32], cond: &[f32], pass: &HeadPass, d_out: &[f32], grad: &mut [f32], mut d_cond: Option<&mut [f32]>) {
+pub fn head_backward(
+    h: &HeadLayout,
+    p: &[f32],
+    cond: &[f32],
+    pass: &HeadPass,
+    d_out: &[f32],
+    grad: &mut [f32],
+    mut d_cond: Option<&mut [f32]>,
+) {
     let rows = pass.rows;
     let width = h.w[0].cols;
     let mut d_a = vec![0f32; rows * width];
@@ -190,7 +247,8 @@ pub fn head_backward(h: &HeadLayout, p: &[f32], cond: &[f32], pass: &HeadPass, d
         }
         // LayerNorm: d_z = (d_y - mean(d_y) - y mean(d_y y)) / sigma.
         for r in 0..rows {
-            let (dy, y) = (&d_y[r * width..(r + 1) * width], &pass.y[l][r * width..(r + 1) * width]);
+            let (dy, y) =
+                (&d_y[r * width..(r + 1) * width], &pass.y[l][r * width..(r + 1) * width]);
             let m1 = dy.iter().sum::<f32>() / width as f32;
             let m2 = dy.iter().zip(y).map(|(a, b)| a * b).sum::<f32>() / width as f32;
             for c in 0..width {

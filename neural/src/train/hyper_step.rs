@@ -5,8 +5,10 @@
 //! the encoder. `tests/train_gradients.rs` holds all of it to burn's autodiff.
 
 use super::blocks::BlockRunner;
-use super::gemm::{gemm, Mat};
-use super::heads::{encoder_backward, encoder_forward, head_backward, head_forward, EncoderPass, HeadPass};
+use super::gemm::{Mat, gemm};
+use super::heads::{
+    EncoderPass, HeadPass, encoder_backward, encoder_forward, head_backward, head_forward,
+};
 use super::igr::IgrPoints;
 use super::layout::{Block, HeadLayout, HyperLayout};
 use crate::hyper::HyperConfig;
@@ -58,7 +60,12 @@ impl HyperGradient {
         for h in &layout.heads {
             let (start, end) = (h.w[0].at, h.beta[1].range().end);
             let r = |b: &Block| rebase(b, start);
-            local_heads.push(HeadLayout { w: h.w.each_ref().map(r), b: h.b.each_ref().map(r), gamma: h.gamma.each_ref().map(r), beta: h.beta.each_ref().map(r) });
+            local_heads.push(HeadLayout {
+                w: h.w.each_ref().map(r),
+                b: h.b.each_ref().map(r),
+                gamma: h.gamma.each_ref().map(r),
+                beta: h.beta.each_ref().map(r),
+            });
             head_runs.push(start..end);
         }
         let heads = layout.heads.len();
@@ -83,7 +90,13 @@ impl HyperGradient {
 
     /// Loss of `batch` under `params` and its gradient into `grad` (overwritten, the layout's
     /// length). The encoder's gradient is only computed when `train_encoder` (else zero).
-    pub fn compute(&mut self, params: &[f32], batch: &HyperBatch, train_encoder: bool, grad: &mut [f32]) -> StepLoss {
+    pub fn compute(
+        &mut self,
+        params: &[f32],
+        batch: &HyperBatch,
+        train_encoder: bool,
+        grad: &mut [f32],
+    ) -> StepLoss {
         let lay = &self.layout;
         let shape = &lay.sdf_shape;
         let poses = batch.points.len();
@@ -96,11 +109,22 @@ impl HyperGradient {
         let cond_len = lay.config.encoding.output_len();
         self.cond.resize(poses * cond_len, 0.0);
         match &lay.encoder {
-            Some(e) => encoder_forward(e, params, batch.inputs, poses, &mut self.encoder_pass, &mut self.cond),
+            Some(e) => encoder_forward(
+                e,
+                params,
+                batch.inputs,
+                poses,
+                &mut self.encoder_pass,
+                &mut self.cond,
+            ),
             None => self.cond.copy_from_slice(batch.inputs),
         }
         let cond = &self.cond;
-        self.head_passes.par_iter_mut().zip(&self.local_heads).zip(&self.head_runs).for_each(|((pass, h), run)| head_forward(h, &params[run.clone()], cond, poses, pass));
+        self.head_passes
+            .par_iter_mut()
+            .zip(&self.local_heads)
+            .zip(&self.head_runs)
+            .for_each(|((pass, h), run)| head_forward(h, &params[run.clone()], cond, poses, pass));
 
         // Each pose's SIREN: base + residual (U_l C or the full prediction).
         let base = &params[lay.sdf_range.clone()];
@@ -122,7 +146,12 @@ impl HyperGradient {
                     match layout.rank(l) {
                         Some(r) => {
                             let u = &params[layout.bases[l].range()];
-                            gemm(Mat::new(u, fan_in, r), Mat::new(&row[..coeffs], r, fan_out), 0.0, &mut res[shape.w_range(l)]);
+                            gemm(
+                                Mat::new(u, fan_in, r),
+                                Mat::new(&row[..coeffs], r, fan_out),
+                                0.0,
+                                &mut res[shape.w_range(l)],
+                            );
                         }
                         None => res[shape.w_range(l)].copy_from_slice(&row[..coeffs]),
                     }
@@ -140,7 +169,12 @@ impl HyperGradient {
 
         // Every pose's SIREN over its points, on all cores.
         let pose_params: Vec<&[f32]> = self.pose_params.iter().map(|v| v.as_slice()).collect();
-        let terms = self.runner.run(&pose_params, &batch.points, &batch.loss, &mut self.pose_grads[..poses]);
+        let terms = self.runner.run(
+            &pose_params,
+            &batch.points,
+            &batch.loss,
+            &mut self.pose_grads[..poses],
+        );
 
         // The base SDF collects every pose's gradient (the regulariser does not see it).
         const CHUNK: usize = 1 << 13;
@@ -177,8 +211,18 @@ impl HyperGradient {
                         let u_block = lay.bases[l];
                         let c = &self.head_passes[l].out[p * width..p * width + coeffs];
                         // d C = U^T dW; d U += dW C^T.
-                        gemm(Mat::new(&params[u_block.range()], fan_in, r).t(), Mat::new(gw, fan_in, fan_out), 0.0, &mut d_row[..coeffs]);
-                        gemm(Mat::new(gw, fan_in, fan_out), Mat::new(c, r, fan_out).t(), 1.0, &mut grad[u_block.range()]);
+                        gemm(
+                            Mat::new(&params[u_block.range()], fan_in, r).t(),
+                            Mat::new(gw, fan_in, fan_out),
+                            0.0,
+                            &mut d_row[..coeffs],
+                        );
+                        gemm(
+                            Mat::new(gw, fan_in, fan_out),
+                            Mat::new(c, r, fan_out).t(),
+                            1.0,
+                            &mut grad[u_block.range()],
+                        );
                     }
                     None => d_row[..coeffs].copy_from_slice(gw),
                 }
@@ -187,7 +231,10 @@ impl HyperGradient {
         }
 
         // Heads (each writes its own run of the gradient), then the encoder.
-        let mut d_conds = vec![vec![0f32; poses * cond_len]; if train_encoder { self.local_heads.len() } else { 0 }];
+        let mut d_conds = vec![
+            vec![0f32; poses * cond_len];
+            if train_encoder { self.local_heads.len() } else { 0 }
+        ];
         {
             let (_, rest) = grad.split_at_mut(lay.heads_range.start);
             let (heads_grad, _) = rest.split_at_mut(lay.heads_range.len());
@@ -198,7 +245,8 @@ impl HyperGradient {
                 runs.push(this);
                 remaining = next;
             }
-            let mut d_cond_refs: Vec<Option<&mut [f32]>> = d_conds.iter_mut().map(|d| Some(d.as_mut_slice())).collect();
+            let mut d_cond_refs: Vec<Option<&mut [f32]>> =
+                d_conds.iter_mut().map(|d| Some(d.as_mut_slice())).collect();
             d_cond_refs.resize_with(self.local_heads.len(), || None);
             runs.into_par_iter()
                 .zip(d_cond_refs)
@@ -206,7 +254,9 @@ impl HyperGradient {
                 .zip(&self.head_runs)
                 .zip(&self.head_passes)
                 .zip(&self.d_outs)
-                .for_each(|(((((g, d_cond), h), run), pass), d_out)| head_backward(h, &params[run.clone()], cond, pass, d_out, g, d_cond));
+                .for_each(|(((((g, d_cond), h), run), pass), d_out)| {
+                    head_backward(h, &params[run.clone()], cond, pass, d_out, g, d_cond)
+                });
         }
         if train_encoder && let Some(e) = &lay.encoder {
             let mut d_cond = vec![0f32; poses * cond_len];

@@ -31,12 +31,26 @@ fn sign(x: f32) -> f32 {
 }
 
 impl PointLoss for IgrPoints<'_> {
-    fn adjoint(&self, group: usize, first: usize, f: &[f32], g: &[f32], d_f: &mut [f32], d_g: &mut [f32]) -> LossTerms {
+    fn adjoint(
+        &self,
+        group: usize,
+        first: usize,
+        f: &[f32],
+        g: &[f32],
+        d_f: &mut [f32],
+        d_g: &mut [f32],
+    ) -> LossTerms {
         let w = &self.weights;
         let s_count = (self.groups * self.surface).max(1) as f32;
         let o_count = (self.groups * self.off).max(1) as f32;
         let all = (self.groups * (self.surface + self.off)) as f32;
-        let (k_on, k_normal, k_off, k_eik, k_prior) = (w.surface / s_count, w.normal / s_count, w.off_surface / o_count, w.eikonal / all, self.prior_weight / o_count);
+        let (k_on, k_normal, k_off, k_eik, k_prior) = (
+            w.surface / s_count,
+            w.normal / s_count,
+            w.off_surface / o_count,
+            w.eikonal / all,
+            self.prior_weight / o_count,
+        );
         let mut t = [0f64; 5];
         for (i, (&fv, gv)) in f.iter().zip(g.chunks_exact(3)).enumerate() {
             let row = first + i;

@@ -11,7 +11,10 @@ use std::sync::OnceLock;
 
 pub fn available() -> bool {
     static AVAILABLE: OnceLock<bool> = OnceLock::new();
-    *AVAILABLE.get_or_init(|| std::arch::is_x86_feature_detected!("avx512f") && std::env::var_os("AVATAR_NO_AVX512").is_none())
+    *AVAILABLE.get_or_init(|| {
+        std::arch::is_x86_feature_detected!("avx512f")
+            && std::env::var_os("AVATAR_NO_AVX512").is_none()
+    })
 }
 
 /// An epilogue over raw pointers: every pointer addresses a buffer laid out like the result
@@ -36,7 +39,17 @@ const NR: usize = 32;
 /// out and every epilogue pointer hold m x n (bias: n).
 #[target_feature(enable = "avx512f")]
 #[allow(clippy::too_many_arguments)]
-pub unsafe fn gemm(m: usize, k: usize, n: usize, a: *const f32, rsa: isize, csa: isize, b: *const f32, out: *mut f32, ep: Raw) {
+pub unsafe fn gemm(
+    m: usize,
+    k: usize,
+    n: usize,
+    a: *const f32,
+    rsa: isize,
+    csa: isize,
+    b: *const f32,
+    out: *mut f32,
+    ep: Raw,
+) {
     let mut i0 = 0;
     while i0 < m {
         let rows = MR.min(m - i0);
@@ -69,13 +82,25 @@ pub unsafe fn gemm(m: usize, k: usize, n: usize, a: *const f32, rsa: isize, csa:
 #[target_feature(enable = "avx512f")]
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-unsafe fn tile<const R: usize>(k: usize, n: usize, a: *const f32, rsa: isize, csa: isize, b: *const f32, out: *mut f32, ep: Raw, i0: usize, j0: usize) {
+unsafe fn tile<const R: usize>(
+    k: usize,
+    n: usize,
+    a: *const f32,
+    rsa: isize,
+    csa: isize,
+    b: *const f32,
+    out: *mut f32,
+    ep: Raw,
+    i0: usize,
+    j0: usize,
+) {
     // SAFETY (whole body): indices stay within the caller's m x k, k x n and m x n views.
     // Pointer steps use wrapping arithmetic: the dev profile's overflow checks in the inner
     // loop kept the accumulators out of registers.
     unsafe {
         let mut acc = [[_mm512_setzero_ps(); 2]; R];
-        let rows: [*const f32; R] = std::array::from_fn(|d| a.wrapping_offset(rsa.wrapping_mul((i0 + d) as isize)));
+        let rows: [*const f32; R] =
+            std::array::from_fn(|d| a.wrapping_offset(rsa.wrapping_mul((i0 + d) as isize)));
         let mut a_step: isize = 0;
         let mut bp = b.wrapping_add(j0);
         for _ in 0..k {
@@ -102,7 +127,8 @@ unsafe fn tile<const R: usize>(k: usize, n: usize, a: *const f32, rsa: isize, cs
 #[inline(never)]
 unsafe fn epilogue(acc: &[[__m512; 2]], n: usize, out: *mut f32, ep: Raw, i0: usize, j0: usize) {
     let set = _mm512_set1_ps;
-    let tile_at = |d: usize, v: usize| (i0 + d).wrapping_mul(n).wrapping_add(j0).wrapping_add(16 * v);
+    let tile_at =
+        |d: usize, v: usize| (i0 + d).wrapping_mul(n).wrapping_add(j0).wrapping_add(16 * v);
     // SAFETY (whole body): the tile lies inside the result and every buffer laid out like it
     // (the caller's contract).
     unsafe {
@@ -206,7 +232,15 @@ pub fn sin_cos(x: __m512) -> (__m512, __m512) {
 /// # Safety
 /// The CPU has AVX-512F; a holds m x k, rows r x k, out m x r.
 #[target_feature(enable = "avx512f")]
-pub unsafe fn dots(m: usize, k: usize, r: usize, a: *const f32, rows: *const f32, beta: f32, out: *mut f32) {
+pub unsafe fn dots(
+    m: usize,
+    k: usize,
+    r: usize,
+    a: *const f32,
+    rows: *const f32,
+    beta: f32,
+    out: *mut f32,
+) {
     let tail = (k % 16) as u32;
     let mask: __mmask16 = ((1u32 << tail) - 1) as u16;
     let full = k - k % 16;
@@ -223,7 +257,11 @@ pub unsafe fn dots(m: usize, k: usize, r: usize, a: *const f32, rows: *const f32
                     p += 16;
                 }
                 if tail > 0 {
-                    acc = _mm512_fmadd_ps(_mm512_maskz_loadu_ps(mask, ai.add(full)), _mm512_maskz_loadu_ps(mask, bj.add(full)), acc);
+                    acc = _mm512_fmadd_ps(
+                        _mm512_maskz_loadu_ps(mask, ai.add(full)),
+                        _mm512_maskz_loadu_ps(mask, bj.add(full)),
+                        acc,
+                    );
                 }
                 let o = out.add(i * r + j);
                 let s = _mm512_reduce_add_ps(acc);

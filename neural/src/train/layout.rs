@@ -3,7 +3,7 @@
 //! reshuffling. Encoder, heads, low-rank bases, base SDF, in that order.
 
 use super::siren_grad::SirenShape;
-use crate::encoder::{PoseEncoding, BONE_FEATURES, BONE_INPUTS};
+use crate::encoder::{BONE_FEATURES, BONE_INPUTS, PoseEncoding};
 use crate::hyper::HyperConfig;
 use avatar_core::body::skeleton::NUM_JOINTS;
 use std::ops::Range;
@@ -97,12 +97,27 @@ impl HyperLayout {
             })
             .collect();
         let heads_range = encoder_range.end..c.0;
-        let bases = config.layer_shapes().into_iter().filter_map(|(fan_in, _)| rank(config, fan_in).map(|r| c.take(fan_in, r))).collect();
+        let bases = config
+            .layer_shapes()
+            .into_iter()
+            .filter_map(|(fan_in, _)| rank(config, fan_in).map(|r| c.take(fan_in, r)))
+            .collect();
         let bases_range = heads_range.end..c.0;
         let sdf_shape = SirenShape::of(&config.siren);
         let sdf_at = c.0;
         let sdf_range = sdf_at..sdf_at + sdf_shape.len();
-        HyperLayout { config: *config, encoder, heads, bases, sdf_at, sdf_shape, encoder_range, heads_range, bases_range, sdf_range }
+        HyperLayout {
+            config: *config,
+            encoder,
+            heads,
+            bases,
+            sdf_at,
+            sdf_shape,
+            encoder_range,
+            heads_range,
+            bases_range,
+            sdf_range,
+        }
     }
 
     pub fn len(&self) -> usize {

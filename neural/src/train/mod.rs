@@ -14,11 +14,11 @@ pub mod adam;
 pub mod blocks;
 mod elementwise;
 pub mod gemm;
-#[cfg(target_arch = "x86_64")]
-mod kernel;
 pub mod heads;
 pub mod hyper_step;
 pub mod igr;
+#[cfg(target_arch = "x86_64")]
+mod kernel;
 pub mod layout;
 pub mod siren_grad;
 
@@ -41,10 +41,19 @@ impl SirenGradient {
     }
 
     /// The loss of `points` under `params` and its gradient into `grad` (overwritten).
-    pub fn compute(&mut self, params: &[f32], points: &[[f32; 3]], loss: &IgrPoints, grad: &mut [f32]) -> StepLoss {
+    pub fn compute(
+        &mut self,
+        params: &[f32],
+        points: &[[f32; 3]],
+        loss: &IgrPoints,
+        grad: &mut [f32],
+    ) -> StepLoss {
         let terms = self.runner.run(&[params], &[points], loss, &mut self.grads);
         grad.copy_from_slice(&self.grads[0]);
         let t = terms.terms;
-        StepLoss { total: terms.total() as f32, terms: [t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32] }
+        StepLoss {
+            total: terms.total() as f32,
+            terms: [t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32],
+        }
     }
 }

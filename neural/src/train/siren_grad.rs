@@ -13,7 +13,7 @@
 //! c_k: d c_k / d z_k = -W0^2 h_k.
 
 use super::elementwise;
-use super::gemm::{add_column_sums, dots, gemm, gemm_then, Epilogue, Mat};
+use super::gemm::{Epilogue, Mat, add_column_sums, dots, gemm, gemm_then};
 use crate::siren::W0;
 
 /// Where each layer's weights and biases sit in a SIREN's flat parameter vector (the burn
@@ -29,7 +29,10 @@ pub struct SirenShape {
 impl SirenShape {
     /// From layer widths 3 -> ... -> 1.
     pub fn new(widths: &[usize]) -> SirenShape {
-        assert!(widths.len() >= 2 && widths[0] == 3 && widths[widths.len() - 1] == 1, "a SIREN maps 3 inputs to 1 output");
+        assert!(
+            widths.len() >= 2 && widths[0] == 3 && widths[widths.len() - 1] == 1,
+            "a SIREN maps 3 inputs to 1 output"
+        );
         let mut off = 0;
         let mut w_off = Vec::new();
         for p in widths.windows(2) {
@@ -84,7 +87,15 @@ impl SirenShape {
 /// gradients `g` [n, 3] of rows `first..first + n` of a step's points, write dL/df and dL/dg
 /// and return the block's share of the loss terms.
 pub trait PointLoss: Sync {
-    fn adjoint(&self, group: usize, first: usize, f: &[f32], g: &[f32], d_f: &mut [f32], d_g: &mut [f32]) -> LossTerms;
+    fn adjoint(
+        &self,
+        group: usize,
+        first: usize,
+        f: &[f32],
+        g: &[f32],
+        d_f: &mut [f32],
+        d_g: &mut [f32],
+    ) -> LossTerms;
 }
 
 /// Shares of the loss (already weighted): on-surface, normal, off-surface, eikonal, sign prior.
@@ -165,7 +176,18 @@ pub fn transpose_weights(shape: &SirenShape, params: &[f32], wt: &mut Vec<Vec<f3
 /// added to it when `accumulate`, else overwritten) and the block's loss terms. `wt`: `transpose_weights` of `params`; `group` and
 /// `first` tell `loss` which points these are.
 #[allow(clippy::too_many_arguments)]
-pub fn siren_backward(shape: &SirenShape, params: &[f32], wt: &[Vec<f32>], points: &[[f32; 3]], loss: &dyn PointLoss, group: usize, first: usize, s: &mut SirenScratch, grad: &mut [f32], accumulate: bool) -> LossTerms {
+pub fn siren_backward(
+    shape: &SirenShape,
+    params: &[f32],
+    wt: &[Vec<f32>],
+    points: &[[f32; 3]],
+    loss: &dyn PointLoss,
+    group: usize,
+    first: usize,
+    s: &mut SirenScratch,
+    grad: &mut [f32],
+    accumulate: bool,
+) -> LossTerms {
     let n = points.len();
     assert!(n <= s.rows, "block larger than its scratch");
     let last = shape.layers() - 1;
@@ -183,7 +205,12 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], wt: &[Vec<f32>], point
         let (below, above) = s.h.split_at_mut(k);
         let input = if k == 0 { &s.x[..n * 3] } else { &below[k - 1][..n * fan_in] };
         let ep = Epilogue::Sine { w0: W0, bias: b(k), deriv: &mut s.c[k][..n * fan_out] };
-        gemm_then(Mat::new(input, n, fan_in), Mat::new(w(k), fan_in, fan_out), &mut above[0][..n * fan_out], ep);
+        gemm_then(
+            Mat::new(input, n, fan_in),
+            Mat::new(w(k), fan_in, fan_out),
+            &mut above[0][..n * fan_out],
+            ep,
+        );
     }
     dots(&s.h[last - 1][..n * top], w(last), top, 0.0, &mut s.f[..n]);
     let b_last = b(last)[0];
@@ -192,16 +219,30 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], wt: &[Vec<f32>], point
     // Spatial gradient: v_{last-1} = W_last (one column) for every point; q_k = v_k c_k;
     // v_{k-1} = q_k W_k^T (q_{k-1} in the same product's epilogue); the input's gradient
     // is the last v.
-    elementwise::broadcast_times(w(last), &s.c[last - 1][..n * top], &mut s.v[last - 1][..n * top], &mut s.q[last - 1][..n * top]);
+    elementwise::broadcast_times(
+        w(last),
+        &s.c[last - 1][..n * top],
+        &mut s.v[last - 1][..n * top],
+        &mut s.q[last - 1][..n * top],
+    );
     for k in (1..last).rev() {
         let (fan_in, fan_out) = shape.dims(k);
         let (q_below, q_above) = s.q.split_at_mut(k);
-        let ep = Epilogue::AlsoTimes { factor: &s.c[k - 1][..n * fan_in], times: &mut q_below[k - 1][..n * fan_in] };
-        gemm_then(Mat::new(&q_above[0][..n * fan_out], n, fan_out), Mat::new(&wt[k], fan_out, fan_in), &mut s.v[k - 1][..n * fan_in], ep);
+        let ep = Epilogue::AlsoTimes {
+            factor: &s.c[k - 1][..n * fan_in],
+            times: &mut q_below[k - 1][..n * fan_in],
+        };
+        gemm_then(
+            Mat::new(&q_above[0][..n * fan_out], n, fan_out),
+            Mat::new(&wt[k], fan_out, fan_in),
+            &mut s.v[k - 1][..n * fan_in],
+            ep,
+        );
     }
     dots(&s.q[0][..n * shape.widths[1]], w(0), shape.widths[1], 0.0, &mut s.g[..n * 3]);
 
-    let terms = loss.adjoint(group, first, &s.f[..n], &s.g[..n * 3], &mut s.d_f[..n], &mut s.d_g[..n * 3]);
+    let terms =
+        loss.adjoint(group, first, &s.f[..n], &s.g[..n * 3], &mut s.d_f[..n], &mut s.d_g[..n * 3]);
 
     // Reverse of the gradient chain, from the input up. `adj` holds the adjoint of v_{k-1}
     // (the adjoint of the input's gradient first); per layer: dW_k += adj v_{k-1}^T q_k,
@@ -213,9 +254,24 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], wt: &[Vec<f32>], point
         let (fan_in, fan_out) = shape.dims(k);
         // The first of dW_k's two products overwrites unless accumulating (no pass to zero it).
         let beta = if accumulate { 1.0 } else { 0.0 };
-        gemm(Mat::new(&adj[..n * fan_in], n, fan_in).t(), Mat::new(&s.q[k][..n * fan_out], n, fan_out), beta, &mut grad[shape.w_range(k)]);
-        let ep = Epilogue::GradChain { scale: -W0 * W0, v: &mut s.v[k][..n * fan_out], h: &s.h[k][..n * fan_out], c: &s.c[k][..n * fan_out] };
-        gemm_then(Mat::new(&adj[..n * fan_in], n, fan_in), Mat::new(w(k), fan_in, fan_out), &mut next[..n * fan_out], ep);
+        gemm(
+            Mat::new(&adj[..n * fan_in], n, fan_in).t(),
+            Mat::new(&s.q[k][..n * fan_out], n, fan_out),
+            beta,
+            &mut grad[shape.w_range(k)],
+        );
+        let ep = Epilogue::GradChain {
+            scale: -W0 * W0,
+            v: &mut s.v[k][..n * fan_out],
+            h: &s.h[k][..n * fan_out],
+            c: &s.c[k][..n * fan_out],
+        };
+        gemm_then(
+            Mat::new(&adj[..n * fan_in], n, fan_in),
+            Mat::new(w(k), fan_in, fan_out),
+            &mut next[..n * fan_out],
+            ep,
+        );
         std::mem::swap(&mut adj, &mut next);
     }
 
@@ -228,21 +284,41 @@ pub fn siren_backward(shape: &SirenShape, params: &[f32], wt: &[Vec<f32>], point
         }
         grad[shape.w_range(last)].fill(0.0);
     }
-    elementwise::last_layer_grad(&adj[..n * top], &s.h[last - 1][..n * top], &s.d_f[..n], &mut grad[shape.w_range(last)]);
+    elementwise::last_layer_grad(
+        &adj[..n * top],
+        &s.h[last - 1][..n * top],
+        &s.d_f[..n],
+        &mut grad[shape.w_range(last)],
+    );
     grad[shape.b_range(last)][0] += s.d_f[..n].iter().sum::<f32>();
-    elementwise::add_outer_times(&s.d_f[..n], w(last), &s.c[last - 1][..n * top], &mut s.v[last - 1][..n * top]);
+    elementwise::add_outer_times(
+        &s.d_f[..n],
+        w(last),
+        &s.c[last - 1][..n * top],
+        &mut s.v[last - 1][..n * top],
+    );
 
     // Reverse of the forward chain: dW_k += h_{k-1}^T adj z_k, db_k += adj z_k, and adj
     // z_{k-1} = (adj z_k W_k^T) c_{k-1} + its gradient-chain share, in the product's epilogue.
     for k in (0..last).rev() {
         let (fan_in, fan_out) = shape.dims(k);
         let input = if k == 0 { &s.x[..n * 3] } else { &s.h[k - 1][..n * fan_in] };
-        gemm(Mat::new(input, n, fan_in).t(), Mat::new(&s.v[k][..n * fan_out], n, fan_out), 1.0, &mut grad[shape.w_range(k)]);
+        gemm(
+            Mat::new(input, n, fan_in).t(),
+            Mat::new(&s.v[k][..n * fan_out], n, fan_out),
+            1.0,
+            &mut grad[shape.w_range(k)],
+        );
         add_column_sums(&s.v[k][..n * fan_out], &mut grad[shape.b_range(k)]);
         if k > 0 {
             let (below, above) = s.v.split_at_mut(k);
             let ep = Epilogue::AddTimes { factor: &s.c[k - 1][..n * fan_in] };
-            gemm_then(Mat::new(&above[0][..n * fan_out], n, fan_out), Mat::new(&wt[k], fan_out, fan_in), &mut below[k - 1][..n * fan_in], ep);
+            gemm_then(
+                Mat::new(&above[0][..n * fan_out], n, fan_out),
+                Mat::new(&wt[k], fan_out, fan_in),
+                &mut below[k - 1][..n * fan_in],
+                ep,
+            );
         }
     }
     terms

@@ -4,7 +4,7 @@
 use avatar_core::canonical::{Canonicalizer, FieldOptions};
 use avatar_core::capture::Capture;
 use avatar_core::motion::clip_by_name;
-use avatar_core::synth::{generate_capture, Outfit, SynthJob};
+use avatar_core::synth::{Outfit, SynthJob, generate_capture};
 use std::time::Instant;
 
 pub fn bench_report() -> String {
@@ -17,10 +17,16 @@ pub fn bench_report() -> String {
     };
     out += &format!(
         "| build the diffused skinning field ({}x{}x{} nodes, {:.1} cm cells) | {:.2} s | once per body shape, then cached |\n",
-        canon.field.dims[0], canon.field.dims[1], canon.field.dims[2], canon.field.cell * 100.0, t.elapsed().as_secs_f64()
+        canon.field.dims[0],
+        canon.field.dims[1],
+        canon.field.dims[2],
+        canon.field.cell * 100.0,
+        t.elapsed().as_secs_f64()
     );
-    let dir = std::env::temp_dir().join(format!("avatar-studio-canon-bench-{}", std::process::id()));
-    let mut job = SynthJob::new(3, Outfit::LongsleeveTrousers, clip_by_name("walk").expect("library clip"));
+    let dir =
+        std::env::temp_dir().join(format!("avatar-studio-canon-bench-{}", std::process::id()));
+    let mut job =
+        SynthJob::new(3, Outfit::LongsleeveTrousers, clip_by_name("walk").expect("library clip"));
     job.frames = Some(8);
     job.write_ground_truth = false;
     let frames = generate_capture(&dir, body, &job).and_then(|_| Capture::open(&dir));

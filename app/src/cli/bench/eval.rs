@@ -3,11 +3,11 @@
 use avatar_core::body::BodyParams;
 use avatar_core::error::Result;
 use avatar_core::eval::dataset::{EVAL_CLIPS, EVAL_SUBJECT_SEEDS, UNSEEN_OUTFIT};
-use avatar_core::eval::metrics::{evaluate_frame, FrameMetrics, MetricOptions, Regions};
+use avatar_core::eval::metrics::{FrameMetrics, MetricOptions, Regions, evaluate_frame};
 use avatar_core::eval::runner::{ground_truth_mesh, query};
 use avatar_core::eval::{NakedBody, Predictor};
 use avatar_core::motion::clip_by_name;
-use avatar_core::synth::{subject_betas, ClothedTemplate};
+use avatar_core::synth::{ClothedTemplate, subject_betas};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -19,7 +19,8 @@ pub fn bench_report() -> String {
     let mut out = String::from("## eval\n\n| what | time | note |\n|---|---|---|\n");
     let betas = subject_betas(body, EVAL_SUBJECT_SEEDS[0]);
     let template = ClothedTemplate::build(body, &betas, UNSEEN_OUTFIT);
-    let mut poses: Vec<BodyParams> = EVAL_CLIPS.iter().filter_map(|c| clip_by_name(c)).flat_map(|c| c.frames).collect();
+    let mut poses: Vec<BodyParams> =
+        EVAL_CLIPS.iter().filter_map(|c| clip_by_name(c)).flat_map(|c| c.frames).collect();
     while poses.len() < 250 {
         poses.extend(poses.clone());
     }

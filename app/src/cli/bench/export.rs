@@ -1,14 +1,19 @@
 //! The export bench section: a 300-frame animated glTF of a synthetic full-body avatar.
 
 use avatar_core::canonical::FieldOptions;
-use avatar_core::export::{export_glb, ExportOptions, SyntheticAvatar};
-use avatar_core::motion::{library, MotionClip};
+use avatar_core::export::{ExportOptions, SyntheticAvatar, export_glb};
+use avatar_core::motion::{MotionClip, library};
 use avatar_core::synth::Outfit;
 use std::time::Instant;
 
 pub fn bench_report() -> String {
     let mut out = String::from("## export\n\n| what | time | note |\n|---|---|---|\n");
-    let avatar = match SyntheticAvatar::new(avatar_core::body::open_body(), 2024, Outfit::LongsleeveTrousers, &FieldOptions::default()) {
+    let avatar = match SyntheticAvatar::new(
+        avatar_core::body::open_body(),
+        2024,
+        Outfit::LongsleeveTrousers,
+        &FieldOptions::default(),
+    ) {
         Ok(a) => a,
         Err(e) => return out + &format!("| avatar failed | | {e} |\n"),
     };

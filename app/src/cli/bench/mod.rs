@@ -56,36 +56,57 @@ fn body_section() -> String {
         let load = median_seconds(5, || {
             let _ = BodyModel::from_npz_bytes(&bytes, "bench").expect("embedded body loads");
         });
-        out += &format!("| load the open body (13.4k vertices) from npz | {:.1} ms | target: well under 1 s |\n", load * 1e3);
+        out += &format!(
+            "| load the open body (13.4k vertices) from npz | {:.1} ms | target: well under 1 s |\n",
+            load * 1e3
+        );
     }
-    for (name, model) in [("full", avatar_core::body::open_body_ref()), ("low-poly", avatar_core::body::open_body_lowpoly_ref())] {
+    for (name, model) in [
+        ("full", avatar_core::body::open_body_ref()),
+        ("low-poly", avatar_core::body::open_body_lowpoly_ref()),
+    ] {
         let mut i = 0;
         let t = median_seconds(20, || {
             i += 1;
             std::hint::black_box(model.pose(&walking_pose(i as f32 * 0.05)));
         });
-        out += &format!("| pose {name} body ({} vertices): shape + FK + LBS | {:.2} ms | |\n", model.num_vertices(), t * 1e3);
+        out += &format!(
+            "| pose {name} body ({} vertices): shape + FK + LBS | {:.2} ms | |\n",
+            model.num_vertices(),
+            t * 1e3
+        );
     }
     out
 }
 
 fn capture_section() -> String {
     use avatar_core::capture::Capture;
-    use avatar_core::synth::{generate_capture, Outfit, SynthJob};
+    use avatar_core::synth::{Outfit, SynthJob, generate_capture};
     let mut out = String::from("## capture\n\n| what | median | note |\n|---|---|---|\n");
-    let dir = std::env::temp_dir().join(format!("avatar-studio-bench-capture-{}", std::process::id()));
-    let mut job = SynthJob::new(1, Outfit::LongsleeveTrousers, avatar_core::motion::clip_by_name("walk").expect("library clip"));
+    let dir =
+        std::env::temp_dir().join(format!("avatar-studio-bench-capture-{}", std::process::id()));
+    let mut job = SynthJob::new(
+        1,
+        Outfit::LongsleeveTrousers,
+        avatar_core::motion::clip_by_name("walk").expect("library clip"),
+    );
     job.frames = Some(8);
     job.write_ground_truth = false;
     let t = Instant::now();
     if let Err(e) = generate_capture(&dir, avatar_core::body::open_body_ref(), &job) {
         return out + &format!("| synth failed | | {e} |\n");
     }
-    out += &format!("| synthesize 8 frames (250x250) with the clothed body | {:.1} ms/frame | |\n", t.elapsed().as_secs_f64() * 1e3 / 8.0);
+    out += &format!(
+        "| synthesize 8 frames (250x250) with the clothed body | {:.1} ms/frame | |\n",
+        t.elapsed().as_secs_f64() * 1e3 / 8.0
+    );
     let secs = median_seconds(3, || {
         std::hint::black_box(Capture::open(&dir).expect("bench capture opens"));
     });
-    out += &format!("| open a capture: read, back-project, crop, PCA normals (250x250) | {:.1} ms/frame | |\n", secs * 1e3 / 8.0);
+    out += &format!(
+        "| open a capture: read, back-project, crop, PCA normals (250x250) | {:.1} ms/frame | |\n",
+        secs * 1e3 / 8.0
+    );
     let _ = std::fs::remove_dir_all(&dir);
     out
 }
@@ -98,7 +119,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = &args.out {
         avatar_core::io::Inputs::new().check_file(path, &["md"])?;
     }
-    let sections: Vec<(&str, fn() -> String)> = vec![("body", body_section), ("capture", capture_section), ("canonical", canonical::bench_report), ("eval", eval::bench_report), ("export", export::bench_report), ("neural", neural_section), ("train", train::bench_report), ("studio", avatar_studio::studio::bench::bench_report)];
+    let sections: Vec<(&str, fn() -> String)> = vec![
+        ("body", body_section),
+        ("capture", capture_section),
+        ("canonical", canonical::bench_report),
+        ("eval", eval::bench_report),
+        ("export", export::bench_report),
+        ("neural", neural_section),
+        ("train", train::bench_report),
+        ("studio", avatar_studio::studio::bench::bench_report),
+    ];
     let mut report = format!(
         "# Avatar Studio benchmarks\n\n{} threads, profile {}, `avatar-studio bench`\n\n",
         std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),

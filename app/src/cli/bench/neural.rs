@@ -4,12 +4,12 @@
 //! memory (target: under 2 GB); a 300-frame animated glTF of the fitted avatar (target: under
 //! 30 s); the SDF evaluation of a posed mesh with burn's forward against `siren_eval`'s.
 
+use avatar_core::body::BodyParams;
+use avatar_core::export::{ExportOptions, export_glb};
+use avatar_core::mesh::extract::{ExtractOptions, extract};
+use avatar_core::motion::{MotionClip, clip_by_name, library};
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
-use avatar_core::body::BodyParams;
-use avatar_core::export::{export_glb, ExportOptions};
-use avatar_core::motion::{clip_by_name, library, MotionClip};
-use avatar_core::mesh::extract::{extract, ExtractOptions};
 use glam::Vec3;
 use std::path::Path;
 use std::time::Instant;
@@ -35,10 +35,23 @@ pub fn bench_report(steps: usize) -> String {
     let model = MetaModel::shipped();
     let options = HyperFitOptions { steps, ..HyperFitOptions::default() };
     let t = Instant::now();
-    let (mut avatar, report) = MetaAvatar::fit_points(&capture, &Init::MetaLearned(&model), &options, None, &mut |_, _, _| {});
+    let (mut avatar, report) = MetaAvatar::fit_points(
+        &capture,
+        &Init::MetaLearned(&model),
+        &options,
+        None,
+        &mut |_, _, _| {},
+    );
     let fit_s = t.elapsed().as_secs_f64();
-    out += &format!("| canonicalize 8 demo frames ({} points) | {canonical_s:.1} s | |\n", report.points);
-    out += &format!("| fine-tune compact preset, 8 frames, {steps} steps | {fit_s:.1} s ({:.0} ms/step); with canonicalization {:.1} s | < 180 s |\n", fit_s * 1e3 / steps.max(1) as f64, fit_s + canonical_s);
+    out += &format!(
+        "| canonicalize 8 demo frames ({} points) | {canonical_s:.1} s | |\n",
+        report.points
+    );
+    out += &format!(
+        "| fine-tune compact preset, 8 frames, {steps} steps | {fit_s:.1} s ({:.0} ms/step); with canonicalization {:.1} s | < 180 s |\n",
+        fit_s * 1e3 / steps.max(1) as f64,
+        fit_s + canonical_s
+    );
     let clip = clip_by_name("walk").expect("library clip");
     for resolution in [128, 64] {
         avatar.resolution = resolution;
@@ -54,13 +67,19 @@ pub fn bench_report(steps: usize) -> String {
         }
         times.sort_by(f64::total_cmp);
         let target = if resolution == 128 { "< 0.5 s" } else { "" };
-        out += &format!("| new posed mesh at resolution {resolution} ({vertices} vertices), median of 5 poses | {:.2} s | {target} |\n", times[times.len() / 2]);
+        out += &format!(
+            "| new posed mesh at resolution {resolution} ({vertices} vertices), median of 5 poses | {:.2} s | {target} |\n",
+            times[times.len() / 2]
+        );
     }
     out += &burn_against_fast_path(&avatar, &clip.frames[36]);
     avatar.resolution = 128;
     out += &export_row(&avatar);
     if let Some(peak) = peak_memory_bytes() {
-        out += &format!("| peak memory of this process (fit included) | {:.0} MB | < 2048 MB |\n", peak as f64 / 1e6);
+        out += &format!(
+            "| peak memory of this process (fit included) | {:.0} MB | < 2048 MB |\n",
+            peak as f64 / 1e6
+        );
     }
     out
 }
@@ -69,7 +88,8 @@ pub fn bench_report(steps: usize) -> String {
 /// through `siren_eval`, side by side on one pose at resolution 128.
 fn burn_against_fast_path(avatar: &MetaAvatar, params: &BodyParams) -> String {
     let n = avatar.header.normalisation;
-    let mut options = ExtractOptions::new(n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)), 128);
+    let mut options =
+        ExtractOptions::new(n.from_unit(Vec3::splat(-1.0)), n.from_unit(Vec3::splat(1.0)), 128);
     options.margin = 0.25;
     let burn_sdf = avatar.burn_sdf_at(params);
     let t = Instant::now();

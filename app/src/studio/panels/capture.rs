@@ -23,9 +23,19 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
         }
     });
     ui.horizontal(|ui| {
-        let field = ui.add(egui::TextEdit::singleline(&mut app.path_field).hint_text("or type a path").desired_width(ui.available_width() - 40.0));
-        let go = ui.add_enabled(!app.path_field.trim().is_empty(), egui::Button::new("Go")).on_hover_text("Open the capture folder, project, avatar or motion at this path");
-        if go.clicked() || (field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) && !app.path_field.trim().is_empty()) {
+        let field = ui.add(
+            egui::TextEdit::singleline(&mut app.path_field)
+                .hint_text("or type a path")
+                .desired_width(ui.available_width() - 40.0),
+        );
+        let go = ui
+            .add_enabled(!app.path_field.trim().is_empty(), egui::Button::new("Go"))
+            .on_hover_text("Open the capture folder, project, avatar or motion at this path");
+        if go.clicked()
+            || (field.lost_focus()
+                && ui.input(|i| i.key_pressed(egui::Key::Enter))
+                && !app.path_field.trim().is_empty())
+        {
             out.push(Command::OpenPath(PathBuf::from(app.path_field.trim())));
         }
     });
@@ -36,22 +46,48 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
         });
     }
     if let Some(e) = app.error.clone() {
-        egui::Frame::new().fill(egui::Color32::from_rgb(60, 28, 28)).corner_radius(4.0).inner_margin(6.0).show(ui, |ui| {
-            ui.label(egui::RichText::new("Error").strong().color(ERROR));
-            ui.label(egui::RichText::new(e).small());
-            if ui.small_button("Dismiss").clicked() {
-                out.push(Command::DismissError);
-            }
-        });
+        egui::Frame::new()
+            .fill(egui::Color32::from_rgb(60, 28, 28))
+            .corner_radius(4.0)
+            .inner_margin(6.0)
+            .show(ui, |ui| {
+                ui.label(egui::RichText::new("Error").strong().color(ERROR));
+                ui.label(egui::RichText::new(e).small());
+                if ui.small_button("Dismiss").clicked() {
+                    out.push(Command::DismissError);
+                }
+            });
     }
     let Some(c) = app.capture.clone() else {
-        ui.weak("No capture open. Open a folder with capture.json, drop one here, or use the demo.");
+        ui.weak(
+            "No capture open. Open a folder with capture.json, drop one here, or use the demo.",
+        );
         return;
     };
-    ui.label(egui::RichText::new(if app.capture_source.as_deref() == Some(DEMO) { "Demo capture".to_string() } else { c.name.clone() }).strong());
-    ui.label(egui::RichText::new(format!("{} frames · {} usable · {} × {} px · {:.0} fps", c.frames.len(), c.usable(), c.manifest.intrinsics.width, c.manifest.intrinsics.height, c.fps)).small().weak());
+    ui.label(
+        egui::RichText::new(if app.capture_source.as_deref() == Some(DEMO) {
+            "Demo capture".to_string()
+        } else {
+            c.name.clone()
+        })
+        .strong(),
+    );
+    ui.label(
+        egui::RichText::new(format!(
+            "{} frames · {} usable · {} × {} px · {:.0} fps",
+            c.frames.len(),
+            c.usable(),
+            c.manifest.intrinsics.width,
+            c.manifest.intrinsics.height,
+            c.fps
+        ))
+        .small()
+        .weak(),
+    );
     if c.flagged() > 0 {
-        ui.label(egui::RichText::new(format!("{} frames flagged", c.flagged())).small().color(WARN));
+        ui.label(
+            egui::RichText::new(format!("{} frames flagged", c.flagged())).small().color(WARN),
+        );
     }
     ui.add_space(4.0);
     let size = 60.0;
@@ -59,7 +95,8 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
     // The thumbnails' boxes, and on a software renderer their images (viewport::flat: one
     // callback for all), go into these slots below the borders and numbers.
     let grid_painter = ui.painter().clone();
-    let (boxes_slot, images_slot) = (grid_painter.add(egui::Shape::Noop), grid_painter.add(egui::Shape::Noop));
+    let (boxes_slot, images_slot) =
+        (grid_painter.add(egui::Shape::Noop), grid_painter.add(egui::Shape::Noop));
     let (mut boxes, mut flat_images) = (Vec::new(), Vec::new());
     egui::Grid::new("thumbs").spacing([4.0, 4.0]).show(ui, |ui| {
         for (i, f) in c.frames.iter().enumerate() {
@@ -73,15 +110,33 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
                 let r = egui::Rect::from_center_size(rect.center(), img_size * scale);
                 covered = app.flat && r.expand(0.01).contains_rect(rect.shrink(2.0));
                 if app.flat {
-                    flat_images.push(crate::studio::viewport::flat::FlatImage { rect: r, id: tex.id(), pixels: pixels.clone() });
+                    flat_images.push(crate::studio::viewport::flat::FlatImage {
+                        rect: r,
+                        id: tex.id(),
+                        pixels: pixels.clone(),
+                    });
                 } else {
-                    painter.image(tex.id(), r, egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)), egui::Color32::WHITE);
+                    painter.image(
+                        tex.id(),
+                        r,
+                        egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
+                        egui::Color32::WHITE,
+                    );
                 }
             }
             // On a software renderer every pixel egui fills is dear (viewport/flat.rs): where
             // the image covers the box's inside, only its 2-point rim is drawn.
             let box_color = egui::Color32::from_rgb(14, 15, 18);
-            boxes.push(if covered { egui::Shape::rect_stroke(rect, 3.0, egui::Stroke::new(2.0, box_color), egui::StrokeKind::Inside) } else { egui::Shape::rect_filled(rect, 3.0, box_color) });
+            boxes.push(if covered {
+                egui::Shape::rect_stroke(
+                    rect,
+                    3.0,
+                    egui::Stroke::new(2.0, box_color),
+                    egui::StrokeKind::Inside,
+                )
+            } else {
+                egui::Shape::rect_filled(rect, 3.0, box_color)
+            });
             let border = if f.problem.is_some() {
                 egui::Stroke::new(2.0, ERROR)
             } else if selected {
@@ -90,9 +145,21 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
                 egui::Stroke::new(1.0, egui::Color32::from_rgb(50, 53, 60))
             };
             painter.rect_stroke(rect, 3.0, border, egui::StrokeKind::Inside);
-            painter.text(rect.left_bottom() + egui::vec2(4.0, -3.0), egui::Align2::LEFT_BOTTOM, format!("{}", f.index), egui::FontId::monospace(10.0), egui::Color32::from_white_alpha(200));
+            painter.text(
+                rect.left_bottom() + egui::vec2(4.0, -3.0),
+                egui::Align2::LEFT_BOTTOM,
+                format!("{}", f.index),
+                egui::FontId::monospace(10.0),
+                egui::Color32::from_white_alpha(200),
+            );
             if f.problem.is_some() {
-                painter.text(rect.right_top() + egui::vec2(-4.0, 3.0), egui::Align2::RIGHT_TOP, "!", egui::FontId::proportional(13.0), ERROR);
+                painter.text(
+                    rect.right_top() + egui::vec2(-4.0, 3.0),
+                    egui::Align2::RIGHT_TOP,
+                    "!",
+                    egui::FontId::proportional(13.0),
+                    ERROR,
+                );
             }
             let resp = match &f.problem {
                 Some(p) => resp.on_hover_text(format!("Frame {} is not used: {p}", f.index)),
@@ -108,14 +175,28 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
     });
     grid_painter.set(boxes_slot, egui::Shape::Vec(boxes));
     if !flat_images.is_empty() {
-        grid_painter.set(images_slot, crate::studio::viewport::flat::images(grid_painter.clip_rect(), flat_images));
+        grid_painter.set(
+            images_slot,
+            crate::studio::viewport::flat::images(grid_painter.clip_rect(), flat_images),
+        );
     }
-    let flagged: Vec<_> = c.frames.iter().filter_map(|f| f.problem.as_ref().map(|p| (f.index, f.file.clone(), p.clone()))).collect();
+    let flagged: Vec<_> = c
+        .frames
+        .iter()
+        .filter_map(|f| f.problem.as_ref().map(|p| (f.index, f.file.clone(), p.clone())))
+        .collect();
     if !flagged.is_empty() {
         ui.add_space(6.0);
         style::heading(ui, "Flagged frames");
         for (i, file, p) in flagged {
-            ui.label(egui::RichText::new(format!("frame {i} ({}): {p}", file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())).small().color(WARN));
+            ui.label(
+                egui::RichText::new(format!(
+                    "frame {i} ({}): {p}",
+                    file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+                ))
+                .small()
+                .color(WARN),
+            );
         }
     }
 }

@@ -10,7 +10,7 @@ mod viewport;
 
 use crate::studio::camera::Preset;
 use crate::studio::commands::Command;
-use crate::studio::project::{ViewMode, DEMO};
+use crate::studio::project::{DEMO, ViewMode};
 use crate::studio::settings::PathPurpose;
 use crate::studio::state::{Status, StudioApp};
 use crate::studio::style::{ACCENT, ERROR};
@@ -28,14 +28,22 @@ pub fn draw(app: &mut StudioApp, ui: &mut egui::Ui) -> Vec<Command> {
     // The panels are unfilled and the backdrop paints their colour (viewport/flat.rs); their
     // colour still counts as the background where egui asks (the scroll areas' fades).
     crate::studio::viewport::flat::backdrop(ui.painter(), ui.ctx().content_rect());
-    let behind = egui::UiStackInfo::new(egui::UiKind::Frame).with_frame(egui::Frame::new().fill(crate::studio::style::PANEL_FILL));
+    let behind = egui::UiStackInfo::new(egui::UiKind::Frame)
+        .with_frame(egui::Frame::new().fill(crate::studio::style::PANEL_FILL));
     ui.scope_builder(egui::UiBuilder::new().ui_stack_info(behind), |ui| draw_panels(app, ui)).inner
 }
 
 fn draw_panels(app: &mut StudioApp, ui: &mut egui::Ui) -> Vec<Command> {
     let mut out = Vec::new();
     keys(app, ui.ctx(), &mut out);
-    let dropped: Vec<PathBuf> = ui.ctx().input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).filter(|p| !p.as_os_str().is_empty()).collect());
+    let dropped: Vec<PathBuf> = ui.ctx().input(|i| {
+        i.raw
+            .dropped_files
+            .iter()
+            .map(|f| f.path().to_path_buf())
+            .filter(|p| !p.as_os_str().is_empty())
+            .collect()
+    });
     out.extend(dropped.into_iter().map(Command::OpenPath));
     egui::Panel::top("menu").show(ui, |ui| menu_bar(app, ui, &mut out));
     egui::Panel::bottom("status").show(ui, |ui| status_bar(app, ui));
@@ -57,13 +65,20 @@ fn draw_panels(app: &mut StudioApp, ui: &mut egui::Ui) -> Vec<Command> {
             out.push(Command::AskPath(PathPurpose::OpenMotion));
         }
         if let Some((done, n)) = app.bakes.progress {
-            ui.add(egui::ProgressBar::new(done as f32 / n.max(1) as f32).text(format!("Baking the clip for playback: {done} / {n} frames")).desired_height(14.0));
+            ui.add(
+                egui::ProgressBar::new(done as f32 / n.max(1) as f32)
+                    .text(format!("Baking the clip for playback: {done} / {n} frames"))
+                    .desired_height(14.0),
+            );
         }
         ui.add_space(1.0);
     });
-    egui::Panel::left("capture").resizable(true).default_size(214.0).max_size(420.0).show(ui, |ui| {
-        egui::ScrollArea::vertical().show(ui, |ui| capture_panel(app, ui, &mut out));
-    });
+    egui::Panel::left("capture").resizable(true).default_size(214.0).max_size(420.0).show(
+        ui,
+        |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| capture_panel(app, ui, &mut out));
+        },
+    );
     egui::Panel::right("avatar").resizable(true).default_size(280.0).show(ui, |ui| {
         egui::ScrollArea::vertical().show(ui, |ui| side::side_panel(app, ui, &mut out));
     });
@@ -121,12 +136,17 @@ fn keys(app: &mut StudioApp, ctx: &egui::Context, out: &mut Vec<Command>) {
         if i.consume_key(none, egui::Key::T) {
             app.turntable = !app.turntable;
         }
-        for (key, preset) in [egui::Key::Num1, egui::Key::Num2, egui::Key::Num3, egui::Key::Num4].into_iter().zip(Preset::ALL) {
+        for (key, preset) in [egui::Key::Num1, egui::Key::Num2, egui::Key::Num3, egui::Key::Num4]
+            .into_iter()
+            .zip(Preset::ALL)
+        {
             if i.consume_key(none, key) {
                 out.push(Command::CameraPreset(preset));
             }
         }
-        if i.consume_key(none, egui::Key::Questionmark) || i.events.iter().any(|e| matches!(e, egui::Event::Text(t) if t == "?")) {
+        if i.consume_key(none, egui::Key::Questionmark)
+            || i.events.iter().any(|e| matches!(e, egui::Event::Text(t) if t == "?"))
+        {
             app.show_shortcuts = !app.show_shortcuts;
         }
     });
@@ -134,15 +154,20 @@ fn keys(app: &mut StudioApp, ctx: &egui::Context, out: &mut Vec<Command>) {
 
 fn shortcuts_window(app: &mut StudioApp, ctx: &egui::Context) {
     let mut open = true;
-    egui::Window::new("Shortcuts").open(&mut open).collapsible(false).resizable(false).anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0]).show(ctx, |ui| {
-        egui::Grid::new("shortcuts").num_columns(2).spacing([16.0, 4.0]).show(ui, |ui| {
-            for (k, what) in SHORTCUTS {
-                ui.label(egui::RichText::new(k).monospace().color(ACCENT));
-                ui.label(what);
-                ui.end_row();
-            }
+    egui::Window::new("Shortcuts")
+        .open(&mut open)
+        .collapsible(false)
+        .resizable(false)
+        .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
+        .show(ctx, |ui| {
+            egui::Grid::new("shortcuts").num_columns(2).spacing([16.0, 4.0]).show(ui, |ui| {
+                for (k, what) in SHORTCUTS {
+                    ui.label(egui::RichText::new(k).monospace().color(ACCENT));
+                    ui.label(what);
+                    ui.end_row();
+                }
+            });
         });
-    });
     app.show_shortcuts &= open;
 }
 

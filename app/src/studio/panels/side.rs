@@ -1,9 +1,9 @@
 //! The right-hand panel: the avatar, fine-tuning (settings, progress, loss plot), the pose,
 //! export, and the view (camera presets, turntable, material colour, light).
 
-use crate::studio::fit_config::{AvatarKind, FitConfig};
 use crate::studio::camera::Preset;
 use crate::studio::commands::Command;
+use crate::studio::fit_config::{AvatarKind, FitConfig};
 use crate::studio::settings::PathPurpose;
 use crate::studio::state::StudioApp;
 use crate::studio::style::{self, ACCENT, WARN};
@@ -32,7 +32,11 @@ fn loss_weights() -> IgrWeights {
 /// "loss 0.0123 · surface 0.0040 · eikonal 0.012": the terms with a weight.
 pub fn loss_readout(loss: f32, terms: [f32; 4], w: IgrWeights) -> String {
     let mut s = format!("loss {loss:.4}");
-    for (name, value, weight, digits) in [("surface", terms[0], w.surface, 4), ("normal", terms[1], w.normal, 3), ("eikonal", terms[3], w.eikonal, 3)] {
+    for (name, value, weight, digits) in [
+        ("surface", terms[0], w.surface, 4),
+        ("normal", terms[1], w.normal, 3),
+        ("eikonal", terms[3], w.eikonal, 3),
+    ] {
         if weight != 0.0 {
             s += &format!(" · {name} {value:.digits$}");
         }
@@ -48,20 +52,31 @@ fn look_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
                 out.push(Command::CameraPreset(p));
             }
         }
-        ui.toggle_value(&mut app.turntable, "Turntable").on_hover_text("Turn around the subject (T)");
+        ui.toggle_value(&mut app.turntable, "Turntable")
+            .on_hover_text("Turn around the subject (T)");
     });
     egui::Grid::new("look").num_columns(2).spacing([8.0, 3.0]).show(ui, |ui| {
         let l = ui.label("Material");
         // egui's Rgba is linear RGB, as the studio's colours are.
-        let mut srgb = egui::Rgba::from_rgb(app.view.material[0], app.view.material[1], app.view.material[2]);
-        if egui::color_picker::color_edit_button_rgba(ui, &mut srgb, egui::color_picker::Alpha::Opaque).labelled_by(l.id).changed() {
+        let mut srgb =
+            egui::Rgba::from_rgb(app.view.material[0], app.view.material[1], app.view.material[2]);
+        if egui::color_picker::color_edit_button_rgba(
+            ui,
+            &mut srgb,
+            egui::color_picker::Alpha::Opaque,
+        )
+        .labelled_by(l.id)
+        .changed()
+        {
             app.view.material = [srgb.r(), srgb.g(), srgb.b()];
             out.push(Command::SceneChanged);
         }
         ui.end_row();
         let (mut azimuth, mut elevation) = light_angles(app.view.light);
         let l = ui.label("Light");
-        let a = ui.add(egui::Slider::new(&mut azimuth, -180.0..=180.0).suffix("°").text("around")).labelled_by(l.id);
+        let a = ui
+            .add(egui::Slider::new(&mut azimuth, -180.0..=180.0).suffix("°").text("around"))
+            .labelled_by(l.id);
         ui.end_row();
         ui.label("");
         let e = ui.add(egui::Slider::new(&mut elevation, -89.0..=89.0).suffix("°").text("height"));
@@ -99,7 +114,11 @@ fn avatar_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) 
                 _ => "not saved".into(),
             };
             ui.label(egui::RichText::new(where_).small().weak());
-            if ui.button("Save avatar…").on_hover_text("The .avatar file the command line reads too").clicked() {
+            if ui
+                .button("Save avatar…")
+                .on_hover_text("The .avatar file the command line reads too")
+                .clicked()
+            {
                 out.push(Command::AskPath(PathPurpose::SaveAvatar));
             }
             if app.meshing() {
@@ -186,21 +205,47 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
             if ui.add_enabled(!cancelling, egui::Button::new("Cancel")).clicked() {
                 out.push(Command::CancelFit);
             }
-        } else if ui.add_enabled(app.capture.is_some(), egui::Button::new(egui::RichText::new("Start fine-tuning").strong())).clicked() {
+        } else if ui
+            .add_enabled(
+                app.capture.is_some(),
+                egui::Button::new(egui::RichText::new("Start fine-tuning").strong()),
+            )
+            .clicked()
+        {
             out.push(Command::StartFit(app.settings.fit.clone()));
         }
     });
     let jv = &app.job_view;
     if running || !jv.losses.is_empty() {
-        let left = jv.seconds_left().map(|s| format!(" · {} left", human_seconds(s))).unwrap_or_default();
-        ui.add(egui::ProgressBar::new(jv.fraction()).text(format!("step {} / {}{left}", jv.step, jv.steps)).fill(egui::Color32::from_rgb(48, 98, 170)));
-        ui.label(egui::RichText::new(loss_readout(jv.loss, jv.terms, loss_weights())).small().monospace());
+        let left =
+            jv.seconds_left().map(|s| format!(" · {} left", human_seconds(s))).unwrap_or_default();
+        ui.add(
+            egui::ProgressBar::new(jv.fraction())
+                .text(format!("step {} / {}{left}", jv.step, jv.steps))
+                .fill(egui::Color32::from_rgb(48, 98, 170)),
+        );
+        ui.label(
+            egui::RichText::new(loss_readout(jv.loss, jv.terms, loss_weights()))
+                .small()
+                .monospace(),
+        );
         if jv.points > 0 {
-            ui.label(egui::RichText::new(format!("{} canonical points from {} frames", jv.points, jv.frames)).small().weak());
+            ui.label(
+                egui::RichText::new(format!(
+                    "{} canonical points from {} frames",
+                    jv.points, jv.frames
+                ))
+                .small()
+                .weak(),
+            );
         }
         if let Some(s) = jv.preview_step {
             if running {
-                ui.label(egui::RichText::new(format!("Partial result shown (step {s})")).small().color(WARN));
+                ui.label(
+                    egui::RichText::new(format!("Partial result shown (step {s})"))
+                        .small()
+                        .color(WARN),
+                );
             }
         }
         let line = egui_plot::Line::new("log10 loss", jv.losses.clone()).color(ACCENT).width(1.5);
@@ -221,12 +266,24 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
 }
 
 fn human_seconds(s: f64) -> String {
-    if s < 60.0 { format!("{s:.0} s") } else { format!("{}:{:02} min", (s / 60.0) as u64, (s % 60.0) as u64) }
+    if s < 60.0 {
+        format!("{s:.0} s")
+    } else {
+        format!("{}:{:02} min", (s / 60.0) as u64, (s % 60.0) as u64)
+    }
 }
 
 fn pose_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
     style::heading(ui, "Pose");
-    ui.label(egui::RichText::new(format!("Clip {} · {} frames at {:.0} fps", app.timeline.clip.name, app.timeline.frames(), app.timeline.clip.fps)).small());
+    ui.label(
+        egui::RichText::new(format!(
+            "Clip {} · {} frames at {:.0} fps",
+            app.timeline.clip.name,
+            app.timeline.frames(),
+            app.timeline.clip.fps
+        ))
+        .small(),
+    );
     let n = app.timeline.frames();
     let mut f = app.timeline.current_frame();
     if ui.add(egui::Slider::new(&mut f, 0..=n - 1).text("pose")).changed() {
@@ -245,10 +302,18 @@ fn export_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) 
     style::heading(ui, "Export");
     let has_avatar = app.avatar.is_some();
     ui.horizontal(|ui| {
-        if ui.add_enabled(has_avatar && !app.exporting(), egui::Button::new("Export glTF…")).on_hover_text("The avatar playing the clip: skin, morph targets and animation").clicked() {
+        if ui
+            .add_enabled(has_avatar && !app.exporting(), egui::Button::new("Export glTF…"))
+            .on_hover_text("The avatar playing the clip: skin, morph targets and animation")
+            .clicked()
+        {
             out.push(Command::AskPath(PathPurpose::ExportGlb));
         }
-        if ui.add_enabled(app.posed.is_some(), egui::Button::new("Export OBJ…")).on_hover_text("The mesh on screen at the current pose").clicked() {
+        if ui
+            .add_enabled(app.posed.is_some(), egui::Button::new("Export OBJ…"))
+            .on_hover_text("The mesh on screen at the current pose")
+            .clicked()
+        {
             out.push(Command::AskPath(PathPurpose::ExportObj));
         }
     });
@@ -259,4 +324,3 @@ fn export_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) 
         });
     }
 }
-

@@ -34,7 +34,10 @@ pub struct Flat {
 /// fill.
 pub fn install(render_state: &egui_wgpu::RenderState, backdrop: egui::Color32) {
     let device = &render_state.device;
-    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("flat"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("flat"),
+        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+    });
     let image_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("flat image"),
         entries: &super::texture_and_sampler_entries(0),
@@ -42,16 +45,45 @@ pub fn install(render_state: &egui_wgpu::RenderState, backdrop: egui::Color32) {
     // egui's target holds gamma-encoded 8-bit values (as egui's own shader writes them).
     let [r, g, b, a] = backdrop.to_normalized_gamma_f32();
     let constants = [("r", r as f64), ("g", g as f64), ("b", b as f64), ("a", a as f64)];
-    let pipeline = |label: &str, layouts: &[Option<&wgpu::BindGroupLayout>], fs: &str, constants: &[(&str, f64)], blend: Option<wgpu::BlendState>| {
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(label), bind_group_layouts: layouts, immediate_size: 0 });
-        super::fullscreen_pipeline(device, label, &layout, &shader, fs, constants, render_state.target_format, blend)
+    let pipeline = |label: &str,
+                    layouts: &[Option<&wgpu::BindGroupLayout>],
+                    fs: &str,
+                    constants: &[(&str, f64)],
+                    blend: Option<wgpu::BlendState>| {
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: layouts,
+            immediate_size: 0,
+        });
+        super::fullscreen_pipeline(
+            device,
+            label,
+            &layout,
+            &shader,
+            fs,
+            constants,
+            render_state.target_format,
+            blend,
+        )
     };
     let backdrop = pipeline("flat backdrop", &[], "fs_backdrop", &constants, None);
     // egui's blending (premultiplied alpha).
-    let image = pipeline("flat image", &[Some(&image_layout)], "fs_image", &[], Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING));
+    let image = pipeline(
+        "flat image",
+        &[Some(&image_layout)],
+        "fs_image",
+        &[],
+        Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+    );
     // egui's sampler for `TextureOptions::LINEAR`.
     let sampler = super::linear_clamp_sampler(device, "flat image");
-    render_state.renderer.write().callback_resources.insert(Flat { backdrop, image, image_layout, sampler, images: HashMap::new() });
+    render_state.renderer.write().callback_resources.insert(Flat {
+        backdrop,
+        image,
+        image_layout,
+        sampler,
+        images: HashMap::new(),
+    });
 }
 
 /// Paint the backdrop over `rect` (before anything else is painted in the layer).
@@ -80,7 +112,12 @@ pub fn images(clip: egui::Rect, mut images: Vec<FlatImage>) -> egui::Shape {
 struct Backdrop;
 
 impl egui_wgpu::CallbackTrait for Backdrop {
-    fn paint(&self, _info: egui::PaintCallbackInfo, pass: &mut wgpu::RenderPass<'static>, resources: &egui_wgpu::CallbackResources) {
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &egui_wgpu::CallbackResources,
+    ) {
         if let Some(flat) = resources.get::<Flat>() {
             pass.set_pipeline(&flat.backdrop);
             pass.draw(0..3, 0..1);
@@ -91,7 +128,14 @@ impl egui_wgpu::CallbackTrait for Backdrop {
 struct Images(Vec<FlatImage>);
 
 impl egui_wgpu::CallbackTrait for Images {
-    fn prepare(&self, device: &wgpu::Device, queue: &wgpu::Queue, _screen: &egui_wgpu::ScreenDescriptor, _encoder: &mut wgpu::CommandEncoder, resources: &mut egui_wgpu::CallbackResources) -> Vec<wgpu::CommandBuffer> {
+    fn prepare(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        _screen: &egui_wgpu::ScreenDescriptor,
+        _encoder: &mut wgpu::CommandEncoder,
+        resources: &mut egui_wgpu::CallbackResources,
+    ) -> Vec<wgpu::CommandBuffer> {
         if let Some(flat) = resources.get_mut::<Flat>() {
             for image in &self.0 {
                 flat.upload(device, queue, image);
@@ -100,7 +144,12 @@ impl egui_wgpu::CallbackTrait for Images {
         Vec::new()
     }
 
-    fn paint(&self, info: egui::PaintCallbackInfo, pass: &mut wgpu::RenderPass<'static>, resources: &egui_wgpu::CallbackResources) {
+    fn paint(
+        &self,
+        info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &egui_wgpu::CallbackResources,
+    ) {
         let Some(flat) = resources.get::<Flat>() else {
             return;
         };
@@ -112,7 +161,14 @@ impl egui_wgpu::CallbackTrait for Images {
             };
             // The image's rectangle in pixels; egui-wgpu's scissor (the clip) stays.
             let r = image.rect;
-            pass.set_viewport(r.min.x * ppp, r.min.y * ppp, r.width() * ppp, r.height() * ppp, 0.0, 1.0);
+            pass.set_viewport(
+                r.min.x * ppp,
+                r.min.y * ppp,
+                r.width() * ppp,
+                r.height() * ppp,
+                0.0,
+                1.0,
+            );
             pass.set_bind_group(0, group, &[]);
             pass.draw(0..3, 0..1);
         }
@@ -141,13 +197,31 @@ impl Flat {
         });
         let bytes: &[u8] = bytemuck::cast_slice(&image.pixels.pixels);
         if bytes.len() == (w * h * 4) as usize {
-            queue.write_texture(texture.as_image_copy(), bytes, wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * w), rows_per_image: Some(h) }, size);
+            queue.write_texture(
+                texture.as_image_copy(),
+                bytes,
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(4 * w),
+                    rows_per_image: Some(h),
+                },
+                size,
+            );
         }
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("flat image"),
             layout: &self.image_layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) }, wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.sampler) }],
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::Sampler(&self.sampler),
+                },
+            ],
         });
         self.images.insert(image.id, group);
     }

@@ -23,9 +23,9 @@ const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 pub const BACKGROUND: [f64; 3] = [0.018, 0.020, 0.026];
 
 pub mod flat;
-pub mod ui_meshes;
 mod pipelines;
 mod scene;
+pub mod ui_meshes;
 use pipelines::ScenePipelines;
 pub use scene::{ColoredPoint, MeshVertex, Scene};
 
@@ -56,10 +56,30 @@ struct Globals {
 /// wgpu renderer is missing. `moving`: the view changes every frame (see
 /// [`ViewportResources::samples`]).
 #[allow(clippy::too_many_arguments)]
-pub fn paint(ui: &mut egui::Ui, rect: egui::Rect, scene: Arc<Scene>, camera: CameraMatrices, shading: Shading, point_size: f32, light: [f32; 3], moving: bool) {
+pub fn paint(
+    ui: &mut egui::Ui,
+    rect: egui::Rect,
+    scene: Arc<Scene>,
+    camera: CameraMatrices,
+    shading: Shading,
+    point_size: f32,
+    light: [f32; 3],
+    moving: bool,
+) {
     let ppp = ui.ctx().pixels_per_point();
-    let size = [(rect.width() * ppp).round().max(1.0) as u32, (rect.height() * ppp).round().max(1.0) as u32];
-    let cb = ViewportCallback { scene, camera, shading, point_size: point_size * ppp, size, light, moving };
+    let size = [
+        (rect.width() * ppp).round().max(1.0) as u32,
+        (rect.height() * ppp).round().max(1.0) as u32,
+    ];
+    let cb = ViewportCallback {
+        scene,
+        camera,
+        shading,
+        point_size: point_size * ppp,
+        size,
+        light,
+        moving,
+    };
     ui.painter().add(egui_wgpu::Callback::new_paint_callback(rect, cb));
 }
 
@@ -121,21 +141,35 @@ struct Uploaded {
 /// `DeviceType::Cpu`).
 pub fn install(render_state: &egui_wgpu::RenderState) -> bool {
     let software = render_state.adapter.get_info().device_type == wgpu::DeviceType::Cpu;
-    let resources = ViewportResources::new(&render_state.device, render_state.target_format, software);
+    let resources =
+        ViewportResources::new(&render_state.device, render_state.target_format, software);
     render_state.renderer.write().callback_resources.insert(resources);
     software
 }
 
 impl ViewportResources {
     /// `software`: the adapter is a CPU renderer (lavapipe), where 4x MSAA is the frame's cost.
-    pub fn new(device: &wgpu::Device, target_format: wgpu::TextureFormat, software: bool) -> ViewportResources {
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("viewport"), source: wgpu::ShaderSource::Wgsl(concat!(include_str!("fullscreen.wgsl"), include_str!("shaders.wgsl")).into()) });
+    pub fn new(
+        device: &wgpu::Device,
+        target_format: wgpu::TextureFormat,
+        software: bool,
+    ) -> ViewportResources {
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("viewport"),
+            source: wgpu::ShaderSource::Wgsl(
+                concat!(include_str!("fullscreen.wgsl"), include_str!("shaders.wgsl")).into(),
+            ),
+        });
         let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("viewport globals"),
             entries: &[wgpu::BindGroupLayoutEntry {
                 binding: 0,
                 visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
                 count: None,
             }],
         });
@@ -143,8 +177,16 @@ impl ViewportResources {
             label: Some("viewport blit"),
             entries: &texture_and_sampler_entries(0),
         });
-        let scene_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("viewport scene"), bind_group_layouts: &[Some(&globals_layout)], immediate_size: 0 });
-        let blit_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("viewport blit"), bind_group_layouts: &[Some(&blit_layout)], immediate_size: 0 });
+        let scene_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("viewport scene"),
+            bind_group_layouts: &[Some(&globals_layout)],
+            immediate_size: 0,
+        });
+        let blit_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("viewport blit"),
+            bind_group_layouts: &[Some(&blit_layout)],
+            immediate_size: 0,
+        });
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("viewport globals"),
             size: std::mem::size_of::<Globals>() as u64,
@@ -156,11 +198,35 @@ impl ViewportResources {
             layout: &globals_layout,
             entries: &[wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() }],
         });
-        let blit = |fragment: &str| fullscreen_pipeline(device, "viewport blit", &blit_pipeline_layout, &shader, fragment, &[], target_format, None);
+        let blit = |fragment: &str| {
+            fullscreen_pipeline(
+                device,
+                "viewport blit",
+                &blit_pipeline_layout,
+                &shader,
+                fragment,
+                &[],
+                target_format,
+                None,
+            )
+        };
         let (blit_pipeline, blit_scaled_pipeline) = (blit("fs_blit"), blit("fs_blit_scaled"));
         let blit_sampler = linear_clamp_sampler(device, "viewport blit");
         let pipelines = vec![ScenePipelines::new(device, &shader, &scene_layout, MSAA)];
-        ViewportResources { shader, scene_layout, pipelines, blit_pipeline, blit_scaled_pipeline, blit_sampler, blit_layout, globals, globals_group, targets: None, uploaded: None, software }
+        ViewportResources {
+            shader,
+            scene_layout,
+            pipelines,
+            blit_pipeline,
+            blit_scaled_pipeline,
+            blit_sampler,
+            blit_layout,
+            globals,
+            globals_group,
+            targets: None,
+            uploaded: None,
+            software,
+        }
     }
 
     /// Samples a pixel for a view that is `moving` (playback, the turntable, an orbit): 4x MSAA,
@@ -179,10 +245,27 @@ impl ViewportResources {
     /// 1), which `paint` blits into egui's pass. Used by the paint callback and by the headless
     /// benchmark.
     #[allow(clippy::too_many_arguments)]
-    pub fn render(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, scene: &Scene, camera: &CameraMatrices, shading: Shading, point_size: f32, size: [u32; 2], light: [f32; 3], samples: u32) {
+    pub fn render(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &Scene,
+        camera: &CameraMatrices,
+        shading: Shading,
+        point_size: f32,
+        size: [u32; 2],
+        light: [f32; 3],
+        samples: u32,
+    ) {
         self.ensure_targets(device, size, samples);
         if !self.pipelines.iter().any(|p| p.samples == samples) {
-            self.pipelines.push(ScenePipelines::new(device, &self.shader, &self.scene_layout, samples));
+            self.pipelines.push(ScenePipelines::new(
+                device,
+                &self.shader,
+                &self.scene_layout,
+                samples,
+            ));
         }
         self.upload(device, queue, scene);
         let mode = match shading {
@@ -196,7 +279,9 @@ impl ViewportResources {
             light: [light[0], light[1], light[2], 0.0],
         };
         queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
-        let (Some(targets), Some(up), Some(pipelines)) = (&self.targets, &self.uploaded, self.pipelines.iter().find(|p| p.samples == samples)) else {
+        let (Some(targets), Some(up), Some(pipelines)) =
+            (&self.targets, &self.uploaded, self.pipelines.iter().find(|p| p.samples == samples))
+        else {
             return;
         };
         let [r, g, b] = BACKGROUND;
@@ -208,12 +293,19 @@ impl ViewportResources {
                 resolve_target: targets.msaa.as_ref().map(|_| &targets.resolved),
                 ops: wgpu::Operations {
                     load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }),
-                    store: if targets.msaa.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
+                    store: if targets.msaa.is_some() {
+                        wgpu::StoreOp::Discard
+                    } else {
+                        wgpu::StoreOp::Store
+                    },
                 },
             })],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &targets.depth,
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
                 stencil_ops: None,
             }),
             timestamp_writes: None,
@@ -256,18 +348,41 @@ impl ViewportResources {
         let extent = wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 };
         let make = |label: &str, format, samples, usage| {
             device
-                .create_texture(&wgpu::TextureDescriptor { label: Some(label), size: extent, mip_level_count: 1, sample_count: samples, dimension: wgpu::TextureDimension::D2, format, usage, view_formats: &[] })
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: extent,
+                    mip_level_count: 1,
+                    sample_count: samples,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage,
+                    view_formats: &[],
+                })
                 .create_view(&wgpu::TextureViewDescriptor::default())
         };
-        let msaa = (samples > 1).then(|| make("viewport msaa", COLOR_FORMAT, samples, wgpu::TextureUsages::RENDER_ATTACHMENT));
-        let depth = make("viewport depth", DEPTH_FORMAT, samples, wgpu::TextureUsages::RENDER_ATTACHMENT);
-        let resolved = make("viewport resolved", COLOR_FORMAT, 1, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING);
+        let msaa = (samples > 1).then(|| {
+            make("viewport msaa", COLOR_FORMAT, samples, wgpu::TextureUsages::RENDER_ATTACHMENT)
+        });
+        let depth =
+            make("viewport depth", DEPTH_FORMAT, samples, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        let resolved = make(
+            "viewport resolved",
+            COLOR_FORMAT,
+            1,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
         let blit_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("viewport blit"),
             layout: &self.blit_layout,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&resolved) },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.blit_sampler) },
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&resolved),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::Sampler(&self.blit_sampler),
+                },
             ],
         });
         self.targets = Some(Targets { size, samples, msaa, depth, resolved, blit_group });
@@ -277,26 +392,56 @@ impl ViewportResources {
         if self.uploaded.as_ref().is_some_and(|u| u.generation == scene.generation) {
             return;
         }
-        let buffer = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| -> Option<wgpu::Buffer> {
-            if bytes.is_empty() {
-                return None;
-            }
-            let b = device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: bytes.len() as u64, usage: usage | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
-            queue.write_buffer(&b, 0, bytes);
-            Some(b)
-        };
+        let buffer =
+            |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| -> Option<wgpu::Buffer> {
+                if bytes.is_empty() {
+                    return None;
+                }
+                let b = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: bytes.len() as u64,
+                    usage: usage | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                queue.write_buffer(&b, 0, bytes);
+                Some(b)
+            };
         self.uploaded = Some(Uploaded {
             generation: scene.generation,
-            vertices: buffer("viewport vertices", bytemuck::cast_slice(&scene.vertices), wgpu::BufferUsages::VERTEX),
-            indices: buffer("viewport indices", bytemuck::cast_slice(&scene.indices), wgpu::BufferUsages::INDEX),
+            vertices: buffer(
+                "viewport vertices",
+                bytemuck::cast_slice(&scene.vertices),
+                wgpu::BufferUsages::VERTEX,
+            ),
+            indices: buffer(
+                "viewport indices",
+                bytemuck::cast_slice(&scene.indices),
+                wgpu::BufferUsages::INDEX,
+            ),
             index_count: scene.indices.len() as u32,
-            points: buffer("viewport points", bytemuck::cast_slice(&scene.points), wgpu::BufferUsages::VERTEX),
+            points: buffer(
+                "viewport points",
+                bytemuck::cast_slice(&scene.points),
+                wgpu::BufferUsages::VERTEX,
+            ),
             point_count: scene.points.len() as u32,
-            lines: buffer("viewport lines", bytemuck::cast_slice(&scene.lines), wgpu::BufferUsages::VERTEX),
+            lines: buffer(
+                "viewport lines",
+                bytemuck::cast_slice(&scene.lines),
+                wgpu::BufferUsages::VERTEX,
+            ),
             line_count: scene.lines.len() as u32,
-            overlay_points: buffer("viewport overlay points", bytemuck::cast_slice(&scene.overlay_points), wgpu::BufferUsages::VERTEX),
+            overlay_points: buffer(
+                "viewport overlay points",
+                bytemuck::cast_slice(&scene.overlay_points),
+                wgpu::BufferUsages::VERTEX,
+            ),
             overlay_point_count: scene.overlay_points.len() as u32,
-            overlay_lines: buffer("viewport overlay lines", bytemuck::cast_slice(&scene.overlay_lines), wgpu::BufferUsages::VERTEX),
+            overlay_lines: buffer(
+                "viewport overlay lines",
+                bytemuck::cast_slice(&scene.overlay_lines),
+                wgpu::BufferUsages::VERTEX,
+            ),
             overlay_line_count: scene.overlay_lines.len() as u32,
         });
     }
@@ -316,12 +461,28 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
             let size = res.render_size(self.size, self.moving);
             // Points keep their size on screen.
             let point_size = self.point_size * size[0] as f32 / self.size[0].max(1) as f32;
-            res.render(device, queue, encoder, &self.scene, &self.camera, self.shading, point_size, size, self.light, samples);
+            res.render(
+                device,
+                queue,
+                encoder,
+                &self.scene,
+                &self.camera,
+                self.shading,
+                point_size,
+                size,
+                self.light,
+                samples,
+            );
         }
         Vec::new()
     }
 
-    fn paint(&self, _info: egui::PaintCallbackInfo, pass: &mut wgpu::RenderPass<'static>, resources: &egui_wgpu::CallbackResources) {
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &egui_wgpu::CallbackResources,
+    ) {
         let Some(res) = resources.get::<ViewportResources>() else {
             return;
         };
@@ -329,7 +490,11 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
             return;
         };
         // Pixel for pixel when the scene has the viewport's size (the still look), else stretched.
-        pass.set_pipeline(if targets.size == self.size { &res.blit_pipeline } else { &res.blit_scaled_pipeline });
+        pass.set_pipeline(if targets.size == self.size {
+            &res.blit_pipeline
+        } else {
+            &res.blit_scaled_pipeline
+        });
         pass.set_bind_group(0, &targets.blit_group, &[]);
         pass.draw(0..3, 0..1);
     }
@@ -353,8 +518,15 @@ mod tests {
     #[test]
     fn only_a_moving_view_on_a_software_renderer_is_drawn_smaller() {
         assert_eq!(render_scale(true, true), SOFTWARE_MOVING_SCALE);
-        assert!(SOFTWARE_MOVING_SCALE < 1.0 && SOFTWARE_MOVING_SCALE >= 0.5, "a moving view stays recognisable");
-        assert_eq!(render_scale(true, false), 1.0, "still: every pixel (the look of the screenshots)");
+        assert!(
+            SOFTWARE_MOVING_SCALE < 1.0 && SOFTWARE_MOVING_SCALE >= 0.5,
+            "a moving view stays recognisable"
+        );
+        assert_eq!(
+            render_scale(true, false),
+            1.0,
+            "still: every pixel (the look of the screenshots)"
+        );
         assert_eq!(render_scale(false, true), 1.0, "a GPU draws every pixel");
         assert_eq!(render_scale(false, false), 1.0);
     }
@@ -371,19 +543,40 @@ mod tests {
 /// `shader` must include) with `shader`'s fragment entry point `fragment` into `format`: the
 /// blit's and flat.rs's fills.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn fullscreen_pipeline(device: &wgpu::Device, label: &str, layout: &wgpu::PipelineLayout, shader: &wgpu::ShaderModule, fragment: &str, constants: &[(&str, f64)], format: wgpu::TextureFormat, blend: Option<wgpu::BlendState>) -> wgpu::RenderPipeline {
+pub(super) fn fullscreen_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    shader: &wgpu::ShaderModule,
+    fragment: &str,
+    constants: &[(&str, f64)],
+    format: wgpu::TextureFormat,
+    blend: Option<wgpu::BlendState>,
+) -> wgpu::RenderPipeline {
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(label),
         layout: Some(layout),
-        vertex: wgpu::VertexState { module: shader, entry_point: Some("vs_fullscreen"), compilation_options: Default::default(), buffers: &[] },
+        vertex: wgpu::VertexState {
+            module: shader,
+            entry_point: Some("vs_fullscreen"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
         primitive: wgpu::PrimitiveState::default(),
         depth_stencil: None,
         multisample: wgpu::MultisampleState::default(),
         fragment: Some(wgpu::FragmentState {
             module: shader,
             entry_point: Some(fragment),
-            compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
-            targets: &[Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL })],
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                ..Default::default()
+            },
+            targets: &[Some(wgpu::ColorTargetState {
+                format,
+                blend,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
         }),
         multiview_mask: None,
         cache: None,
@@ -409,9 +602,18 @@ pub(super) fn texture_and_sampler_entries(binding: u32) -> [wgpu::BindGroupLayou
         wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: true }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
             count: None,
         },
-        wgpu::BindGroupLayoutEntry { binding: binding + 1, visibility: wgpu::ShaderStages::FRAGMENT, ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering), count: None },
+        wgpu::BindGroupLayoutEntry {
+            binding: binding + 1,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            count: None,
+        },
     ]
 }

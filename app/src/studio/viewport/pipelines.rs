@@ -2,7 +2,7 @@
 //! the overlay (skeleton) drawn over everything. The renderer keeps one set per sample count it
 //! has drawn with (4x MSAA when still; 1 sample while the view moves on a software renderer).
 
-use super::{ColoredPoint, MeshVertex, COLOR_FORMAT, DEPTH_FORMAT};
+use super::{COLOR_FORMAT, ColoredPoint, DEPTH_FORMAT, MeshVertex};
 use eframe::egui_wgpu::wgpu;
 
 pub(super) struct ScenePipelines {
@@ -15,44 +15,113 @@ pub(super) struct ScenePipelines {
 }
 
 impl ScenePipelines {
-    pub fn new(device: &wgpu::Device, shader: &wgpu::ShaderModule, layout: &wgpu::PipelineLayout, samples: u32) -> ScenePipelines {
+    pub fn new(
+        device: &wgpu::Device,
+        shader: &wgpu::ShaderModule,
+        layout: &wgpu::PipelineLayout,
+        samples: u32,
+    ) -> ScenePipelines {
         let depth = |overlay: bool| {
             Some(wgpu::DepthStencilState {
                 format: DEPTH_FORMAT,
                 depth_write_enabled: Some(!overlay),
-                depth_compare: Some(if overlay { wgpu::CompareFunction::Always } else { wgpu::CompareFunction::Less }),
+                depth_compare: Some(if overlay {
+                    wgpu::CompareFunction::Always
+                } else {
+                    wgpu::CompareFunction::Less
+                }),
                 stencil: wgpu::StencilState::default(),
                 bias: wgpu::DepthBiasState::default(),
             })
         };
-        let multisample = wgpu::MultisampleState { count: samples, mask: !0, alpha_to_coverage_enabled: false };
-        let color_target = [Some(wgpu::ColorTargetState { format: COLOR_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })];
+        let multisample =
+            wgpu::MultisampleState { count: samples, mask: !0, alpha_to_coverage_enabled: false };
+        let color_target = [Some(wgpu::ColorTargetState {
+            format: COLOR_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
         let mesh_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4];
         let point_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4];
-        let pipeline = |label: &str, vs: &str, fs: &str, buffers: &[Option<wgpu::VertexBufferLayout>], topology: wgpu::PrimitiveTopology, overlay: bool| {
+        let pipeline = |label: &str,
+                        vs: &str,
+                        fs: &str,
+                        buffers: &[Option<wgpu::VertexBufferLayout>],
+                        topology: wgpu::PrimitiveTopology,
+                        overlay: bool| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(layout),
-                vertex: wgpu::VertexState { module: shader, entry_point: Some(vs), compilation_options: Default::default(), buffers },
+                vertex: wgpu::VertexState {
+                    module: shader,
+                    entry_point: Some(vs),
+                    compilation_options: Default::default(),
+                    buffers,
+                },
                 primitive: wgpu::PrimitiveState { topology, cull_mode: None, ..Default::default() },
                 depth_stencil: depth(overlay),
                 multisample,
-                fragment: Some(wgpu::FragmentState { module: shader, entry_point: Some(fs), compilation_options: Default::default(), targets: &color_target }),
+                fragment: Some(wgpu::FragmentState {
+                    module: shader,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &color_target,
+                }),
                 multiview_mask: None,
                 cache: None,
             })
         };
-        let mesh_layout = [Some(wgpu::VertexBufferLayout { array_stride: std::mem::size_of::<MeshVertex>() as u64, step_mode: wgpu::VertexStepMode::Vertex, attributes: &mesh_attrs })];
-        let point_layout = [Some(wgpu::VertexBufferLayout { array_stride: std::mem::size_of::<ColoredPoint>() as u64, step_mode: wgpu::VertexStepMode::Instance, attributes: &point_attrs })];
-        let line_layout = [Some(wgpu::VertexBufferLayout { array_stride: std::mem::size_of::<ColoredPoint>() as u64, step_mode: wgpu::VertexStepMode::Vertex, attributes: &point_attrs })];
+        let mesh_layout = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<MeshVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &mesh_attrs,
+        })];
+        let point_layout = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<ColoredPoint>() as u64,
+            step_mode: wgpu::VertexStepMode::Instance,
+            attributes: &point_attrs,
+        })];
+        let line_layout = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<ColoredPoint>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &point_attrs,
+        })];
         use wgpu::PrimitiveTopology::{LineList, TriangleList, TriangleStrip};
         ScenePipelines {
             samples,
-            mesh: pipeline("viewport mesh", "vs_mesh", "fs_mesh", &mesh_layout, TriangleList, false),
-            points: pipeline("viewport points", "vs_point", "fs_point", &point_layout, TriangleStrip, false),
+            mesh: pipeline(
+                "viewport mesh",
+                "vs_mesh",
+                "fs_mesh",
+                &mesh_layout,
+                TriangleList,
+                false,
+            ),
+            points: pipeline(
+                "viewport points",
+                "vs_point",
+                "fs_point",
+                &point_layout,
+                TriangleStrip,
+                false,
+            ),
             lines: pipeline("viewport lines", "vs_line", "fs_line", &line_layout, LineList, false),
-            overlay_points: pipeline("viewport overlay points", "vs_point", "fs_point", &point_layout, TriangleStrip, true),
-            overlay_lines: pipeline("viewport overlay lines", "vs_line", "fs_line", &line_layout, LineList, true),
+            overlay_points: pipeline(
+                "viewport overlay points",
+                "vs_point",
+                "fs_point",
+                &point_layout,
+                TriangleStrip,
+                true,
+            ),
+            overlay_lines: pipeline(
+                "viewport overlay lines",
+                "vs_line",
+                "fs_line",
+                &line_layout,
+                LineList,
+                true,
+            ),
         }
     }
 }

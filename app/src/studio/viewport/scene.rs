@@ -50,33 +50,60 @@ impl Scene {
 
     /// Add a triangle mesh with the given unit vertex normals (an SDF's gradient), or normals
     /// from its triangles (area-weighted) when there are none.
-    pub fn add_mesh_with_normals(&mut self, positions: &[Vec3], normals: Option<&[Vec3]>, faces: &[[u32; 3]], color: [f32; 3]) {
+    pub fn add_mesh_with_normals(
+        &mut self,
+        positions: &[Vec3],
+        normals: Option<&[Vec3]>,
+        faces: &[[u32; 3]],
+        color: [f32; 3],
+    ) {
         let owned;
         let normals = match normals {
             Some(n) if n.len() == positions.len() => n,
             _ => {
                 // A vertex on no proper triangle gets "up" rather than no normal at all.
-                owned = avatar_core::mesh::vertex_normals(positions, faces).into_iter().map(|n| n.normalize_or(Vec3::Y)).collect::<Vec<_>>();
+                owned = avatar_core::mesh::vertex_normals(positions, faces)
+                    .into_iter()
+                    .map(|n| n.normalize_or(Vec3::Y))
+                    .collect::<Vec<_>>();
                 &owned[..]
             }
         };
         let base = self.vertices.len() as u32;
-        self.vertices.extend(positions.iter().zip(normals).map(|(p, n)| MeshVertex { pos: p.to_array(), normal: n.to_array(), color: [color[0], color[1], color[2], 1.0] }));
+        self.vertices.extend(positions.iter().zip(normals).map(|(p, n)| MeshVertex {
+            pos: p.to_array(),
+            normal: n.to_array(),
+            color: [color[0], color[1], color[2], 1.0],
+        }));
         self.indices.extend(faces.iter().flat_map(|f| f.map(|i| i + base)));
     }
 
     /// Points drawn as discs; `size` scales the viewport's point size.
     pub fn add_points(&mut self, points: &[Vec3], color: [f32; 3], size: f32) {
-        self.points.extend(points.iter().map(|p| ColoredPoint { pos: p.to_array(), color: [color[0], color[1], color[2], size] }));
+        self.points.extend(points.iter().map(|p| ColoredPoint {
+            pos: p.to_array(),
+            color: [color[0], color[1], color[2], size],
+        }));
     }
 
     /// Points with normals, lit by a fixed key light (so that the cloud reads as a surface).
-    pub fn add_lit_points(&mut self, points: &[Vec3], normals: &[Vec3], color: [f32; 3], size: f32) {
+    pub fn add_lit_points(
+        &mut self,
+        points: &[Vec3],
+        normals: &[Vec3],
+        color: [f32; 3],
+        size: f32,
+    ) {
         let key = Vec3::new(-0.4, 0.6, 0.7).normalize();
-        self.points.extend(points.iter().zip(normals.iter().chain(std::iter::repeat(&Vec3::Z))).map(|(p, n)| {
-            let l = 0.25 + 0.75 * n.dot(key).abs();
-            ColoredPoint { pos: p.to_array(), color: [color[0] * l, color[1] * l, color[2] * l, size] }
-        }));
+        self.points.extend(
+            points.iter().zip(normals.iter().chain(std::iter::repeat(&Vec3::Z))).map(|(p, n)| {
+                let l = 0.25 + 0.75 * n.dot(key).abs();
+                ColoredPoint {
+                    pos: p.to_array(),
+                    color: [color[0] * l, color[1] * l, color[2] * l, size],
+                }
+            }),
+        );
     }
 
     /// A skeleton drawn over the meshes: bones as lines from each joint to its parent.
@@ -84,11 +111,16 @@ impl Scene {
         for (j, &p) in parents.iter().enumerate() {
             if p >= 0 {
                 let c = [color[0], color[1], color[2], 1.0];
-                self.overlay_lines.push(ColoredPoint { pos: joints[p as usize].to_array(), color: c });
+                self.overlay_lines
+                    .push(ColoredPoint { pos: joints[p as usize].to_array(), color: c });
                 self.overlay_lines.push(ColoredPoint { pos: joints[j].to_array(), color: c });
             }
         }
-        self.overlay_points.extend(joints.iter().map(|p| ColoredPoint { pos: p.to_array(), color: [1.0, 0.85, 0.35, 2.6] }));
+        self.overlay_points.extend(
+            joints
+                .iter()
+                .map(|p| ColoredPoint { pos: p.to_array(), color: [1.0, 0.85, 0.35, 2.6] }),
+        );
     }
 
     pub fn add_line(&mut self, a: Vec3, b: Vec3, color: [f32; 3]) {
@@ -103,20 +135,39 @@ impl Scene {
         for i in -n..=n {
             let t = i as f32 * step;
             let c = if i == 0 { [0.16, 0.17, 0.20] } else { [0.07, 0.075, 0.09] };
-            self.add_line(Vec3::new(center.x + t, y, center.z - half), Vec3::new(center.x + t, y, center.z + half), c);
-            self.add_line(Vec3::new(center.x - half, y, center.z + t), Vec3::new(center.x + half, y, center.z + t), c);
+            self.add_line(
+                Vec3::new(center.x + t, y, center.z - half),
+                Vec3::new(center.x + t, y, center.z + half),
+                c,
+            );
+            self.add_line(
+                Vec3::new(center.x - half, y, center.z + t),
+                Vec3::new(center.x + half, y, center.z + t),
+                c,
+            );
         }
     }
 
     /// Bounds of everything but the lines (the grid must not change framing).
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
-        let pts = self.vertices.iter().map(|v| Vec3::from(v.pos)).chain(self.points.iter().map(|p| Vec3::from(p.pos)));
+        let pts = self
+            .vertices
+            .iter()
+            .map(|v| Vec3::from(v.pos))
+            .chain(self.points.iter().map(|p| Vec3::from(p.pos)));
         let mut it = pts.peekable();
         it.peek()?;
-        Some(it.fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(p), hi.max(p))))
+        Some(
+            it.fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| {
+                (lo.min(p), hi.max(p))
+            }),
+        )
     }
 
     pub fn is_empty(&self) -> bool {
-        self.indices.is_empty() && self.points.is_empty() && self.lines.is_empty() && self.overlay_points.is_empty()
+        self.indices.is_empty()
+            && self.points.is_empty()
+            && self.lines.is_empty()
+            && self.overlay_points.is_empty()
     }
 }

@@ -39,18 +39,33 @@ pub struct UiMeshes {
 /// Create the pipeline (call at start-up on a software renderer).
 pub fn install(render_state: &egui_wgpu::RenderState) {
     let device = &render_state.device;
-    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("ui meshes"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("ui meshes"),
+        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+    });
     let uniforms = wgpu::BindGroupLayoutEntry {
         binding: 0,
         visibility: wgpu::ShaderStages::VERTEX,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
         count: None,
     };
     let [texture, sampler] = super::texture_and_sampler_entries(1);
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("ui meshes"), entries: &[uniforms, texture, sampler] });
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("ui meshes"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("ui meshes"),
+        entries: &[uniforms, texture, sampler],
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("ui meshes"),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
     // A target that encodes sRGB itself wants linear values; egui's usual one takes gamma.
-    let entry = if render_state.target_format.is_srgb() { "fs_linear_target" } else { "fs_gamma_target" };
+    let entry =
+        if render_state.target_format.is_srgb() { "fs_linear_target" } else { "fs_gamma_target" };
     let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some("ui meshes"),
         layout: Some(&pipeline_layout),
@@ -87,8 +102,23 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
     });
     // egui's sampler for the font atlas (`TextureOptions::LINEAR`).
     let sampler = super::linear_clamp_sampler(device, "ui meshes");
-    let screen = device.create_buffer(&wgpu::BufferDescriptor { label: Some("ui meshes screen"), size: 16, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
-    let resources = UiMeshes { pipeline, layout, sampler, screen, font: None, last_fill: 0.0, last_ppp: 0.0, buffers: None, uploaded: 0 };
+    let screen = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("ui meshes screen"),
+        size: 16,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let resources = UiMeshes {
+        pipeline,
+        layout,
+        sampler,
+        screen,
+        font: None,
+        last_fill: 0.0,
+        last_ppp: 0.0,
+        buffers: None,
+        uploaded: 0,
+    };
     render_state.renderer.write().callback_resources.insert(resources);
 }
 
@@ -103,7 +133,11 @@ pub fn take_over(ctx: &egui::Context, render_state: &egui_wgpu::RenderState) -> 
     }
     let (atlas_size, fill) = ctx.fonts(|f| (f.font_image_size(), f.font_atlas_fill_ratio()));
     let ppp = ctx.pixels_per_point();
-    let font = render_state.renderer.read().texture(&egui::TextureId::default()).and_then(|t| t.texture.clone());
+    let font = render_state
+        .renderer
+        .read()
+        .texture(&egui::TextureId::default())
+        .and_then(|t| t.texture.clone());
     {
         let mut renderer = render_state.renderer.write();
         let Some(res) = renderer.callback_resources.get_mut::<UiMeshes>() else {
@@ -113,7 +147,8 @@ pub fn take_over(ctx: &egui::Context, render_state: &egui_wgpu::RenderState) -> 
         // changes; a fill ratio that dropped means it was rebuilt, perhaps at the same size.
         let rebuilt = fill < res.last_fill || res.last_fill > 0.8 || ppp != res.last_ppp;
         (res.last_fill, res.last_ppp) = (fill, ppp);
-        let Some(font) = font.filter(|t| [t.width() as usize, t.height() as usize] == atlas_size) else {
+        let Some(font) = font.filter(|t| [t.width() as usize, t.height() as usize] == atlas_size)
+        else {
             return false;
         };
         if rebuilt {
@@ -126,14 +161,21 @@ pub fn take_over(ctx: &egui::Context, render_state: &egui_wgpu::RenderState) -> 
                 layout: &res.layout,
                 entries: &[
                     wgpu::BindGroupEntry { binding: 0, resource: res.screen.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) },
-                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&res.sampler) },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(&view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::Sampler(&res.sampler),
+                    },
                 ],
             });
             res.font = Some((font, group));
         }
     }
-    let shapes: Vec<ClippedShape> = ctx.graphics_mut(|g| std::mem::take(g.entry(layer))).all_entries().cloned().collect();
+    let shapes: Vec<ClippedShape> =
+        ctx.graphics_mut(|g| std::mem::take(g.entry(layer))).all_entries().cloned().collect();
     let screen = ctx.content_rect().union(ctx.viewport_rect());
     let list = split(ctx.tessellate(shapes, ppp), screen);
     ctx.graphics_mut(|g| *g.entry(layer) = list);
@@ -145,7 +187,10 @@ pub fn take_over(ctx: &egui::Context, render_state: &egui_wgpu::RenderState) -> 
 fn split(primitives: Vec<ClippedPrimitive>, screen: egui::Rect) -> egui::layers::PaintList {
     // A number per frame (an address could be reused by the next frame's meshes).
     static GENERATION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
-    let mut frame_data = FrameMeshes { generation: GENERATION.fetch_add(1, std::sync::atomic::Ordering::Relaxed), ..Default::default() };
+    let mut frame_data = FrameMeshes {
+        generation: GENERATION.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+        ..Default::default()
+    };
     let mut pending: Vec<(usize, egui::Shape, egui::Rect)> = Vec::new(); // (run index or MAX, shape, clip)
     let mut run: Option<usize> = None;
     for ClippedPrimitive { clip_rect, primitive } in primitives {
@@ -171,7 +216,14 @@ fn split(primitives: Vec<ClippedPrimitive>, screen: egui::Rect) -> egui::layers:
     let frame = Arc::new(frame_data);
     let mut list = egui::layers::PaintList::default();
     for (index, shape, clip) in pending {
-        let shape = if index == usize::MAX { shape } else { egui::Shape::Callback(egui_wgpu::Callback::new_paint_callback(screen, Run { frame: frame.clone(), index })) };
+        let shape = if index == usize::MAX {
+            shape
+        } else {
+            egui::Shape::Callback(egui_wgpu::Callback::new_paint_callback(
+                screen,
+                Run { frame: frame.clone(), index },
+            ))
+        };
         list.add(clip, shape);
     }
     list
@@ -208,7 +260,14 @@ struct Run {
 }
 
 impl egui_wgpu::CallbackTrait for Run {
-    fn prepare(&self, device: &wgpu::Device, queue: &wgpu::Queue, screen: &egui_wgpu::ScreenDescriptor, _encoder: &mut wgpu::CommandEncoder, resources: &mut egui_wgpu::CallbackResources) -> Vec<wgpu::CommandBuffer> {
+    fn prepare(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        screen: &egui_wgpu::ScreenDescriptor,
+        _encoder: &mut wgpu::CommandEncoder,
+        resources: &mut egui_wgpu::CallbackResources,
+    ) -> Vec<wgpu::CommandBuffer> {
         let Some(res) = resources.get_mut::<UiMeshes>() else {
             return Vec::new();
         };
@@ -217,15 +276,32 @@ impl egui_wgpu::CallbackTrait for Run {
             return Vec::new();
         }
         res.uploaded = self.frame.generation;
-        let points = [screen.size_in_pixels[0] as f32 / screen.pixels_per_point, screen.size_in_pixels[1] as f32 / screen.pixels_per_point, 0.0, 0.0];
+        let points = [
+            screen.size_in_pixels[0] as f32 / screen.pixels_per_point,
+            screen.size_in_pixels[1] as f32 / screen.pixels_per_point,
+            0.0,
+            0.0,
+        ];
         queue.write_buffer(&res.screen, 0, bytemuck::cast_slice(&points));
         let vertices: &[u8] = bytemuck::cast_slice(&self.frame.vertices);
         let indices: &[u8] = bytemuck::cast_slice(&self.frame.indices);
-        let fits = res.buffers.as_ref().is_some_and(|(v, i)| v.size() >= vertices.len() as u64 && i.size() >= indices.len() as u64);
+        let fits = res.buffers.as_ref().is_some_and(|(v, i)| {
+            v.size() >= vertices.len() as u64 && i.size() >= indices.len() as u64
+        });
         if !fits {
             // Room for twice as much, so that a growing UI does not reallocate every frame.
-            let make = |label, len: usize, usage| device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: (2 * len.max(1024)).next_multiple_of(4) as u64, usage: usage | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
-            res.buffers = Some((make("ui meshes vertices", vertices.len(), wgpu::BufferUsages::VERTEX), make("ui meshes indices", indices.len(), wgpu::BufferUsages::INDEX)));
+            let make = |label, len: usize, usage| {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: (2 * len.max(1024)).next_multiple_of(4) as u64,
+                    usage: usage | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            };
+            res.buffers = Some((
+                make("ui meshes vertices", vertices.len(), wgpu::BufferUsages::VERTEX),
+                make("ui meshes indices", indices.len(), wgpu::BufferUsages::INDEX),
+            ));
         }
         if let Some((v, i)) = &res.buffers {
             queue.write_buffer(v, 0, vertices);
@@ -234,7 +310,12 @@ impl egui_wgpu::CallbackTrait for Run {
         Vec::new()
     }
 
-    fn paint(&self, info: egui::PaintCallbackInfo, pass: &mut wgpu::RenderPass<'static>, resources: &egui_wgpu::CallbackResources) {
+    fn paint(
+        &self,
+        info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &egui_wgpu::CallbackResources,
+    ) {
         let Some(res) = resources.get::<UiMeshes>() else {
             return;
         };
@@ -321,20 +402,39 @@ mod tests {
         let mesh = |texture| {
             let mut m = Mesh::with_texture(texture);
             let uv = egui::Rect::from_min_max(egui::Pos2::ZERO, egui::pos2(1.0, 1.0));
-            m.add_rect_with_uv(egui::Rect::from_min_size(egui::pos2(1.0, 1.0), egui::vec2(5.0, 5.0)), uv, egui::Color32::WHITE);
+            m.add_rect_with_uv(
+                egui::Rect::from_min_size(egui::pos2(1.0, 1.0), egui::vec2(5.0, 5.0)),
+                uv,
+                egui::Color32::WHITE,
+            );
             Primitive::Mesh(m)
         };
         let other = egui::TextureId::User(7);
-        let callback = Primitive::Callback(egui::PaintCallback { rect: screen, callback: Arc::new(()) });
-        let prims = [mesh(Default::default()), mesh(Default::default()), callback, mesh(other), mesh(Default::default())];
-        let list = split(prims.into_iter().map(|primitive| ClippedPrimitive { clip_rect: screen, primitive }).collect(), screen);
+        let callback =
+            Primitive::Callback(egui::PaintCallback { rect: screen, callback: Arc::new(()) });
+        let prims = [
+            mesh(Default::default()),
+            mesh(Default::default()),
+            callback,
+            mesh(other),
+            mesh(Default::default()),
+        ];
+        let list = split(
+            prims
+                .into_iter()
+                .map(|primitive| ClippedPrimitive { clip_rect: screen, primitive })
+                .collect(),
+            screen,
+        );
         let kinds: Vec<String> = list
             .all_entries()
             .map(|s| match &s.shape {
-                egui::Shape::Callback(c) => match c.callback.downcast_ref::<egui_wgpu::Callback>() {
-                    Some(_) => "run".to_string(),
-                    None => "callback".to_string(),
-                },
+                egui::Shape::Callback(c) => {
+                    match c.callback.downcast_ref::<egui_wgpu::Callback>() {
+                        Some(_) => "run".to_string(),
+                        None => "callback".to_string(),
+                    }
+                }
                 egui::Shape::Mesh(m) => format!("mesh {:?}", m.texture_id),
                 other => format!("{other:?}"),
             })
