@@ -15,11 +15,14 @@
 //!
 //! - Spurious and missing shares and the 99th-percentile distance, whole surface and clothed
 //!   region, on the Chamfer samples: see `surface_error`.
+//! - Integrity of both surfaces (open border, non-manifold edges, pieces, self-intersections)
+//!   and the predicted area that faces the wrong way: see `integrity`.
 //!
 //! Scored vertices: ground-truth vertices whose dominant body joint is one of
 //! `skeleton::CLOTHED_JOINTS` (no hands, wrists, feet, ankles, neck or head), and visible
 //! where the ground truth marks hidden vertices.
 
+use super::integrity::{FrameIntegrity, frame_integrity};
 use super::occupancy::volumetric_iou;
 use super::sampling::sample_surface;
 use super::surface_error::{SampleDistances, SurfaceErrors, region_errors};
@@ -72,6 +75,10 @@ pub struct FrameMetrics {
     pub cloth: SurfaceErrors,
     /// Ground-truth vertices scored by Dp, Df and NC.
     pub scored_vertices: usize,
+    /// Whether the surfaces are whole: open borders, non-manifold edges, pieces,
+    /// self-intersections, inside-out patches (prediction and truth).
+    #[serde(default)]
+    pub integrity: FrameIntegrity,
 }
 
 /// Which ground-truth vertices the metrics look at: `scored` by Dp, Df and NC, `cloth` the
@@ -255,6 +262,7 @@ pub fn evaluate_frame(
         gt_prepared.sample_distances(&prepared, options.chamfer_samples, &mut rng, clothed)?;
     let chamfer = 0.5 * (mean(&to_gt.distance) + mean(&to_pred.distance));
     let (surface, cloth) = region_errors(&to_gt, &to_pred, options.far_m);
+    let integrity = frame_integrity(&prepared, &gt_prepared, clothed);
     Ok(FrameMetrics {
         dp_cm: mean(&s.point) * CM,
         df_cm: mean(&s.face) * CM,
@@ -264,6 +272,7 @@ pub fn evaluate_frame(
         surface,
         cloth,
         scored_vertices: points.len(),
+        integrity,
     })
 }
 

@@ -3,6 +3,7 @@
 
 pub mod conditions;
 pub mod dataset;
+pub mod integrity;
 pub mod metrics;
 pub mod occupancy;
 pub mod predictor;

@@ -2,6 +2,7 @@
 //! outfit, with mean, median, min and max of every metric over the evaluated frames; JSON and
 //! a Markdown table per setting.
 
+use super::integrity::IntegrityRow;
 use super::metrics::{FrameMetrics, Summary};
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -33,6 +34,9 @@ pub struct RowResult {
     pub cloth_spurious: Summary,
     pub cloth_missing: Summary,
     pub cloth_p99_cm: Summary,
+    /// Whether the surfaces are whole (absent in reports written before the column existed).
+    #[serde(default)]
+    pub integrity: Option<IntegrityRow>,
     /// Fine-tuning and scoring time of this row (seconds, summed over subjects; f32 so that
     /// the JSON round trip is exact).
     pub seconds: f32,
@@ -74,6 +78,7 @@ impl RowResult {
             cloth_spurious: s(|m| m.cloth.spurious)?,
             cloth_missing: s(|m| m.cloth.missing)?,
             cloth_p99_cm: s(|m| m.cloth.p99_cm)?,
+            integrity: IntegrityRow::of(&m.iter().map(|m| m.integrity).collect::<Vec<_>>()),
             seconds: input.seconds as f32,
         })
     }
@@ -143,8 +148,33 @@ impl Report {
                     );
                 }
             }
+            s += &self.integrity_table(capture, protocol, &outfits);
         }
         s
+    }
+
+    /// The integrity table of one setting (rows written before the columns existed are left
+    /// out).
+    fn integrity_table(&self, capture: &str, protocol: &str, outfits: &[&str]) -> String {
+        let mut s = format!(
+            "\n*Integrity, {capture} capture, {protocol}*\n\n| method | outfit | {} |\n|---|---|{}\n",
+            IntegrityRow::HEADER,
+            "---|".repeat(IntegrityRow::HEADER.matches('|').count() + 1)
+        );
+        let mut any = false;
+        for outfit in outfits {
+            for r in self
+                .rows
+                .iter()
+                .filter(|r| r.capture == capture && r.protocol == protocol && r.outfit == *outfit)
+            {
+                if let Some(i) = &r.integrity {
+                    s += &format!("| {} | {} | {} |\n", r.method, r.outfit, i.cells());
+                    any = true;
+                }
+            }
+        }
+        if any { s } else { String::new() }
     }
 
     pub fn save_json(&self, path: impl AsRef<std::path::Path>) -> Result<()> {

@@ -132,6 +132,9 @@ pub fn canonical_surface(
             out.push(p);
         }
     }
+    // Garments without a pose rule (a simulated cape) keep their rest shape here; the
+    // simulation (`synth::cloth`) gives their real motion.
+    out.extend_from_slice(&t.vertices[out.len()..]);
     out
 }
 

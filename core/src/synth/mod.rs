@@ -2,6 +2,7 @@
 //! ground truth. See docs/synthetic-data.md.
 
 pub mod camera;
+pub mod cloth;
 pub mod contact_sheet;
 pub mod deform;
 pub mod generate;
@@ -16,6 +17,6 @@ pub use deform::{PoseFeatures, canonical_surface, pose_surface};
 pub use generate::{SynthJob, SynthReport, generate_capture, subject_betas};
 pub use ground_truth::{GroundTruth, GtFrame};
 pub use noise::DepthNoise;
-pub use outfit::{ALL_OUTFITS, ClothedTemplate, Outfit};
+pub use outfit::{ALL_OUTFITS, ClothedTemplate, Outfit, SIM_OUTFITS};
 pub use raster::{DepthRender, NO_TRIANGLE, render_depth};
 pub use smpl_stand_in::{generate_smpl_capture, smpl_stand_in};

@@ -39,6 +39,10 @@ pub enum Outfit {
     PoloLoose,
     Dress,
     BlazerTails,
+    /// A fitted top and a long skirt simulated as cloth (`synth::cloth`).
+    SimSkirt,
+    /// Long sleeves and trousers under a cape from the shoulders to the knees, simulated.
+    SimCape,
 }
 
 pub const ALL_OUTFITS: [Outfit; 5] = [
@@ -48,6 +52,9 @@ pub const ALL_OUTFITS: [Outfit; 5] = [
     Outfit::Dress,
     Outfit::BlazerTails,
 ];
+
+/// The outfits whose loose garment is simulated as cloth through each motion.
+pub const SIM_OUTFITS: [Outfit; 2] = [Outfit::SimSkirt, Outfit::SimCape];
 
 /// A free panel hanging from the waist: a (partial) elliptic tube.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,21 +93,37 @@ impl Outfit {
             Outfit::PoloLoose => "polo_loose",
             Outfit::Dress => "dress",
             Outfit::BlazerTails => "blazer_tails",
+            Outfit::SimSkirt => "sim_skirt",
+            Outfit::SimCape => "sim_cape",
         }
     }
 
     pub fn from_name(name: &str) -> Result<Outfit> {
-        ALL_OUTFITS.into_iter().find(|o| o.name() == name).ok_or_else(|| {
+        ALL_OUTFITS.into_iter().chain(SIM_OUTFITS).find(|o| o.name() == name).ok_or_else(|| {
             Error::invalid(format!(
-                "unknown outfit {name:?}; valid outfits: {}",
-                ALL_OUTFITS.map(|o| o.name()).join(", ")
+                "unknown outfit {name:?}; valid outfits: {}, {}",
+                ALL_OUTFITS.map(|o| o.name()).join(", "),
+                SIM_OUTFITS.map(|o| o.name()).join(", ")
             ))
         })
     }
 
     /// Loose outfits have parts far from the body (the canonicalization targets differ).
     pub fn is_loose(self) -> bool {
-        matches!(self, Outfit::PoloLoose | Outfit::Dress | Outfit::BlazerTails)
+        matches!(
+            self,
+            Outfit::PoloLoose
+                | Outfit::Dress
+                | Outfit::BlazerTails
+                | Outfit::SimSkirt
+                | Outfit::SimCape
+        )
+    }
+
+    /// Whether its loose garment moves as simulated cloth (`synth::cloth`), so that its
+    /// surface at a frame depends on the motion before it.
+    pub fn is_simulated(self) -> bool {
+        SIM_OUTFITS.contains(&self)
     }
 
     pub fn spec(self) -> OutfitSpec {
@@ -154,6 +177,21 @@ impl Outfit {
                 lower_legs: 0.016,
                 hem_lift: 0.04,
                 panel: Some(Panel { length: 0.38, flare: 0.05, extent: 3.4 }),
+                ..none
+            },
+            Outfit::SimSkirt => OutfitSpec {
+                shirt: 0.008,
+                upper_sleeve: 0.008,
+                panel: Some(Panel { length: 0.78, flare: 0.2, extent: std::f32::consts::TAU }),
+                ..none
+            },
+            Outfit::SimCape => OutfitSpec {
+                shirt: 0.012,
+                upper_sleeve: 0.012,
+                lower_sleeve: 0.012,
+                pants: 0.015,
+                lower_legs: 0.015,
+                hem_lift: 0.05,
                 ..none
             },
         }
@@ -260,6 +298,9 @@ impl ClothedTemplate {
         }
         if let Some(panel) = spec.panel {
             t.add_panel(&rest, &joints, panel);
+        }
+        if outfit == Outfit::SimCape {
+            super::cloth::add_cape(&mut t);
         }
         t
     }
