@@ -107,7 +107,8 @@ pub struct Args {
     #[arg(long)]
     subjects: Option<usize>,
     /// Outfits, comma-separated (tshirt_shorts, longsleeve_trousers, polo_loose, dress,
-    /// blazer_tails; all = every one).
+    /// blazer_tails; all = every one of those; sim_skirt and sim_cape: garments simulated as
+    /// cloth through each motion).
     #[arg(long, value_delimiter = ',')]
     outfits: Option<Vec<String>>,
     /// Evaluate every n-th frame of the held-out clips.

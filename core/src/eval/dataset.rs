@@ -25,9 +25,16 @@ pub const SHEET_POSE: (&str, f32) = ("kick", 0.45);
 
 /// The contact sheets' pose (`SHEET_POSE`).
 pub fn sheet_pose() -> crate::error::Result<crate::body::BodyParams> {
+    let (clip, frame) = sheet_frame()?;
+    Ok(clip.frames[frame].clone())
+}
+
+/// The contact sheets' clip and frame (`SHEET_POSE`).
+pub fn sheet_frame() -> crate::error::Result<(crate::motion::MotionClip, usize)> {
     let (name, at) = SHEET_POSE;
     let clip = crate::motion::library_clip(name)?;
-    Ok(clip.frames[((clip.len().max(1) - 1) as f32 * at) as usize].clone())
+    let frame = ((clip.len().max(1) - 1) as f32 * at) as usize;
+    Ok((clip, frame))
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@ pub mod report;
 pub mod runner;
 pub mod sampling;
 pub mod surface_error;
+pub mod truth;
 
 pub use conditions::CaptureConditions;
 pub use metrics::Regions;

@@ -10,15 +10,14 @@ use super::predictor::{FitData, Predictor};
 use super::protocol::{Protocol, Shots, heldout_frames, interpolation_frames, training_selection};
 use super::report::RowInput;
 pub use super::report::{Report, RowResult};
+use super::truth::OutfitTruth;
 use crate::body::{BodyModel, BodyParams};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::motion::MotionClip;
+use crate::synth::cloth::GarmentTrack;
 use crate::synth::contact_sheet::write_view_sheet;
-use crate::synth::{
-    ALL_OUTFITS, ClothedTemplate, PoseFeatures, SynthJob, canonical_surface, generate_capture,
-    pose_surface, subject_betas,
-};
+use crate::synth::{ALL_OUTFITS, ClothedTemplate, SynthJob, generate_capture, subject_betas};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -85,28 +84,7 @@ fn clip(name: &str) -> Result<MotionClip> {
     crate::motion::library_clip(name)
 }
 
-/// The query pose of a clip frame for a subject: the subject's shape, horizontal drift removed
-/// (as in the synthetic captures), facing the camera.
-/// An evaluation pose of a subject: its shape, the root over the origin (x and z).
-pub fn query(p: &BodyParams, betas: &[f32]) -> BodyParams {
-    let mut q = p.clone();
-    q.betas = betas.to_vec();
-    q.trans.x = 0.0;
-    q.trans.z = 0.0;
-    q
-}
-
-/// The ground-truth clothed mesh of one pose.
-pub fn ground_truth_mesh(
-    body: &BodyModel,
-    template: &ClothedTemplate,
-    params: &BodyParams,
-    subject: u64,
-) -> TriMesh {
-    let bones = body.pose(params).bones;
-    let canonical = canonical_surface(template, &PoseFeatures::of(&bones), subject);
-    TriMesh::new(pose_surface(template, &canonical, &bones), template.faces.clone())
-}
+pub use super::truth::{ground_truth_mesh, query};
 
 #[derive(Default)]
 struct Accum {
@@ -140,8 +118,8 @@ pub fn run(
                 .collect()
         })
         .collect();
-    let sheet_pose = match &config.contact_sheets {
-        Some(_) => Some(sheet_pose()?),
+    let sheet = match &config.contact_sheets {
+        Some(_) => Some(sheet_frame()?),
         None => None,
     };
     for (subject_index, &subject) in config.subjects.iter().enumerate() {
@@ -149,8 +127,11 @@ pub fn run(
         for (oi, &outfit) in config.outfits.iter().enumerate() {
             let template = ClothedTemplate::build(body, &betas, outfit);
             let regions = Regions::of_template(&template)?;
+            let clips: Vec<&MotionClip> =
+                finetune.iter().chain(&heldout).chain(sheet.as_ref().map(|s| &s.0)).collect();
+            let truth = OutfitTruth::new(body, &template, subject, &betas, &clips);
             // Truth, then every row, at the sheet pose.
-            let mut sheet: Vec<TriMesh> = Vec::new();
+            let mut sheet_meshes: Vec<TriMesh> = Vec::new();
             for (si, (capture, protocol)) in settings.iter().enumerate() {
                 progress(&format!(
                     "subject {subject}, {}, {} capture, {}",
@@ -159,37 +140,37 @@ pub fn run(
                     protocol.label()
                 ));
                 let train = training_selection(protocol, &lengths);
-                let eval_poses: Vec<BodyParams> = if protocol.evaluates_heldout() {
+                // (clip, frame) of every evaluated pose.
+                let eval_frames: Vec<(&MotionClip, usize)> = if protocol.evaluates_heldout() {
                     heldout
                         .iter()
                         .flat_map(|c| {
                             heldout_frames(c.len(), config.heldout_stride)
                                 .into_iter()
-                                .map(move |f| c.frames[f].clone())
+                                .map(move |f| (c, f))
                         })
                         .collect()
                 } else {
                     finetune
                         .iter()
                         .flat_map(|c| {
-                            interpolation_frames(c.len())
-                                .into_iter()
-                                .map(move |f| c.frames[f].clone())
+                            interpolation_frames(c.len()).into_iter().map(move |f| (c, f))
                         })
                         .collect()
                 };
                 let eval_poses: Vec<BodyParams> =
-                    eval_poses.iter().map(|p| query(p, &betas)).collect();
-                let gts: Vec<TriMesh> = eval_poses
+                    eval_frames.iter().map(|(c, f)| query(&c.frames[*f], &betas)).collect();
+                let gts: Vec<TriMesh> = eval_frames
                     .par_iter()
-                    .map(|p| ground_truth_mesh(body, &template, p, subject))
-                    .collect();
-                let sheet_query = sheet_pose
+                    .zip(&eval_poses)
+                    .map(|((c, f), p)| truth.mesh(&c.name, *f, p))
+                    .collect::<Result<_>>()?;
+                let sheet_query = sheet
                     .as_ref()
                     .filter(|_| subject_index == 0 && si == 0)
-                    .map(|p| query(p, &betas));
-                if let Some(p) = &sheet_query {
-                    sheet.push(ground_truth_mesh(body, &template, p, subject));
+                    .map(|(c, f)| (c, *f, query(&c.frames[*f], &betas)));
+                if let Some((c, f, p)) = &sheet_query {
+                    sheet_meshes.push(truth.mesh(&c.name, *f, p)?);
                 }
                 // The fine-tuning capture: the selected frames under the setting's conditions.
                 let capture_dir = config.workdir.join(format!("s{subject}_{}_{si}", outfit.name()));
@@ -201,6 +182,15 @@ pub fn run(
                         outfit,
                         MotionClip::new("finetune", finetune[0].fps, frames),
                     );
+                    if outfit.is_simulated() {
+                        let garment = train
+                            .iter()
+                            .map(|&(c, f)| {
+                                Ok(truth.garment(&finetune[c].name, f)?.map(<[_]>::to_vec))
+                            })
+                            .collect::<Result<Option<Vec<_>>>>()?;
+                        job.garment = garment.map(|frames| GarmentTrack { frames });
+                    }
                     let seed = capture_seed(config.seed, subject, outfit, capture);
                     capture.prepare(&mut job, seed);
                     job.write_ground_truth = false;
@@ -253,8 +243,8 @@ pub fn run(
                     a.training_frames = train.len();
                     a.metrics.extend(scores);
                     a.seconds += t.elapsed().as_secs_f64();
-                    if let Some(p) = &sheet_query {
-                        sheet.push(predictor.predict(p)?);
+                    if let Some((_, _, p)) = &sheet_query {
+                        sheet_meshes.push(predictor.predict(p)?);
                     }
                 }
                 if config.ground_truth_row {
@@ -280,11 +270,11 @@ pub fn run(
                     let _ = std::fs::remove_dir_all(&capture_dir);
                 }
             }
-            if let (Some(dir), false) = (&config.contact_sheets, sheet.is_empty()) {
+            if let (Some(dir), false) = (&config.contact_sheets, sheet_meshes.is_empty()) {
                 std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
                 write_view_sheet(
                     &dir.join(format!("eval-{}.png", outfit.name())),
-                    &sheet,
+                    &sheet_meshes,
                     &SHEET_VIEWS,
                 )?;
             }

@@ -3,12 +3,13 @@
 //! MetaAvatar protocol); depth PNGs, capture.json and the ground truth are written.
 
 use super::camera::{PinholeCamera, look_at};
+use super::cloth::{ClothConfig, GarmentTrack, simulate_garment};
 use super::deform::{PoseFeatures, canonical_surface, pose_surface};
 use super::ground_truth::{GT_FORMAT, GroundTruth, GtFrame, GtHeader};
 use super::noise::DepthNoise;
 use super::outfit::{ClothedTemplate, Outfit};
 use super::raster::{NO_TRIANGLE, render_depth};
-use crate::body::{BodyModel, BodyParams};
+use crate::body::{BodyModel, BodyParams, blend_transform};
 use crate::capture::{CaptureManifest, DEPTH_SCALE_MM, FrameRecord, write_depth_png};
 use crate::error::{Error, Result};
 use crate::motion::MotionClip;
@@ -43,6 +44,10 @@ pub struct SynthJob {
     pub noise_seed: u64,
     pub camera: PinholeCamera,
     pub write_ground_truth: bool,
+    /// A simulated outfit's garment at every frame of `clip` (posed as `frame_params` poses
+    /// them before the turn). `None`: simulated through `clip` from its first frame, which
+    /// suits a continuous clip.
+    pub garment: Option<GarmentTrack>,
 }
 
 impl SynthJob {
@@ -57,18 +62,51 @@ impl SynthJob {
             noise_seed: 0,
             camera: PinholeCamera::metaavatar(),
             write_ground_truth: true,
+            garment: None,
         }
+    }
+
+    /// The clip frames written.
+    pub fn picks(&self) -> Vec<usize> {
+        let n = self.clip.len();
+        match self.frames {
+            Some(k) if k < n && k > 0 => (0..k).map(|i| i * n / k).collect(),
+            _ => (0..n).collect(),
+        }
+    }
+
+    /// The turn of the `i`-th frame written, about the vertical axis through the origin
+    /// (where `frame_params` keeps the root).
+    pub fn turn(&self, i: usize) -> Quat {
+        Quat::from_rotation_y((self.turn_per_frame_deg * i as f32).to_radians())
+    }
+
+    /// The simulated garment at every clip frame: the job's, or simulated through the clip.
+    fn garment_track(&self, body: &BodyModel, template: &ClothedTemplate) -> Option<GarmentTrack> {
+        if !self.outfit.is_simulated() {
+            return None;
+        }
+        if let Some(g) = &self.garment {
+            return Some(g.clone());
+        }
+        let betas = subject_betas(body, self.subject_seed);
+        let poses: Vec<BodyParams> =
+            self.clip.frames.iter().map(|p| crate::eval::truth::query(p, &betas)).collect();
+        Some(simulate_garment(
+            body,
+            template,
+            &poses,
+            self.clip.fps,
+            self.subject_seed,
+            ClothConfig::default(),
+        ))
     }
 
     /// The fittings of the frames written: the clip's poses, the subject's shape, turned by
     /// `turn_per_frame_deg` per frame about the root joint, horizontal drift removed.
     pub fn frame_params(&self, body: &BodyModel) -> Vec<BodyParams> {
         let betas = subject_betas(body, self.subject_seed);
-        let n = self.clip.len();
-        let picks: Vec<usize> = match self.frames {
-            Some(k) if k < n && k > 0 => (0..k).map(|i| i * n / k).collect(),
-            _ => (0..n).collect(),
-        };
+        let picks = self.picks();
         let j0 = body.rest_joints(&betas)[0];
         picks
             .iter()
@@ -78,7 +116,7 @@ impl SynthJob {
                 p.betas = betas.clone();
                 p.trans.x = 0.0;
                 p.trans.z = 0.0;
-                let turn = Quat::from_rotation_y((self.turn_per_frame_deg * i as f32).to_radians());
+                let turn = self.turn(i);
                 p.pose[0] = (turn * Quat::from_scaled_axis(p.pose[0])).to_scaled_axis();
                 p.trans = turn * (p.trans + j0) - j0;
                 p
@@ -114,11 +152,36 @@ pub fn generate_capture(dir: &Path, body: &BodyModel, job: &SynthJob) -> Result<
     let mut rng = ChaCha8Rng::seed_from_u64(job.noise_seed);
     let mut gt_frames = Vec::with_capacity(params.len());
     let mut depth_pixels = 0;
+    let garment = job.garment_track(body, &template);
+    if let Some(g) = &garment {
+        if g.frames.len() != job.clip.len() {
+            return Err(Error::invalid(format!(
+                "the simulated {} has {} frames for the {} of clip {:?}",
+                job.outfit.name(),
+                g.frames.len(),
+                job.clip.len(),
+                job.clip.name
+            )));
+        }
+    }
+    let picks = job.picks();
     for (i, p) in params.iter().enumerate() {
         let posed_body = body.pose(p);
         let features = PoseFeatures::of(&posed_body.bones);
-        let canonical = canonical_surface(&template, &features, job.subject_seed);
-        let posed = pose_surface(&template, &canonical, &posed_body.bones);
+        let mut canonical = canonical_surface(&template, &features, job.subject_seed);
+        let mut posed = pose_surface(&template, &canonical, &posed_body.bones);
+        if let Some(g) = &garment {
+            // The garment as simulated, turned with the person; its canonical points by
+            // inverting each vertex's skinning.
+            let turn = job.turn(i);
+            let n = template.body_vertices;
+            for (k, &q) in g.frames[picks[i]].iter().enumerate() {
+                let v = n + k;
+                posed[v] = turn * q;
+                let m = blend_transform(&posed_body.bones.transforms, &template.weights[v]);
+                canonical[v] = m.inverse().transform_point3(posed[v]);
+            }
+        }
         let render = render_depth(&cam, c2w, &posed, &template.faces);
         let mut visible = vec![false; posed.len()];
         for &t in &render.triangle {
