@@ -80,6 +80,21 @@ fn edge_use(faces: &[[u32; 3]]) -> HashMap<Edge, u32> {
     uses
 }
 
+/// The open border: every edge used by exactly one face, as its two end points.
+pub fn boundary_segments(mesh: &TriMesh) -> Vec<(Vec3, Vec3)> {
+    let w = weld(mesh);
+    let mut out: Vec<(Vec3, Vec3)> = edge_use(&w.faces)
+        .into_iter()
+        .filter(|&(_, n)| n == 1)
+        .map(|((a, b), _)| (w.positions[a as usize], w.positions[b as usize]))
+        .collect();
+    // Hash order is not deterministic; the drawing should be.
+    out.sort_by(|x, y| {
+        x.0.to_array().partial_cmp(&y.0.to_array()).unwrap_or(std::cmp::Ordering::Equal)
+    });
+    out
+}
+
 /// Integrity of the whole mesh.
 pub fn integrity(mesh: &TriMesh) -> Integrity {
     integrity_in(mesh, |_| true)
