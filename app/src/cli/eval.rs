@@ -87,7 +87,8 @@ pub struct Args {
     protocol: Option<String>,
     /// Capture conditions of the fine-tuning captures (diagnostics: noisy = depth noise only,
     /// misfit = fitting errors only): user (depth noise and holes, fitting
-    /// errors, 30-60 degree turns), clean (MetaAvatar's protocol), comma-separated.
+    /// errors, 30-60 degree turns), clean (MetaAvatar's protocol), front (user, but 3-4 degree
+    /// turns: the back is never seen), comma-separated.
     #[arg(long)]
     captures: Option<String>,
     /// The depth noise model of user captures: kinect_v1 or kinect_v2 (default).

@@ -3,6 +3,7 @@
 mod bench;
 mod body;
 mod canonicalize;
+mod check;
 mod eval;
 mod export;
 mod fit;
@@ -69,6 +70,8 @@ pub enum Command {
     Export(export::Args),
     /// Run the benchmarks and print a report.
     Bench(bench::Args),
+    /// Whether an avatar's surface is whole: holes, torn or folded parts, inside-out patches.
+    Check(check::Args),
 }
 
 /// Run a subcommand (no subcommand opens the studio: main.rs).
@@ -84,6 +87,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Pose(a) => pose::run(a),
         Command::Export(a) => export::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Check(a) => check::run(a),
     }
 }
 

@@ -19,6 +19,7 @@
 //! out. The wrapped body is posed with the body's own skinning weights
 //! ([`BodyWrap::own_weights`]).
 
+use super::fold_guard::FoldGuard;
 use crate::body::{BodyModel, Weights, interpolate_weights};
 use crate::mesh::TriMesh;
 use crate::mesh::barycentric;
@@ -102,6 +103,7 @@ pub struct BodyWrap {
     /// The body's thickness at each vertex (metres, along the inward normal; infinite where
     /// the ray leaves no other side within 20 cm).
     thickness: Vec<f32>,
+    guard: FoldGuard,
     pub options: WrapOptions,
 }
 
@@ -129,6 +131,7 @@ impl BodyWrap {
             .collect();
         BodyWrap {
             rest_area: rest.surface_area(),
+            guard: FoldGuard::new(&rest),
             rest,
             normals,
             thickness,
@@ -159,7 +162,7 @@ impl BodyWrap {
             .flat_map(|(&x, &n)| steps.iter().map(move |&t| x + t * n))
             .collect();
         let values = sdf(&probes);
-        let offsets: Vec<Option<f32>> = values
+        let mut offsets: Vec<Option<f32>> = values
             .par_chunks(count)
             .zip(&self.thickness)
             .map(
@@ -168,6 +171,7 @@ impl BodyWrap {
                 },
             )
             .collect();
+        self.guard.unfold(&self.rest, &self.normals, &mut offsets);
         let positions = self
             .rest
             .positions

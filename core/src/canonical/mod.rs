@@ -6,6 +6,7 @@ pub mod body_wrap;
 pub mod cache;
 pub mod canonicalize;
 pub mod field;
+pub mod fold_guard;
 pub mod garment_skinning;
 pub mod normalise;
 pub mod offset_smoothing;

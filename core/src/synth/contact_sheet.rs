@@ -106,6 +106,17 @@ pub fn write_mesh_sheet(path: &Path, rows: &[Vec<TriMesh>]) -> Result<()> {
 /// side of an open sheet) in orange, and the open border (holes, torn edges, hems) in blue.
 /// Writes an RGB PNG (atomic).
 pub fn write_view_sheet(path: &Path, meshes: &[TriMesh], views: &[Vec3]) -> Result<()> {
+    write_view_sheet_from(path, meshes, views, 3.2)
+}
+
+/// [`write_view_sheet`] with the eye `distance` metres from the first mesh's centre (3.2 frames
+/// a standing person; a head needs about 0.6).
+pub fn write_view_sheet_from(
+    path: &Path,
+    meshes: &[TriMesh],
+    views: &[Vec3],
+    distance: f32,
+) -> Result<()> {
     const W: u32 = 180;
     const H: u32 = 270;
     let cam = PinholeCamera {
@@ -115,7 +126,7 @@ pub fn write_view_sheet(path: &Path, meshes: &[TriMesh], views: &[Vec3]) -> Resu
         cy: H as f32 / 2.0,
         width: W,
         height: H,
-        near: 0.5,
+        near: 0.05,
         far: 10.0,
     };
     let (lo, hi) = meshes.first().and_then(|m| m.bounds()).unwrap_or((Vec3::ZERO, Vec3::ZERO));
@@ -124,7 +135,7 @@ pub fn write_view_sheet(path: &Path, meshes: &[TriMesh], views: &[Vec3]) -> Resu
     let mut img = vec![255u8; (w * h * 3) as usize];
     for (r, view) in views.iter().enumerate() {
         for (c, mesh) in meshes.iter().enumerate() {
-            let eye = target + view.normalize_or(Vec3::Z) * 3.2;
+            let eye = target + view.normalize_or(Vec3::Z) * distance;
             let tile = shade_sided(&cam, eye, target, mesh);
             for y in 0..H {
                 for x in 0..W {
