@@ -8,6 +8,7 @@ use avatar_core::eval::integrity::inside_out_shares;
 use avatar_core::eval::metrics::Prepared;
 use avatar_core::io::Inputs;
 use avatar_core::mesh::TriMesh;
+use avatar_core::mesh::holes::{border_loops, loop_length};
 use avatar_core::mesh::integrity::integrity;
 use avatar_core::mesh::topology::compact;
 use avatar_core::synth::contact_sheet::write_view_sheet_from;
@@ -59,6 +60,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     let share =
         |joints: &[usize]| inside_out_shares(&mesh, &beneath, |p| joints.contains(&part_of(p)));
+    let mut loops: Vec<f32> = border_loops(&mesh).iter().map(|l| loop_length(&mesh, l)).collect();
+    if !loops.is_empty() {
+        loops.sort_by(|a, b| b.total_cmp(a));
+        let longest: Vec<String> = loops.iter().take(5).map(|l| format!("{l:.2}")).collect();
+        println!(
+            "  open border: {} loops, the longest {} m; {} under 30 cm",
+            loops.len(),
+            longest.join(", "),
+            loops.iter().filter(|&&l| l < 0.3).count()
+        );
+    }
     let (whole, head) = share(&HEAD);
     println!(
         "  facing against the body beneath it: {:.2} % of the surface; head {:.2} %, hands {:.2} %, \

@@ -24,7 +24,8 @@ use crate::body::{BodyModel, Weights, interpolate_weights};
 use crate::mesh::TriMesh;
 use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
-use crate::mesh::topology::{compact, face_components};
+use crate::mesh::holes::close_short_holes;
+use crate::mesh::topology::{compact, drop_small_pieces, face_components};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -52,6 +53,13 @@ pub struct WrapOptions {
     /// true cloth at held-out poses (docs/evaluation.md, session 12), while a skirt is about
     /// 0.9 m^2 and a blazer's tails about 0.5 m^2.
     pub min_piece_share: f32,
+    /// The faces far from the wrapped body are chosen one by one, which frays a piece's
+    /// border: the bits of them with less area than this share of the rest body's surface
+    /// (joined to the rest by a vertex at most; 0.5 % is about 90 cm^2 on an adult) are
+    /// dropped, and holes shorter than `max_hole` (metres: where the cloth passed near the
+    /// body, a thigh under a skirt) are closed.
+    pub min_shred_share: f32,
+    pub max_hole: f32,
     /// Where the body is thinner than this (metres, along the inward normal: fingers, ears)
     /// it is not wrapped: the depth and the SDF's grid cannot resolve it, and the body's own
     /// surface is the better guess than the blob around it.
@@ -72,6 +80,8 @@ impl Default for WrapOptions {
             tight_outside: 0.035,
             seam: 0.03,
             min_piece_share: 0.02,
+            min_shred_share: 0.005,
+            max_hole: 0.3,
             thin: 0.03,
         }
     }
@@ -211,7 +221,12 @@ impl BodyWrap {
         let far = faces_far_from(&bvh, extracted, o.far);
         let loose: Vec<[u32; 3]> =
             extracted.faces.iter().zip(&far).filter(|(_, f)| **f).map(|(f, _)| *f).collect();
-        let mut pieces = self.clothing_pieces(&compact(&extracted.positions, &loose), &bvh);
+        let chosen = drop_small_pieces(
+            &compact(&extracted.positions, &loose),
+            o.min_shred_share * self.rest_area,
+        );
+        let chosen = close_short_holes(&chosen, o.max_hole).0;
+        let mut pieces = self.clothing_pieces(&chosen, &bvh);
         // Border edges (one face) of the pieces: their vertices go onto the body nearby.
         let mut edge_faces: std::collections::HashMap<(u32, u32), u32> =
             std::collections::HashMap::new();

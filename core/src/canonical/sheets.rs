@@ -10,8 +10,9 @@
 
 use crate::mesh::TriMesh;
 use crate::mesh::bvh::Bvh;
+use crate::mesh::holes::close_short_holes;
 use crate::mesh::signed_distance::SignedDistance;
-use crate::mesh::topology::compact;
+use crate::mesh::topology::{compact, drop_small_pieces};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -32,6 +33,13 @@ pub struct SheetOptions {
     /// 10.9 -> 9.9 % with 0.25 and 0.4; 0.4 and no guard 9.5 %, 0.6 9.8 %, 0.8 10.1 %.
     pub rim_down: f32,
     pub rim_away: f32,
+    /// Border loops shorter than this (metres) are holes torn through the sheet where the
+    /// slab was thinner than the extraction's cells, and are closed; a hem or a neckline is
+    /// far longer.
+    pub max_hole: f32,
+    /// Pieces with less area than this (square metres, pieces joined by edges) are shreds
+    /// hanging from the sheet by a vertex, and are dropped.
+    pub min_piece_area: f32,
 }
 
 impl Default for SheetOptions {
@@ -39,13 +47,22 @@ impl Default for SheetOptions {
         // Measured on the quick preset (dress / blazer Chamfer-L2): max_wall 0.10 and facing 0.5
         // gave 1.029 / 0.484 cm, 0.20 and 0.1 give 1.000 / 0.479 (the skirt's slab is thicker
         // where its shells found no room); 0.30 and 0.0 gain no more (docs/evaluation.md).
-        SheetOptions { loose: 0.03, max_wall: 0.20, facing: 0.1, rim_down: 0.25, rim_away: 0.4 }
+        SheetOptions {
+            loose: 0.03,
+            max_wall: 0.20,
+            facing: 0.1,
+            rim_down: 0.25,
+            rim_away: 0.4,
+            max_hole: 0.3,
+            min_piece_area: 0.01,
+        }
     }
 }
 
 /// `mesh` (canonical, metres, outward faces) without the inner walls of its loose cloth;
 /// `body` is the rest body's signed distance. Faces with all three vertices on an inner wall
-/// go; unused vertices are dropped.
+/// go; unused vertices are dropped; then the shreds (`min_piece_area`) go and the holes
+/// (`max_hole`) are closed.
 pub fn open_inner_walls(mesh: TriMesh, body: &SignedDistance, options: &SheetOptions) -> TriMesh {
     if mesh.faces.is_empty() {
         return mesh;
@@ -89,7 +106,8 @@ pub fn open_inner_walls(mesh: TriMesh, body: &SignedDistance, options: &SheetOpt
     if kept.len() == mesh.faces.len() {
         return mesh;
     }
-    compact(&mesh.positions, &kept)
+    let sheet = drop_small_pieces(&compact(&mesh.positions, &kept), options.min_piece_area);
+    close_short_holes(&sheet, options.max_hole).0
 }
 
 /// The faces of the slab's rim: where a skirt's outer side and its inner wall meet at the hem,

@@ -136,41 +136,14 @@ pub fn integrity_in(mesh: &TriMesh, region: impl Fn(Vec3) -> bool) -> Integrity 
 /// Pieces connected through shared edges, and how many of them are under
 /// `SMALL_PIECE_SHARE` of the area.
 fn pieces(w: &Welded) -> (usize, usize) {
-    let n = w.faces.len();
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn find(parent: &mut [usize], mut x: usize) -> usize {
-        while parent[x] != x {
-            parent[x] = parent[parent[x]];
-            x = parent[x];
-        }
-        x
-    }
-    let mut first_face: HashMap<Edge, usize> = HashMap::with_capacity(n * 3 / 2);
-    for (f, &[a, b, c]) in w.faces.iter().enumerate() {
-        for e in [edge(a, b), edge(b, c), edge(c, a)] {
-            match first_face.get(&e) {
-                Some(&g) => {
-                    let (rf, rg) = (find(&mut parent, f), find(&mut parent, g));
-                    if rf != rg {
-                        parent[rf.max(rg)] = rf.min(rg);
-                    }
-                }
-                None => {
-                    first_face.insert(e, f);
-                }
-            }
-        }
-    }
-    let mut area: HashMap<usize, f32> = HashMap::new();
-    let mut total = 0.0;
+    let (labels, count) = super::topology::edge_components(&w.faces);
+    let mut area = vec![0f32; count];
     for (f, &[a, b, c]) in w.faces.iter().enumerate() {
         let [pa, pb, pc] = [a, b, c].map(|v| w.positions[v as usize]);
-        let s = 0.5 * (pb - pa).cross(pc - pa).length();
-        *area.entry(find(&mut parent, f)).or_insert(0.0) += s;
-        total += s;
+        area[labels[f] as usize] += 0.5 * (pb - pa).cross(pc - pa).length();
     }
-    let small = area.values().filter(|&&s| s < SMALL_PIECE_SHARE * total).count();
-    (area.len(), small)
+    let total: f32 = area.iter().sum();
+    (count, area.iter().filter(|&&s| s < SMALL_PIECE_SHARE * total).count())
 }
 
 /// Per face: whether it crosses another face with which it shares no vertex (an edge of one

@@ -2,6 +2,7 @@
 
 pub mod bvh;
 pub mod extract;
+pub mod holes;
 pub mod integrity;
 pub mod io;
 mod marching_cubes;

@@ -74,6 +74,72 @@ pub fn compact(positions: &[glam::Vec3], faces: &[[u32; 3]]) -> TriMesh {
     TriMesh::new(kept, faces)
 }
 
+/// Label each face with its piece, faces sharing an edge being connected (two sheets that
+/// touch at a single vertex are two pieces). Returns (face labels, number of pieces).
+pub fn edge_components(faces: &[[u32; 3]]) -> (Vec<u32>, usize) {
+    let n = faces.len();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
+        }
+        x
+    }
+    let mut first_face: std::collections::HashMap<(u32, u32), u32> =
+        std::collections::HashMap::with_capacity(n * 3 / 2);
+    for (f, &[a, b, c]) in faces.iter().enumerate() {
+        for (u, v) in [(a, b), (b, c), (c, a)] {
+            let e = (u.min(v), u.max(v));
+            match first_face.get(&e) {
+                Some(&g) => {
+                    let (rf, rg) = (find(&mut parent, f as u32), find(&mut parent, g));
+                    if rf != rg {
+                        parent[rf.max(rg) as usize] = rf.min(rg);
+                    }
+                }
+                None => {
+                    first_face.insert(e, f as u32);
+                }
+            }
+        }
+    }
+    let mut label_of_root = vec![u32::MAX; n];
+    let mut count = 0u32;
+    let labels = (0..n as u32)
+        .map(|f| {
+            let r = find(&mut parent, f) as usize;
+            if label_of_root[r] == u32::MAX {
+                label_of_root[r] = count;
+                count += 1;
+            }
+            label_of_root[r]
+        })
+        .collect();
+    (labels, count as usize)
+}
+
+/// Drop the pieces (`edge_components`) with less area than `min_area` (square metres): shreds
+/// hanging from a sheet by a vertex, specks. Unused vertices are dropped.
+pub fn drop_small_pieces(mesh: &TriMesh, min_area: f32) -> TriMesh {
+    let (labels, count) = edge_components(&mesh.faces);
+    let mut area = vec![0f32; count];
+    for (f, &l) in labels.iter().enumerate() {
+        area[l as usize] += mesh.triangle_area(f);
+    }
+    if area.iter().all(|&a| a >= min_area) {
+        return mesh.clone();
+    }
+    let faces: Vec<[u32; 3]> = mesh
+        .faces
+        .iter()
+        .zip(&labels)
+        .filter(|(_, l)| area[**l as usize] >= min_area)
+        .map(|(f, _)| *f)
+        .collect();
+    compact(&mesh.positions, &faces)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -93,5 +159,24 @@ mod tests {
         let big = largest_component(&mesh);
         assert_eq!(big.faces.len(), 2);
         assert_eq!(big.positions.len(), 4);
+    }
+
+    #[test]
+    fn a_shred_hanging_by_a_vertex_is_its_own_piece_and_is_dropped() {
+        // A 1 m square of two triangles, and a 1 cm triangle touching its corner (3) only.
+        let positions = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(1.01, 1.0, 0.0),
+            Vec3::new(1.0, 1.01, 0.0),
+        ];
+        let mesh = TriMesh::new(positions, vec![[0, 1, 2], [1, 3, 2], [3, 4, 5]]);
+        assert_eq!(face_components(&mesh).1, 1);
+        assert_eq!(edge_components(&mesh.faces).1, 2);
+        let kept = drop_small_pieces(&mesh, 0.01);
+        assert_eq!((kept.faces.len(), kept.positions.len()), (2, 4));
+        assert_eq!(drop_small_pieces(&mesh, 1e-6), mesh);
     }
 }
