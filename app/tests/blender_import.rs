@@ -1,4 +1,4 @@
-//! Blender imports an exported GLB headless and plays it (issue 8): `tests/blender/check_glb.py`
+//! Blender imports an exported GLB headless and plays it: `tests/blender/check_glb.py`
 //! run by Debian's `blender` on a short walk of the synthetic avatar. The counts Blender finds
 //! (bones, shape keys, keyframes) must equal what the file holds, read here with the `gltf`
 //! crate, Blender's skinned, morphed mesh of each frame must match the studio's posed mesh

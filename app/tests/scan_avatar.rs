@@ -1,4 +1,4 @@
-//! An avatar made from a 3D scan (issue 18, MetaAvatar appendix G): a synthetic clothed person
+//! An avatar made from a 3D scan (MetaAvatar appendix G): a synthetic clothed person
 //! written as an OBJ is imported (`import scan`: a ring of 8 virtual depth cameras), the
 //! MetaAvatar is fine-tuned from the shipped meta-model with `fit`'s defaults, and its mesh at the
 //! scan's pose must be within 1 cm Chamfer-L2 of the scan.

@@ -193,7 +193,7 @@ fn cache_round_trip_and_corrupt_cache_rebuilt() {
 /// A squat and a bend press the thighs to the belly: there inverse skinning has several roots,
 /// and the one kept must be the one nearest the body. The previous choice (the root whose field
 /// weights best agree with its start bone) sent about a tenth of such a frame's points more
-/// than 10 cm off the canonical body, where a fit grows sheets (docs/evaluation.md).
+/// than 10 cm off the canonical body, where a fit grows sheets (docs/decisions.md).
 #[test]
 fn roots_of_a_squat_and_a_bend_stay_on_the_body() {
     use avatar_core::capture::Capture;

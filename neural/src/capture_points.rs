@@ -103,7 +103,7 @@ impl FrameCount {
     /// error averages down as 1 / sqrt(frames): fittings off by 5 deg / 2 cm cost the tight
     /// outfit +22 % Chamfer-L2 against exact fittings with 8 frames, -2.7 % with 32, the dress
     /// +27 % and +12.8 %; the fit takes a quarter (tight) to a half (dress) longer
-    /// (docs/evaluation.md, session 18).
+    /// (docs/results.md).
     pub const DEFAULT: FrameCount = FrameCount::up_to(32);
 
     /// Up to `n` usable frames, refused under 8 (under `n` when it is smaller): the studio's

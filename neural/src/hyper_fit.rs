@@ -27,7 +27,7 @@ pub struct HyperFitOptions {
     /// `SurfaceChoice::WrappedWithLoose`) goes on to this many times `steps` in all: such cloth
     /// is still being reconstructed there while the body-hugging kinds have converged (user
     /// table: dress 0.841 -> 0.829 cm, spurious 10.6 -> 10.3 %; blazer 0.829 -> 0.784 cm,
-    /// 6.0 -> 5.0 %; 1,024 steps no better; docs/evaluation.md, session 17). 1 or less: no more steps.
+    /// 6.0 -> 5.0 %; 1,024 steps no better; docs/decisions.md). 1 or less: no more steps.
     #[serde(default = "no_loose_extension")]
     pub loose_step_factor: f32,
     /// Adam learning rates: heads and low-rank bases, bone encoder, the SDF's base weights.
@@ -78,7 +78,7 @@ impl Default for HyperFitOptions {
             poses_per_step: 8,
             // 1,000 surface and 1,000 off-surface points a pose (500 before the faster training
             // step): user captures, 2 subjects, tight and dress: Chamfer 1.578 -> 1.525 cm,
-            // NC 0.719 -> 0.727; 2,000 gives no more (docs/evaluation.md).
+            // NC 0.719 -> 0.727; 2,000 gives no more (docs/decisions.md).
             surface_per_pose: 1000,
             off_per_pose: 1000,
             free_space_per_pose: 300,
@@ -86,7 +86,7 @@ impl Default for HyperFitOptions {
             weights: IgrWeights::depth(),
             // The sign prior's and the outside constraints' weight (free space, the shells behind
             // loose clothing): at 1,000 a skirt's inside stayed filled, at 5,000 its walls are
-            // about 3 cm thin (docs/evaluation.md, session 4).
+            // about 3 cm thin (docs/decisions.md).
             prior_weight: 5000.0,
             residual_weight: 1e2,
             seed: 0,

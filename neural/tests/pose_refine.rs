@@ -429,7 +429,7 @@ fn fits_prealign_then_refine_twice_and_not_at_all_when_off() {
     assert_eq!(rounds, [16, 48]);
     // Loose clothing that is still pre-aligned (a blazer's tails): the first round alone.
     assert_eq!(o.single_round().round_steps(256), [16]);
-    // Loose clothing (no pre-alignment): session 3's rounds, after step 1 and every 3 steps to 64.
+    // Loose clothing (no pre-alignment): rounds after step 1 and every 3 steps to 64.
     let loose = o.without_prealignment().round_steps(256);
     assert_eq!((loose.first(), loose.last(), loose.len()), (Some(&1), Some(&61), 21));
     // A short fit (the studio's quick fit, a 3-step test fit) is only pre-aligned.

@@ -24,7 +24,7 @@ pub struct Args {
     #[arg(long)]
     body_model: Option<PathBuf>,
     /// Use the first N usable frames (default: up to 32, refused under 8; more frames average
-    /// down the fittings' shared error, which pose refinement cannot see: docs/evaluation.md).
+    /// down the fittings' shared error, which pose refinement cannot see: docs/results.md).
     #[arg(long)]
     frames: Option<usize>,
     /// Optimisation steps (each over up to 8 frames: one epoch of the reference). A MetaAvatar

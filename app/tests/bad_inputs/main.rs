@@ -1,4 +1,4 @@
-//! No lost file, no panic, no bad input accepted (issue 19).
+//! No lost file, no panic, no bad input accepted.
 //!
 //! `bad_input_corpus`: every corrupted input of `corpus.rs` given to the command that reads it,
 //! through the real binary (a panic exits 101, an abort dies on a signal: both fail here). For

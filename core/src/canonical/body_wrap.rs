@@ -50,7 +50,7 @@ pub struct WrapOptions {
     /// fragments of the extracted surface, not clothing. 2 % is a 15 x 23 cm patch on an
     /// adult; a fitted dress's fragments (round the hem, between the skirt and the thighs,
     /// under the arms) are 10-350 cm^2 and most of their area lies more than 2 cm from the
-    /// true cloth at held-out poses (docs/evaluation.md, session 12), while a skirt is about
+    /// true cloth at held-out poses (docs/decisions.md), while a skirt is about
     /// 0.9 m^2 and a blazer's tails about 0.5 m^2.
     pub min_piece_share: f32,
     /// The faces far from the wrapped body are chosen one by one, which frays a piece's

@@ -151,8 +151,8 @@ const PELVIS: usize = 0;
 /// knee, ankle and foot weights go to the pelvis in proportion to its looseness and to how
 /// evenly it spans both legs (2 min(left, right) / (left + right) of its leg weights): a
 /// skirt's front and back centre wholly, its sides little, a wide trouser leg (one leg's
-/// weights) not at all. Quick preset's dress, one fitted avatar (docs/evaluation.md, session
-/// 10): every clip better, held-out Chamfer-L2 0.909 -> 0.847 cm.
+/// weights) not at all. Quick preset's dress, one fitted avatar (docs/decisions.md): every
+/// clip better, held-out Chamfer-L2 0.909 -> 0.847 cm.
 fn free_bridging_cloth_of_shins(weights: &mut [Weights], loose: &[usize], looseness: &[f32]) {
     for &v in loose {
         let w = &mut weights[v];

@@ -26,7 +26,7 @@ pub struct OffsetSmoothing {
 
 impl Default for OffsetSmoothing {
     fn default() -> Self {
-        // Quick preset, user captures, 192 cells (docs/evaluation.md, session 7): 20, 40 and
+        // Quick preset, user captures, 192 cells (docs/decisions.md): 20, 40 and
         // 150 sweeps give the same NC (t-shirt 0.896-0.898 against 0.866 without); 150 costs
         // Chamfer. A band of 3-5 cm gains the blazer little (0.920 against 0.932 cm at 20
         // sweeps) and costs the polo spurious surface (0.5 -> 1.2 %).

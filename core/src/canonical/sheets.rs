@@ -29,7 +29,7 @@ pub struct SheetOptions {
     pub facing: f32,
     /// The slab's rim at the hem (`slab_rim`): faces facing down by more than this (the sine
     /// of the angle below the horizontal) and away from the body by less than `rim_away` (a
-    /// cosine). On one fitted dress (docs/evaluation.md, session 12): held-out spurious share
+    /// cosine). On one fitted dress (docs/decisions.md): held-out spurious share
     /// 10.9 -> 9.9 % with 0.25 and 0.4; 0.4 and no guard 9.5 %, 0.6 9.8 %, 0.8 10.1 %.
     pub rim_down: f32,
     pub rim_away: f32,
@@ -46,7 +46,7 @@ impl Default for SheetOptions {
     fn default() -> Self {
         // Measured on the quick preset (dress / blazer Chamfer-L2): max_wall 0.10 and facing 0.5
         // gave 1.029 / 0.484 cm, 0.20 and 0.1 give 1.000 / 0.479 (the skirt's slab is thicker
-        // where its shells found no room); 0.30 and 0.0 gain no more (docs/evaluation.md).
+        // where its shells found no room); 0.30 and 0.0 gain no more (docs/decisions.md).
         SheetOptions {
             loose: 0.03,
             max_wall: 0.20,

@@ -36,7 +36,7 @@ pub struct ShellOptions {
 
 impl Default for ShellOptions {
     fn default() -> Self {
-        // 3.5-9 cm (3-8 cm before session 6): with the inner wall taken off the avatar's mesh
+        // 3.5-9 cm rather than 3-8 cm: with the inner wall taken off the avatar's mesh
         // (`canonical::sheets`) a thicker slab costs nothing and tears fewer holes into the
         // cloth (quick preset, dress / blazer NC 0.680 / 0.783 -> 0.692 / 0.793).
         ShellOptions {

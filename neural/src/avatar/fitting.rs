@@ -174,8 +174,8 @@ const PREALIGN_MIN_NEAR: f32 = 0.65;
 
 /// The second round against the avatar's SDF runs only where the body explains nearly all
 /// points (tight clothing 94-97 %): on the blazer (73 %) the sharper SDF's tails pulled the
-/// legs (user table: Chamfer-L2 0.834 -> 0.904 cm, spurious 6.0 -> 7.0 %; docs/evaluation.md,
-/// session 10).
+/// legs (user table: Chamfer-L2 0.834 -> 0.904 cm, spurious 6.0 -> 7.0 %;
+/// docs/decisions.md).
 const SECOND_ROUND_MIN_NEAR: f32 = 0.85;
 
 /// The hypernetwork's fine-tuning: every frame of the capture is one pose sample.
@@ -216,7 +216,7 @@ pub(crate) fn fit_meta(
         let band = r.options.prealign_cutoff;
         let sdf = |_: usize, p: &[Vec3]| body.beyond_clothing(p, band);
         // Only where the body explains most points (tight clothing): on a dress it pulled the
-        // legs toward the skirt (exact fittings: Chamfer 2.17 -> 2.55 cm, docs/evaluation.md).
+        // legs toward the skirt (exact fittings: Chamfer 2.17 -> 2.55 cm, docs/decisions.md).
         let share = r.near_share(&sdf);
         let aligned = if share >= PREALIGN_MIN_NEAR {
             r.prealign(&sdf);
@@ -225,7 +225,7 @@ pub(crate) fn fit_meta(
             }
             Some("on")
         } else {
-            // Elsewhere session 3's rounds against the avatar's SDF, after the upper body alone.
+            // Elsewhere rounds after step 1 and every 3 steps to 64, after the upper body alone.
             let upper = r
                 .options
                 .prealign_upper_body

@@ -79,12 +79,12 @@ pub fn check_subject(
 /// Marching-cubes cells along the normalised cube's side of the meshes an avatar gives out
 /// (`pose`, `export`, the evaluation; the studio poses live at its own resolution). At 128
 /// cells (1.7 cm) the mesh's facets cost the normals: the tight outfits' NC on clean
-/// captures is 0.869 at 128, 0.893 at 192, 0.900 at 256 (docs/evaluation.md, session 5). The
+/// captures is 0.869 at 128, 0.893 at 192, 0.900 at 256 (docs/decisions.md). The
 /// evaluation of four captures (fits included) takes 97 s at 192 against 71 s at 128.
 pub const OUTPUT_RESOLUTION: usize = 192;
 
 /// Taubin iterations on every extracted avatar surface: they take the grid's terraces off
-/// (the user-capture evaluation: NC +0.005, Dp -0.04 cm; docs/evaluation.md).
+/// (the user-capture evaluation: NC +0.005, Dp -0.04 cm; docs/decisions.md).
 pub const MESH_SMOOTHING: usize = 10;
 
 /// How an avatar's canonical surface is extracted over the normalised cube at `resolution`.
