@@ -57,8 +57,8 @@ pub struct HyperFitOptions {
 }
 
 impl Default for HyperFitOptions {
-    /// Fine-tuning a personal avatar on depth points (docs/neural.md has the evaluation behind
-    /// each choice).
+    /// Fine-tuning a personal avatar on depth points (docs/decisions.md has the measurements
+    /// behind each choice).
     fn default() -> Self {
         HyperFitOptions {
             // The reference's 256 epochs: with every frame in every step, one step an epoch.

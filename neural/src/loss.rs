@@ -22,7 +22,7 @@ impl Default for IgrWeights {
 impl IgrWeights {
     /// Fine-tuning on depth points: no normal term. Normals estimated from depth are noisy, and
     /// the reference fine-tunes without them; at 8 frames this raised NC by about 0.007 for both
-    /// the MetaAvatar and the static meta-SDF (docs/neural.md). Meta-training keeps the term
+    /// the MetaAvatar and the static meta-SDF (docs/decisions.md). Meta-training keeps the term
     /// (its points are exact surface samples).
     pub fn depth() -> Self {
         IgrWeights { normal: 0.0, ..IgrWeights::default() }
