@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The studio's playback rate in a real window (docs/studio.md, "Playback and the slider"):
+# The studio's playback rate in a real window (docs/studio.md, "Numbers"):
 # starts the studio under Xvfb (an X server of SIZE, 1280 x 800 by default: the window fills it), lets
 # `--measure-playback` press Play on the demo, bake the clip and count the frames drawn for 5 s,
 # RUNS times, each with the load average beside it. Renders with whatever Vulkan driver there
