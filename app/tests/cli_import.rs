@@ -198,7 +198,7 @@ fn export_plays_a_bvh_file() {
     std::fs::write(&bvh, BVH).unwrap();
     let seq = dir.path().join("seq");
     let o = studio()
-        .args(["export", "--format", "obj", "--motion"])
+        .args(["export", "--format", "obj", "--fps", "60", "--motion"])
         .arg(&bvh)
         .arg("--out")
         .arg(&seq)

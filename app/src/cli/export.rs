@@ -3,11 +3,17 @@
 
 use anyhow::{Context, bail};
 use avatar_core::canonical::FieldOptions;
-use avatar_core::export::{ExportOptions, SyntheticAvatar, export_glb, write_mesh_sequence};
+use avatar_core::export::{
+    CANCELLED, Control, ExportOptions, FrameMaker, Progress, SyntheticAvatar, export_glb_streaming,
+    for_each_posed,
+};
 use avatar_core::io::Inputs;
-use avatar_core::motion::{clip_file, open_clip};
+use avatar_core::motion::{DEFAULT_TARGET_FPS, MotionClip, clip_file, open_clip_at};
 use avatar_core::synth::Outfit;
+use std::io::{IsTerminal, Write as _};
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -23,9 +29,13 @@ pub struct Args {
     /// glb (default), obj or ply (a mesh per frame).
     #[arg(long, default_value = "glb")]
     format: String,
-    /// Export only the first N frames of the clip.
+    /// Export only the first N frames of the clip (after resampling to --fps).
     #[arg(long)]
     frames: Option<usize>,
+    /// Frame rate of the exported animation: the clip is resampled to it (rotations slerped
+    /// per joint, the root translation interpolated linearly); 1 to 240.
+    #[arg(long, default_value_t = DEFAULT_TARGET_FPS)]
+    fps: f32,
     /// At most this many morph targets (the constant compensation target included).
     #[arg(long, default_value_t = 64)]
     targets: usize,
@@ -54,6 +64,68 @@ fn parse_color(s: &str) -> anyhow::Result<[f32; 3]> {
     }
 }
 
+/// Set by Ctrl-C (the first one): exports and poses stop between chunks of frames and write
+/// nothing more; every file written is whole (atomic writes).
+pub(super) fn cancel_on_ctrl_c() -> &'static AtomicBool {
+    static CANCEL: AtomicBool = AtomicBool::new(false);
+    let _ = ctrlc::set_handler(|| CANCEL.store(true, Ordering::Relaxed));
+    &CANCEL
+}
+
+/// Frames done / total and the time left, on stderr (one line rewritten on a terminal, a line
+/// every 5 s otherwise).
+pub(super) fn progress_printer(label: &'static str) -> impl Fn(Progress) + Sync {
+    let start = Instant::now();
+    let last = std::sync::Mutex::new(0f64);
+    let terminal = std::io::stderr().is_terminal();
+    move |p: Progress| {
+        let elapsed = start.elapsed().as_secs_f64();
+        let mut last = last.lock().unwrap_or_else(|e| e.into_inner());
+        let finished = p.done >= p.total;
+        if !terminal && !finished && elapsed - *last < 5.0 {
+            return;
+        }
+        *last = elapsed;
+        let left = elapsed * (p.total - p.done.min(p.total)) as f64 / p.done.max(1) as f64;
+        let line =
+            format!("{label}: frames {}/{} ({elapsed:.0} s, {left:.0} s left)", p.done, p.total);
+        if terminal {
+            eprint!("\r{line} ");
+            if finished {
+                eprintln!();
+            }
+        } else {
+            eprintln!("{line}");
+        }
+        let _ = std::io::stderr().flush();
+    }
+}
+
+/// The clip a `--motion` argument names at `fps`, the first `frames` of it; the source rate
+/// printed.
+pub(super) fn open_motion(
+    motion: &str,
+    fps: f32,
+    frames: Option<usize>,
+) -> anyhow::Result<MotionClip> {
+    let mut clip = open_clip_at(motion, fps)?;
+    if let Some(n) = frames {
+        if n == 0 {
+            bail!("--frames must be at least 1");
+        }
+        clip.frames.truncate(n);
+    }
+    eprintln!(
+        "motion {:?}: recorded at {} fps, {} frames at {} fps ({:.1} s)",
+        clip.name,
+        clip.source_fps,
+        clip.len(),
+        clip.fps,
+        clip.len() as f32 / clip.fps
+    );
+    Ok(clip)
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
     if !(1..=256).contains(&args.targets) {
         bail!("--targets must be between 1 and 256");
@@ -64,13 +136,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "obj" | "ply" => inputs.check_folder(&args.out)?,
         other => bail!("unknown --format {other:?}: use glb, obj or ply"),
     }
-    let mut clip = open_clip(&args.motion)?;
-    if let Some(n) = args.frames {
-        if n == 0 {
-            bail!("--frames must be at least 1");
-        }
-        clip.frames.truncate(n);
-    }
+    let clip = open_motion(&args.motion, args.fps, args.frames)?;
     if args.format != "glb" {
         for f in 0..clip.len() {
             inputs.check_file(
@@ -79,7 +145,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             )?;
         }
     }
-    let t = std::time::Instant::now();
+    let cancel = cancel_on_ctrl_c();
+    let t = Instant::now();
     let loaded;
     let synthetic;
     let avatar: &dyn avatar_core::avatar::AvatarSource = match &args.avatar {
@@ -104,25 +171,35 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             &synthetic
         }
     };
-    let exported = export_glb(
-        avatar,
-        &clip,
-        &ExportOptions {
-            max_targets: args.targets,
-            color: args.color.unwrap_or(avatar_core::export::DEFAULT_COLOR),
-            ..ExportOptions::default()
-        },
-    )
-    .map_err(|e| match &args.avatar {
+    let in_avatar = |e: avatar_core::Error| match &args.avatar {
         Some(path) => e.in_file(path),
         None => e,
-    })?;
+    };
+    let printer = progress_printer("export");
+    let control = Control { progress: Some(&printer), cancel: Some(cancel) };
+    let cancelled = |e: &avatar_core::Error| e.to_string().contains(CANCELLED);
     match args.format.as_str() {
         "glb" => {
+            let options = ExportOptions {
+                max_targets: args.targets,
+                color: args.color.unwrap_or(avatar_core::export::DEFAULT_COLOR),
+                ..ExportOptions::default()
+            };
+            let exported = match export_glb_streaming(avatar, &clip, &options, control) {
+                Err(e) if cancelled(&e) => {
+                    eprintln!("cancelled: nothing written");
+                    std::process::exit(130);
+                }
+                r => r.map_err(in_avatar)?,
+            };
+            if cancel.load(Ordering::Relaxed) {
+                eprintln!("cancelled: nothing written");
+                std::process::exit(130);
+            }
             avatar_core::io::write_bytes_atomic(&args.out, &exported.glb)
                 .with_context(|| "writing the glTF")?;
             println!(
-                "wrote {} ({:.2} MB): {} vertices, {} joints, {} morph targets, {} frames at {} fps, largest compression error {:.2} mm, {:.1} s",
+                "wrote {} ({:.2} MB): {} vertices, {} joints, {} morph targets, {} frames at {} fps (recorded at {} fps), compression error largest {:.2} mm, mean {:.3} mm (basis of {} frames{}), {:.1} s",
                 args.out.display(),
                 exported.glb.len() as f64 / 1e6,
                 exported.rest.positions.len(),
@@ -130,15 +207,58 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 exported.morphs.targets.len() + 1,
                 exported.frames,
                 exported.fps,
+                clip.source_fps,
                 exported.max_compression_error * 1000.0,
+                exported.mean_compression_error * 1000.0,
+                exported.basis_frames,
+                match exported.refined_frames {
+                    0 => String::new(),
+                    r => format!(", {r} of them added by the refinement pass"),
+                },
                 t.elapsed().as_secs_f64()
             );
+            if exported.max_compression_error > options.error_bound {
+                eprintln!(
+                    "note: the largest compression error is over the {:.1} mm bound: raise --targets",
+                    options.error_bound * 1000.0
+                );
+            }
         }
         ext @ ("obj" | "ply") => {
-            let n = write_mesh_sequence(&exported, &args.out, ext)?;
-            println!("wrote {n} {ext} meshes to {}", args.out.display());
+            let maker = FrameMaker::new(avatar, ExportOptions::default().newton_steps)
+                .map_err(in_avatar)?;
+            std::fs::create_dir_all(&args.out)
+                .with_context(|| format!("creating {}", args.out.display()))?;
+            let written = write_frames(&maker, &clip, control, |f| {
+                args.out.join(format!("frame_{f:06}.{ext}"))
+            })
+            .map_err(in_avatar)?;
+            println!("wrote {written} {ext} meshes to {}", args.out.display());
         }
         other => bail!("unknown --format {other:?}: use glb, obj or ply"),
     }
     Ok(())
+}
+
+/// The posed mesh of every frame written, streamed; a Ctrl-C stops after the whole files
+/// written so far (exit 130).
+pub(super) fn write_frames(
+    maker: &FrameMaker,
+    clip: &MotionClip,
+    control: Control,
+    name: impl Fn(usize) -> PathBuf,
+) -> avatar_core::Result<usize> {
+    let mut written = 0;
+    let r = for_each_posed(maker, clip, control, |f, mesh| {
+        avatar_core::mesh::io::write_mesh(name(f), &mesh)?;
+        written += 1;
+        Ok(())
+    });
+    match r {
+        Err(e) if e.to_string().contains(CANCELLED) => {
+            eprintln!("cancelled: {written} whole frames written, no partial file");
+            std::process::exit(130);
+        }
+        r => r.map(|_| written),
+    }
 }

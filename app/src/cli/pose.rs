@@ -1,8 +1,12 @@
-//! `avatar-studio pose`: pose an avatar along a motion clip and write a mesh per frame.
+//! `avatar-studio pose`: pose an avatar along a motion clip and write a mesh per frame. The
+//! frames are streamed: the avatar's reference mesh (extracted once at the rest pose, at
+//! `--resolution`) projected onto each pose's surface and skinned, the studio's and the
+//! exporter's posed mesh, written as it is made.
 
-use avatar_core::export::{ExportOptions, export_glb, write_mesh_sequence};
+use super::export::{cancel_on_ctrl_c, open_motion, progress_printer, write_frames};
+use avatar_core::export::{Control, ExportOptions, FrameMaker};
 use avatar_core::io::Inputs;
-use avatar_core::mesh::io::write_mesh;
+use avatar_core::motion::DEFAULT_TARGET_FPS;
 use avatar_neural::AnyAvatar;
 use std::path::PathBuf;
 
@@ -22,9 +26,12 @@ pub struct Args {
     /// Marching-cubes resolution of the canonical mesh (16 to 512).
     #[arg(long, default_value_t = avatar_neural::avatar::header::OUTPUT_RESOLUTION)]
     resolution: usize,
-    /// Only the first N frames.
+    /// Only the first N frames (after resampling to --fps).
     #[arg(long)]
     frames: Option<usize>,
+    /// Frame rate the clip is resampled to (rotations slerped per joint); 1 to 240.
+    #[arg(long, default_value_t = DEFAULT_TARGET_FPS)]
+    fps: f32,
 }
 
 /// Marching-cubes resolutions: below 16 cells no body survives, above 512 a mesh takes minutes.
@@ -48,6 +55,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let inputs =
         Inputs::new().file(&args.avatar).maybe_file(avatar_core::motion::clip_file(&args.motion));
     inputs.check_folder(&args.out)?;
+    let clip = open_motion(&args.motion, args.fps, args.frames)?;
     let mut avatar = AnyAvatar::load(&args.avatar)?;
     avatar.set_resolution(args.resolution);
     if let Some(p) = avatar.partial() {
@@ -56,10 +64,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.avatar.display()
         );
     }
-    let mut clip = avatar_core::motion::open_clip(&args.motion)?;
-    if let Some(n) = args.frames {
-        clip.frames.truncate(n);
-    }
     let name = |i: usize| match &avatar {
         AnyAvatar::Meta(_) => args.out.join(format!("frame_{i:04}.{}", args.format)),
         AnyAvatar::Static(_) => args.out.join(format!("frame_{i:06}.{}", args.format)),
@@ -67,42 +71,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for i in 0..clip.len() {
         inputs.check_file(&name(i), &[&args.format])?;
     }
-    let in_avatar = |e: avatar_core::Error| e.in_file(&args.avatar);
+    let cancel = cancel_on_ctrl_c();
     let t = std::time::Instant::now();
-    match &avatar {
-        // Pose-dependent clothing: pose -> hypernetwork -> SDF -> mesh -> forward skinning, per frame.
-        AnyAvatar::Meta(a) => {
-            std::fs::create_dir_all(&args.out)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", args.out.display()))?;
-            let mut vertices = 0;
-            for (i, params) in clip.frames.iter().enumerate() {
-                let mesh =
-                    a.posed_mesh(params).map_err(avatar_core::Error::from).map_err(in_avatar)?;
-                vertices += mesh.positions.len();
-                write_mesh(name(i), &mesh)?;
-            }
-            println!(
-                "wrote {} {} meshes (mean {} vertices) to {} in {:.1} s",
-                clip.len(),
-                args.format,
-                vertices / clip.len().max(1),
-                args.out.display(),
-                t.elapsed().as_secs_f64()
-            );
-        }
-        // Pose-independent surface: extract once, then forward skinning (the exporter's path).
-        AnyAvatar::Static(a) => {
-            let exported =
-                export_glb(a, &clip, &ExportOptions { max_targets: 1, ..ExportOptions::default() })
-                    .map_err(in_avatar)?;
-            let n = write_mesh_sequence(&exported, &args.out, &args.format)?;
-            println!(
-                "wrote {n} {} meshes ({} vertices) to {}",
-                args.format,
-                exported.rest.positions.len(),
-                args.out.display()
-            );
-        }
-    }
+    let maker = FrameMaker::new(avatar.source(), ExportOptions::default().newton_steps)
+        .map_err(|e| e.in_file(&args.avatar))?;
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.out.display()))?;
+    let ready = t.elapsed().as_secs_f64();
+    let printer = progress_printer("pose");
+    let control = Control { progress: Some(&printer), cancel: Some(cancel) };
+    let n = write_frames(&maker, &clip, control, name).map_err(|e| e.in_file(&args.avatar))?;
+    let total = t.elapsed().as_secs_f64();
+    println!(
+        "wrote {n} {} meshes ({} vertices) to {} in {total:.1} s: reference mesh {ready:.1} s, then {:.0} ms a frame",
+        args.format,
+        maker.rest.positions.len(),
+        args.out.display(),
+        (total - ready) * 1000.0 / n.max(1) as f64
+    );
     Ok(())
 }

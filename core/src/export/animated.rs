@@ -4,14 +4,14 @@
 //! clip's frame rate).
 
 use super::glb::{ARRAY_BUFFER, GlbBuilder};
-use super::morph::{MorphTargets, compress};
-use crate::avatar::{AvatarSource, PROJECTION_STEPS, PoseSurface};
-use crate::body::{BodyParams, JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS, Weights};
+use super::morph::MorphTargets;
+use super::stream::{Control, FrameMaker, stream_frames};
+use crate::avatar::{AvatarSource, PROJECTION_STEPS};
+use crate::body::{JOINT_NAMES, NUM_JOINTS, SMPL_PARENTS, Weights};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::motion::MotionClip;
 use glam::{Quat, Vec3};
-use rayon::prelude::*;
 use serde_json::json;
 
 #[derive(Debug, Clone, PartialEq)]
@@ -24,6 +24,15 @@ pub struct ExportOptions {
     pub min_target_effect: f32,
     /// The avatar material's base colour (linear RGB): a PBR metallic-roughness material.
     pub color: [f32; 3],
+    /// The morph targets' basis is fitted on at most this many frames, spread evenly over the
+    /// clip (every frame of a shorter clip); every frame is then projected onto it
+    /// (`export::stream`).
+    pub sample_frames: usize,
+    /// The file's error bound (metres): a frame outside the sample rebuilt worse than this
+    /// brings the worst frames into the basis (one more pass).
+    pub error_bound: f32,
+    /// At most this many frames join the sample in that pass.
+    pub refine_frames: usize,
 }
 
 /// A neutral skin-like base colour (linear RGB), the material's default.
@@ -36,6 +45,9 @@ impl Default for ExportOptions {
             newton_steps: PROJECTION_STEPS,
             min_target_effect: 1e-4,
             color: DEFAULT_COLOR,
+            sample_frames: 256,
+            error_bound: 2e-3,
+            refine_frames: 32,
         }
     }
 }
@@ -48,12 +60,21 @@ pub struct Exported {
     pub weights: Vec<[f32; 4]>,
     pub morphs: MorphTargets,
     /// The studio's posed mesh of every frame (forward skinning of the projected surface with
-    /// the avatar's full skinning weights): what the file must reproduce.
+    /// the avatar's full skinning weights): what the file must reproduce. Kept by
+    /// [`export_glb`] only; empty from [`export_glb_streaming`].
     pub posed: Vec<Vec<Vec3>>,
     pub frames: usize,
     pub fps: f32,
     /// Largest PCA reconstruction error of a vertex delta over all frames (metres).
     pub max_compression_error: f32,
+    /// Mean vertex error over all frames (metres).
+    pub mean_compression_error: f32,
+    /// Frames the morph targets' basis was fitted on, and how many of them the refinement
+    /// added (`export::stream`).
+    pub basis_frames: usize,
+    pub refined_frames: usize,
+    /// The most frame meshes held at once while exporting (bounded, whatever the clip's length).
+    pub peak_frames_held: usize,
 }
 
 /// The 4 largest weights, renormalised so that their float32 sum is 1 as strictly as the
@@ -91,11 +112,29 @@ fn continuous(qs: &mut [Quat]) {
     }
 }
 
+/// The animated glTF of `source` playing `clip`, keeping every frame's posed mesh in
+/// [`Exported::posed`] (for checks and short clips; memory grows with the clip).
 pub fn export_glb(
     source: &dyn AvatarSource,
     clip: &MotionClip,
     options: &ExportOptions,
 ) -> Result<Exported> {
+    export_with(source, clip, options, Control::default(), true)
+}
+
+/// The animated glTF, frames streamed (`export::stream`): memory bounded whatever the clip's
+/// length; progress and cancellation through `control`.
+pub fn export_glb_streaming(
+    source: &dyn AvatarSource,
+    clip: &MotionClip,
+    options: &ExportOptions,
+    control: Control,
+) -> Result<Exported> {
+    export_with(source, clip, options, control, false)
+}
+
+/// Refuse what the exporter cannot play: an empty clip, a bad frame rate, bad frames.
+pub fn check_clip(clip: &MotionClip) -> Result<()> {
     if clip.is_empty() {
         return Err(Error::invalid(format!("motion clip {:?} has no frames", clip.name)));
     }
@@ -105,73 +144,24 @@ pub fn export_glb(
             clip.name, clip.fps
         )));
     }
-    clip.validate()?;
+    clip.validate()
+}
+
+fn export_with(
+    source: &dyn AvatarSource,
+    clip: &MotionClip,
+    options: &ExportOptions,
+    control: Control,
+    keep_posed: bool,
+) -> Result<Exported> {
+    check_clip(clip)?;
+    let maker = FrameMaker::new(source, options.newton_steps)?;
+    let streamed = stream_frames(&maker, clip, options, control, keep_posed)?;
+    let morphs = streamed.basis.targets(&streamed.coefficients);
     let body = source.body();
     let betas = source.betas().to_vec();
-    let reference = BodyParams { betas: betas.clone(), ..Default::default() };
-    let rest = source.canonical_mesh(&reference)?;
-    if rest.positions.is_empty() || rest.faces.is_empty() {
-        return Err(Error::invalid("the avatar's canonical mesh is empty"));
-    }
-    let full_weights = source.mesh_skinning_weights(&rest);
-    let smoother = source.surface_smoother(&rest);
-    let (joints, weights): (Vec<[u8; 4]>, Vec<[f32; 4]>) = full_weights.iter().map(top4).unzip();
-    let params: Vec<BodyParams> =
-        clip.frames.iter().map(|p| BodyParams { betas: betas.clone(), ..p.clone() }).collect();
-    // Each frame: the reference vertices projected onto that pose's surface, skinned.
-    let surfaces: Vec<PoseSurface> = params
-        .par_iter()
-        .map(|p| {
-            PoseSurface::project(
-                source,
-                p,
-                &rest.positions,
-                &full_weights,
-                smoother.as_ref(),
-                options.newton_steps,
-            )
-        })
-        .collect::<Result<_>>()?;
-    let posed: Vec<Vec<Vec3>> = params
-        .par_iter()
-        .zip(&surfaces)
-        .map(|(p, s)| s.skin(&body.pose(p).bones.transforms))
-        .collect();
-    // The deltas are taken in bind space *with the exported 4-weight skinning*: un-skin the
-    // studio's posed mesh with the file's weights. The morph targets then also absorb the
-    // truncation to 4 influences, and the file reproduces the posed mesh up to compression.
-    let deltas: Vec<Vec<Vec3>> = params
-        .par_iter()
-        .zip(&posed)
-        .map(|(p, target)| {
-            let bones = body.pose(p).bones;
-            target
-                .iter()
-                .zip(joints.iter().zip(&weights))
-                .zip(&rest.positions)
-                .map(|((y, (j, w)), r)| {
-                    let mut m = glam::Mat4::ZERO;
-                    for k in 0..4 {
-                        m += bones.transforms[j[k] as usize] * w[k];
-                    }
-                    m.inverse().transform_point3(*y) - *r
-                })
-                .collect()
-        })
-        .collect();
-    let morphs = compress(&deltas, options.max_targets.max(1), options.min_target_effect);
-    let max_compression_error = (0..deltas.len())
-        .into_par_iter()
-        .map(|f| {
-            morphs
-                .delta(f)
-                .iter()
-                .zip(&deltas[f])
-                .map(|(a, b)| (*a - *b).length())
-                .fold(0.0, f32::max)
-        })
-        .reduce(|| 0.0, f32::max);
-
+    let FrameMaker { rest, joints, weights, .. } = maker;
+    let params = &clip.frames;
     let rest_joints = body.rest_joints(&betas);
     let mut b = GlbBuilder::default();
     let flat = |v: &[Vec3]| v.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>();
@@ -281,10 +271,14 @@ pub fn export_glb(
         joints,
         weights,
         morphs,
-        posed,
+        posed: streamed.posed,
         frames: n,
         fps: clip.fps,
-        max_compression_error,
+        max_compression_error: streamed.max_error,
+        mean_compression_error: streamed.mean_error,
+        basis_frames: streamed.basis_frames,
+        refined_frames: streamed.refined_frames,
+        peak_frames_held: streamed.peak_frames_held,
     })
 }
 

@@ -5,8 +5,13 @@ pub mod animated;
 pub mod glb;
 pub mod morph;
 pub mod source;
+pub mod stream;
 
 pub use crate::avatar::AvatarSource;
-pub use animated::{DEFAULT_COLOR, ExportOptions, Exported, export_glb, top4, write_mesh_sequence};
-pub use morph::{MorphTargets, compress};
+pub use animated::{
+    DEFAULT_COLOR, ExportOptions, Exported, check_clip, export_glb, export_glb_streaming, top4,
+    write_mesh_sequence,
+};
+pub use morph::{Basis, MorphTargets, compress};
 pub use source::SyntheticAvatar;
+pub use stream::{CANCELLED, Control, FrameMaker, Progress, for_each_posed};

@@ -89,79 +89,161 @@ fn symmetric_eigen(mut a: Vec<Vec<f64>>) -> (Vec<f64>, Vec<Vec<f64>>) {
     (values, vectors)
 }
 
-/// Compress per-frame deltas (frames x vertices) into at most `max_targets` targets.
-/// Components whose largest vertex displacement is below `min_effect` (metres) are dropped:
-/// they would cost a full target for nothing visible.
-pub fn compress(deltas: &[Vec<Vec3>], max_targets: usize, min_effect: f32) -> MorphTargets {
-    let frames = deltas.len();
-    let verts = deltas.first().map_or(0, |d| d.len());
-    let mut mean = vec![Vec3::ZERO; verts];
-    for d in deltas {
-        for (m, x) in mean.iter_mut().zip(d) {
-            *m += *x / frames as f32;
-        }
-    }
-    let centred: Vec<Vec<f32>> = deltas
-        .iter()
-        .map(|d| d.iter().zip(&mean).flat_map(|(x, m)| (*x - *m).to_array()).collect())
-        .collect();
-    use rayon::prelude::*;
-    let gram: Vec<Vec<f64>> = (0..frames)
-        .into_par_iter()
-        .map(|i| {
-            (0..frames)
-                .map(|j| {
-                    centred[i].iter().zip(&centred[j]).map(|(a, b)| *a as f64 * *b as f64).sum()
-                })
-                .collect()
-        })
-        .collect();
-    let (values, vectors) = symmetric_eigen(gram);
-    let components = max_targets.saturating_sub(1);
-    let top = values.first().copied().unwrap_or(0.0).max(0.0);
-    let mut constant = mean;
-    let mut targets = Vec::new();
-    let mut weight_columns: Vec<Vec<f32>> = Vec::new();
-    for (lambda, v) in values.iter().zip(&vectors).take(components) {
-        if *lambda <= 1e-12 * top || *lambda <= 0.0 {
-            break;
-        }
-        let s = lambda.sqrt();
-        // Unit component u = D^T v / s, coefficients c_f = s v_f.
-        let mut u = vec![0f64; verts * 3];
-        for (f, row) in centred.iter().enumerate() {
-            for (k, x) in row.iter().enumerate() {
-                u[k] += v[f] * *x as f64 / s;
+/// The PCA basis of a set of per-frame deltas: their mean and at most `max_components` unit
+/// components (flattened x, y, z per vertex), in decreasing variance. Fitted on a bounded
+/// sample of frames; any frame's delta is then projected onto it ([`Basis::coefficients`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Basis {
+    pub mean: Vec<Vec3>,
+    pub components: Vec<Vec<f64>>,
+}
+
+impl Basis {
+    /// PCA of `deltas` (frames x vertices; Gram matrix, Jacobi). Components whose largest vertex
+    /// displacement over these frames is below `min_effect` (metres) are dropped: they would
+    /// cost a full target for nothing visible.
+    pub fn fit(deltas: &[&[Vec3]], max_components: usize, min_effect: f32) -> Basis {
+        use rayon::prelude::*;
+        let frames = deltas.len();
+        let verts = deltas.first().map_or(0, |d| d.len());
+        let mut mean = vec![Vec3::ZERO; verts];
+        for d in deltas {
+            for (m, x) in mean.iter_mut().zip(d.iter()) {
+                *m += *x / frames as f32;
             }
         }
-        let coeffs: Vec<f64> = v.iter().map(|x| x * s).collect();
-        let lo = coeffs.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = coeffs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let span = hi - lo;
-        if span < 1e-9 {
-            continue;
-        }
-        let target: Vec<Vec3> = u
-            .chunks_exact(3)
-            .map(|c| Vec3::new((c[0] * span) as f32, (c[1] * span) as f32, (c[2] * span) as f32))
+        let centred: Vec<Vec<f32>> = deltas
+            .iter()
+            .map(|d| d.iter().zip(&mean).flat_map(|(x, m)| (*x - *m).to_array()).collect())
             .collect();
-        if target.iter().map(|t| t.length()).fold(0.0, f32::max) < min_effect {
-            // Components come in decreasing variance: the rest are smaller still.
-            break;
+        let gram: Vec<Vec<f64>> = (0..frames)
+            .into_par_iter()
+            .map(|i| {
+                (0..frames)
+                    .map(|j| {
+                        centred[i].iter().zip(&centred[j]).map(|(a, b)| *a as f64 * *b as f64).sum()
+                    })
+                    .collect()
+            })
+            .collect();
+        let (values, vectors) = symmetric_eigen(gram);
+        let top = values.first().copied().unwrap_or(0.0).max(0.0);
+        let mut components = Vec::new();
+        for (lambda, v) in values.iter().zip(&vectors).take(max_components) {
+            if *lambda <= 1e-12 * top || *lambda <= 0.0 {
+                break;
+            }
+            let s = lambda.sqrt();
+            // Unit component u = D^T v / s, coefficients c_f = s v_f.
+            let mut u = vec![0f64; verts * 3];
+            for (f, row) in centred.iter().enumerate() {
+                for (k, x) in row.iter().enumerate() {
+                    u[k] += v[f] * *x as f64 / s;
+                }
+            }
+            let lo = v.iter().map(|x| x * s).fold(f64::INFINITY, f64::min);
+            let hi = v.iter().map(|x| x * s).fold(f64::NEG_INFINITY, f64::max);
+            let span = hi - lo;
+            if span < 1e-9 {
+                continue;
+            }
+            let effect = u
+                .chunks_exact(3)
+                .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt() * span)
+                .fold(0.0, f64::max);
+            if effect < min_effect as f64 {
+                // Components come in decreasing variance: the rest are smaller still.
+                break;
+            }
+            components.push(u);
         }
-        for (k, c) in constant.iter_mut().enumerate() {
-            *c += Vec3::new(
-                (u[3 * k] * lo) as f32,
-                (u[3 * k + 1] * lo) as f32,
-                (u[3 * k + 2] * lo) as f32,
+        Basis { mean, components }
+    }
+
+    /// A frame's coefficients: its delta minus the mean, projected on each component.
+    pub fn coefficients(&self, delta: &[Vec3]) -> Vec<f64> {
+        self.components
+            .iter()
+            .map(|u| {
+                delta
+                    .iter()
+                    .zip(&self.mean)
+                    .zip(u.chunks_exact(3))
+                    .map(|((d, m), c)| {
+                        let x = *d - *m;
+                        x.x as f64 * c[0] + x.y as f64 * c[1] + x.z as f64 * c[2]
+                    })
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// Largest and mean vertex error of a frame's delta rebuilt from its coefficients.
+    pub fn error(&self, delta: &[Vec3], coefficients: &[f64]) -> (f32, f32) {
+        let mut max = 0f64;
+        let mut sum = 0f64;
+        for (k, (d, m)) in delta.iter().zip(&self.mean).enumerate() {
+            let mut r = [m.x as f64, m.y as f64, m.z as f64];
+            for (u, c) in self.components.iter().zip(coefficients) {
+                for (a, r) in r.iter_mut().enumerate() {
+                    *r += u[3 * k + a] * c;
+                }
+            }
+            let e = ((r[0] - d.x as f64).powi(2)
+                + (r[1] - d.y as f64).powi(2)
+                + (r[2] - d.z as f64).powi(2))
+            .sqrt();
+            max = max.max(e);
+            sum += e;
+        }
+        (max as f32, (sum / delta.len().max(1) as f64) as f32)
+    }
+
+    /// The morph targets of this basis for frames with these coefficients: each component's
+    /// weights remapped to [0, 1] over the frames, the mean and the shifts in the constant
+    /// target.
+    pub fn targets(&self, coefficients: &[Vec<f64>]) -> MorphTargets {
+        let mut constant = self.mean.clone();
+        let mut targets = Vec::new();
+        let mut columns: Vec<Vec<f32>> = Vec::new();
+        for (k, u) in self.components.iter().enumerate() {
+            let lo = coefficients.iter().map(|c| c[k]).fold(f64::INFINITY, f64::min);
+            let hi = coefficients.iter().map(|c| c[k]).fold(f64::NEG_INFINITY, f64::max);
+            let span = hi - lo;
+            if span.is_nan() || span < 1e-9 {
+                // Constant over the frames: into the constant target.
+                for (v, c) in constant.iter_mut().zip(u.chunks_exact(3)) {
+                    *v += Vec3::new((c[0] * lo) as f32, (c[1] * lo) as f32, (c[2] * lo) as f32);
+                }
+                continue;
+            }
+            for (v, c) in constant.iter_mut().zip(u.chunks_exact(3)) {
+                *v += Vec3::new((c[0] * lo) as f32, (c[1] * lo) as f32, (c[2] * lo) as f32);
+            }
+            targets.push(
+                u.chunks_exact(3)
+                    .map(|c| {
+                        Vec3::new((c[0] * span) as f32, (c[1] * span) as f32, (c[2] * span) as f32)
+                    })
+                    .collect(),
+            );
+            columns.push(
+                coefficients.iter().map(|c| ((c[k] - lo) / span).clamp(0.0, 1.0) as f32).collect(),
             );
         }
-        weight_columns
-            .push(coeffs.iter().map(|c| ((c - lo) / span).clamp(0.0, 1.0) as f32).collect());
-        targets.push(target);
+        let weights =
+            (0..coefficients.len()).map(|f| columns.iter().map(|col| col[f]).collect()).collect();
+        MorphTargets { constant, targets, weights }
     }
-    let weights = (0..frames).map(|f| weight_columns.iter().map(|col| col[f]).collect()).collect();
-    MorphTargets { constant, targets, weights }
+}
+
+/// Compress per-frame deltas (frames x vertices) into at most `max_targets` targets, the
+/// constant one included: the basis of every frame ([`Basis::fit`]), every frame projected.
+pub fn compress(deltas: &[Vec<Vec3>], max_targets: usize, min_effect: f32) -> MorphTargets {
+    let refs: Vec<&[Vec3]> = deltas.iter().map(|d| d.as_slice()).collect();
+    let basis = Basis::fit(&refs, max_targets.saturating_sub(1), min_effect);
+    let coefficients: Vec<Vec<f64>> = deltas.iter().map(|d| basis.coefficients(d)).collect();
+    basis.targets(&coefficients)
 }
 
 #[cfg(test)]

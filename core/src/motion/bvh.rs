@@ -105,6 +105,15 @@ impl BvhFile {
         if count == 0 {
             return Err(at(line, "the MOTION block has 0 frames"));
         }
+        if count > super::clip::MAX_CLIP_FRAMES {
+            return Err(at(
+                line,
+                format!(
+                    "'Frames: {count}' is over the supported {} frames (about 14 min at 120 fps); cut the take into parts",
+                    super::clip::MAX_CLIP_FRAMES
+                ),
+            ));
+        }
         p.expect_keyword("Frame")?;
         p.expect_keyword("Time:")?;
         let (t, line) = p.next_token("the frame time")?;

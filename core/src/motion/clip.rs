@@ -2,6 +2,7 @@
 //!
 //! ```json
 //! {"format": "avatar-studio-motion", "version": 1, "name": "walk", "fps": 30,
+//!  "source_fps": 120 (optional: the rate it was recorded at, when resampled),
 //!  "frames": [{"pose": [72 floats, axis-angle radians], "trans": [x, y, z], "betas": [..] (optional)}, ...]}
 //! ```
 
@@ -17,12 +18,18 @@ pub const MOTION_VERSION: u32 = 1;
 /// Plausible frame rates of a clip file (frames per second).
 pub const MIN_FPS: f32 = 1.0;
 pub const MAX_FPS: f32 = 1000.0;
+/// The longest clip read or made (frames): 100,000 frames are 14 minutes at 120 fps, 55 at
+/// 30 fps. A longer file is refused up front, naming the file and this limit.
+pub const MAX_CLIP_FRAMES: usize = 100_000;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct MotionClip {
     pub name: String,
     /// Frames per second (> 0).
     pub fps: f32,
+    /// The frame rate the motion was recorded at: `fps` unless the clip was resampled
+    /// ([`MotionClip::resample`]).
+    pub source_fps: f32,
     pub frames: Vec<BodyParams>,
 }
 
@@ -32,6 +39,8 @@ struct ClipFile {
     version: u32,
     name: String,
     fps: f32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    source_fps: Option<f32>,
     frames: Vec<FrameFile>,
 }
 
@@ -46,7 +55,7 @@ struct FrameFile {
 
 impl MotionClip {
     pub fn new(name: impl Into<String>, fps: f32, frames: Vec<BodyParams>) -> Self {
-        MotionClip { name: name.into(), fps, frames }
+        MotionClip { name: name.into(), fps, source_fps: fps, frames }
     }
 
     pub fn len(&self) -> usize {
@@ -73,6 +82,13 @@ impl MotionClip {
         if self.frames.is_empty() {
             return Err(Error::invalid(format!("motion '{}' has no frames", self.name)));
         }
+        check_length(&self.name, self.frames.len())?;
+        if !(MIN_FPS..=MAX_FPS).contains(&self.source_fps) {
+            return Err(Error::invalid(format!(
+                "motion '{}': source fps {} is not a plausible frame rate ({MIN_FPS} to {MAX_FPS})",
+                self.name, self.source_fps
+            )));
+        }
         for (i, f) in self.frames.iter().enumerate() {
             f.validate()
                 .map_err(|e| Error::invalid(format!("motion '{}' frame {i}: {e}", self.name)))?;
@@ -86,9 +102,13 @@ impl MotionClip {
         let name = serde_json::to_string(&self.name).unwrap_or_else(|_| "\"clip\"".into());
         let _ = write!(
             s,
-            "{{\"format\": \"{MOTION_FORMAT}\", \"version\": {MOTION_VERSION}, \"name\": {name}, \"fps\": {}, \"frames\": [\n",
+            "{{\"format\": \"{MOTION_FORMAT}\", \"version\": {MOTION_VERSION}, \"name\": {name}, \"fps\": {}, ",
             num(self.fps)
         );
+        if self.source_fps != self.fps {
+            let _ = write!(s, "\"source_fps\": {}, ", num(self.source_fps));
+        }
+        s.push_str("\"frames\": [\n");
         for (i, f) in self.frames.iter().enumerate() {
             let pose: Vec<String> = f.flat_pose().into_iter().map(num).collect();
             let trans: Vec<String> = f.trans.to_array().into_iter().map(num).collect();
@@ -125,6 +145,7 @@ impl MotionClip {
                 file.version
             )));
         }
+        check_length(&file.name, file.frames.len())?;
         let mut frames = Vec::with_capacity(file.frames.len());
         for (i, f) in file.frames.into_iter().enumerate() {
             let trans = match f.trans.as_deref() {
@@ -141,7 +162,8 @@ impl MotionClip {
                 .map_err(|e| Error::invalid(format!("frame {i}: {e}")))?;
             frames.push(params);
         }
-        let clip = MotionClip { name: file.name, fps: file.fps, frames };
+        let source_fps = file.source_fps.unwrap_or(file.fps);
+        let clip = MotionClip { name: file.name, fps: file.fps, source_fps, frames };
         clip.validate()?;
         Ok(clip)
     }
@@ -152,9 +174,20 @@ impl MotionClip {
         MotionClip {
             name: self.name.clone(),
             fps: self.fps / step as f32,
+            source_fps: self.source_fps,
             frames: self.frames.iter().step_by(step).cloned().collect(),
         }
     }
+}
+
+/// Refuse a clip longer than [`MAX_CLIP_FRAMES`] (before anything is made of it).
+pub fn check_length(name: &str, frames: usize) -> Result<()> {
+    if frames > MAX_CLIP_FRAMES {
+        return Err(Error::invalid(format!(
+            "motion '{name}' has {frames} frames, over the supported {MAX_CLIP_FRAMES} (about 14 min at 120 fps)"
+        )));
+    }
+    Ok(())
 }
 
 /// Shortest lossless text of an f32 (integers without a trailing ".0").

@@ -16,7 +16,9 @@ impl MotionClip {
                 let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
                 Self::from_json_str(&text).map_err(|e| e.in_file(path))
             }
-            Some("npz") => super::amass::load_amass_clip(path),
+            Some("npz") => super::amass::load_amass_clip(path)
+                .and_then(|c| c.validate().map(|_| c))
+                .map_err(|e| e.in_file(path)),
             Some("bvh") => super::retarget::load_bvh_clip(path),
             _ => Err(Error::file(
                 path,
@@ -54,4 +56,14 @@ pub fn open_clip(name_or_file: &str) -> Result<MotionClip> {
 /// The clip file a `--motion` argument names (None for a library clip): an input to guard.
 pub fn clip_file(name_or_file: &str) -> Option<&Path> {
     clip_by_name(name_or_file).is_none().then_some(Path::new(name_or_file))
+}
+
+/// The clip a `--motion` argument names, resampled to `fps` (`export` and `pose`; see
+/// [`MotionClip::resample`]). Errors name the file and the limit.
+pub fn open_clip_at(name_or_file: &str, fps: f32) -> Result<MotionClip> {
+    let clip = open_clip(name_or_file)?;
+    clip.resample(fps).map_err(|e| match clip_file(name_or_file) {
+        Some(path) => e.in_file(path),
+        None => e,
+    })
 }

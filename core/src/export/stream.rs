@@ -1,0 +1,367 @@
+//! Frames made one bounded chunk at a time, so that memory does not grow with the clip:
+//!
+//! 1. the deltas of a bounded sample of frames, spread evenly over the clip
+//!    (`ExportOptions::sample_frames`; every frame when the clip is shorter: exact PCA), give
+//!    the morph targets' basis ([`Basis::fit`]);
+//! 2. every frame is then made again in order (the sampled ones are kept, not remade), projected
+//!    onto the basis (its coefficients are all that is kept of it) and its reconstruction error
+//!    measured; the worst frames' deltas are kept, at most `refine_frames`;
+//! 3. if a frame outside the sample is rebuilt worse than `error_bound`, the worst frames join
+//!    the sample, the basis is fitted again and every frame projected again (one more pass).
+//!
+//! At most `sample_frames + refine_frames` deltas and one chunk of frames in the making are
+//! held at once ([`Streamed::peak_frames_held`] counts them).
+
+use super::animated::{ExportOptions, top4};
+use super::morph::Basis;
+use crate::avatar::AvatarSource;
+use crate::body::{BodyParams, Weights, blend_transform};
+use crate::canonical::SurfaceSmoother;
+use crate::error::{Error, Result};
+use crate::mesh::TriMesh;
+use crate::motion::MotionClip;
+use glam::{Mat4, Vec3};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Frames made at once (in parallel) in a pass.
+pub const CHUNK: usize = 8;
+
+/// Where an export is: frames made so far of all the frames it will make.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Progress {
+    pub done: usize,
+    pub total: usize,
+}
+
+/// How a caller follows and stops an export: progress after every chunk, a cancel flag
+/// checked between chunks (the export then stops with an error saying [`CANCELLED`]).
+#[derive(Default, Clone, Copy)]
+pub struct Control<'a> {
+    pub progress: Option<&'a (dyn Fn(Progress) + Sync)>,
+    pub cancel: Option<&'a AtomicBool>,
+}
+
+impl Control<'_> {
+    pub fn cancelled(&self) -> bool {
+        self.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
+    }
+}
+
+/// The message of a cancelled export.
+pub const CANCELLED: &str = "the export was cancelled";
+
+/// The fixed pieces every frame is made from: the reference mesh, its weights (the avatar's
+/// full ones and the file's 4), the smoother.
+pub struct FrameMaker<'a> {
+    pub source: &'a dyn AvatarSource,
+    pub rest: TriMesh,
+    pub full_weights: Vec<Weights>,
+    pub joints: Vec<[u8; 4]>,
+    pub weights: Vec<[f32; 4]>,
+    smoother: Option<SurfaceSmoother>,
+    betas: Vec<f32>,
+    steps: usize,
+}
+
+impl<'a> FrameMaker<'a> {
+    pub fn new(source: &'a dyn AvatarSource, steps: usize) -> Result<Self> {
+        let betas = source.betas().to_vec();
+        let reference = BodyParams { betas: betas.clone(), ..Default::default() };
+        let rest = source.canonical_mesh(&reference)?;
+        if rest.positions.is_empty() || rest.faces.is_empty() {
+            return Err(Error::invalid("the avatar's canonical mesh is empty"));
+        }
+        let full_weights = source.mesh_skinning_weights(&rest);
+        let smoother = source.surface_smoother(&rest);
+        let (joints, weights) = full_weights.iter().map(top4).unzip();
+        Ok(FrameMaker { source, rest, full_weights, joints, weights, smoother, betas, steps })
+    }
+
+    /// A clip frame with the avatar's shape.
+    pub fn params(&self, p: &BodyParams) -> BodyParams {
+        BodyParams { betas: self.betas.clone(), ..p.clone() }
+    }
+
+    /// The studio's posed mesh at a pose: the reference vertices projected onto the pose's
+    /// surface, smoothed, skinned with the avatar's full weights.
+    pub fn posed(&self, p: &BodyParams) -> Result<(Vec<Vec3>, [Mat4; crate::body::NUM_JOINTS])> {
+        let p = self.params(p);
+        let mut points = self.source.project(&p, &self.rest.positions, self.steps)?;
+        if let Some(s) = &self.smoother {
+            s.smooth(&mut points);
+        }
+        let bones = self.source.body().pose(&p).bones.transforms;
+        let posed = points
+            .par_iter()
+            .zip(&self.full_weights)
+            .map(|(v, w)| blend_transform(&bones, w).transform_point3(*v))
+            .collect();
+        Ok((posed, bones))
+    }
+
+    /// The posed mesh and its delta in bind space *with the file's 4-weight skinning*: the
+    /// morph targets then also absorb the truncation to 4 influences.
+    pub fn delta(&self, p: &BodyParams) -> Result<(Vec<Vec3>, Vec<Vec3>)> {
+        let (posed, bones) = self.posed(p)?;
+        let delta = posed
+            .par_iter()
+            .zip(self.joints.par_iter().zip(&self.weights))
+            .zip(&self.rest.positions)
+            .map(|((y, (j, w)), r)| {
+                let mut m = Mat4::ZERO;
+                for k in 0..4 {
+                    m += bones[j[k] as usize] * w[k];
+                }
+                m.inverse().transform_point3(*y) - *r
+            })
+            .collect();
+        Ok((delta, posed))
+    }
+}
+
+/// `count` frame indices spread evenly over `n` frames (all of them when `n <= count`).
+pub fn even_sample(n: usize, count: usize) -> Vec<usize> {
+    if n <= count {
+        return (0..n).collect();
+    }
+    if count <= 1 {
+        return vec![0];
+    }
+    let mut out: Vec<usize> = (0..count)
+        .map(|i| ((i as f64 * (n - 1) as f64 / (count - 1) as f64).round() as usize).min(n - 1))
+        .collect();
+    out.dedup();
+    out
+}
+
+/// What the passes give: per frame its basis coefficients, the basis, the errors.
+pub struct Streamed {
+    pub basis: Basis,
+    pub coefficients: Vec<Vec<f64>>,
+    /// Largest vertex error of any frame rebuilt from the basis (metres).
+    pub max_error: f32,
+    /// Mean vertex error over all frames (metres).
+    pub mean_error: f32,
+    /// Largest error among the frames outside the basis's sample.
+    pub max_error_unsampled: f32,
+    /// Frames the basis was fitted on (the sample, plus the refinement's).
+    pub basis_frames: usize,
+    /// Frames added to the sample by the refinement pass (0: none was needed).
+    pub refined_frames: usize,
+    /// The most frame deltas (or posed meshes) held at any time.
+    pub peak_frames_held: usize,
+    /// The posed mesh of every frame, when asked for (`keep_posed`): grows with the clip.
+    pub posed: Vec<Vec<Vec3>>,
+}
+
+struct Held {
+    delta: Vec<Vec3>,
+    posed: Option<Vec<Vec3>>,
+}
+
+/// Run the passes of the module's scheme over `clip`.
+pub fn stream_frames(
+    maker: &FrameMaker,
+    clip: &MotionClip,
+    options: &ExportOptions,
+    control: Control,
+    keep_posed: bool,
+) -> Result<Streamed> {
+    let n = clip.len();
+    let sample = even_sample(n, options.sample_frames.max(2));
+    let mut total = n;
+    let progress = |done: usize, total: usize| {
+        if let Some(p) = control.progress {
+            p(Progress { done, total });
+        }
+    };
+    let mut held: HashMap<usize, Held> = HashMap::with_capacity(sample.len());
+    let mut peak = 0usize;
+    let mut done = 0usize;
+    // Pass 1: the sample.
+    for chunk in sample.chunks(CHUNK) {
+        if control.cancelled() {
+            return Err(Error::invalid(CANCELLED));
+        }
+        let made: Vec<(Vec<Vec3>, Vec<Vec3>)> =
+            chunk.par_iter().map(|&f| maker.delta(&clip.frames[f])).collect::<Result<_>>()?;
+        peak = peak.max(held.len() + made.len());
+        for (&f, (delta, posed)) in chunk.iter().zip(made) {
+            held.insert(f, Held { delta, posed: keep_posed.then_some(posed) });
+        }
+        done += chunk.len();
+        progress(done, total);
+    }
+    let components = options.max_targets.max(1) - 1;
+    let fit = |held: &HashMap<usize, Held>| {
+        let mut keys: Vec<&usize> = held.keys().collect();
+        keys.sort();
+        let deltas: Vec<&[Vec3]> = keys.iter().map(|k| held[k].delta.as_slice()).collect();
+        Basis::fit(&deltas, components, options.min_target_effect)
+    };
+    let mut basis = fit(&held);
+    let mut posed_all = Vec::new();
+    let mut refined = 0;
+    loop {
+        let collect = keep_posed && refined == 0;
+        let pass =
+            project_all(maker, clip, &basis, &held, options, control, (&mut done, total), collect)?;
+        peak = peak.max(held.len() + pass.peak_extra);
+        if collect {
+            posed_all = pass.posed;
+        }
+        let over: Vec<(f32, usize, Vec<Vec3>)> =
+            pass.worst.into_iter().filter(|w| w.0 > options.error_bound).collect();
+        if refined > 0 || over.is_empty() || options.refine_frames == 0 {
+            return Ok(Streamed {
+                basis_frames: held.len(),
+                basis,
+                coefficients: pass.coefficients,
+                max_error: pass.max_error,
+                mean_error: pass.mean_error,
+                max_error_unsampled: pass.max_unsampled,
+                refined_frames: refined,
+                peak_frames_held: peak,
+                posed: posed_all,
+            });
+        }
+        // Pass 3: the worst frames join the sample; every frame is projected again.
+        refined = over.len();
+        for (_, f, delta) in over {
+            held.insert(f, Held { delta, posed: None });
+        }
+        basis = fit(&held);
+        total += n - held.len();
+        progress(done, total);
+    }
+}
+
+struct Pass {
+    coefficients: Vec<Vec<f64>>,
+    max_error: f32,
+    mean_error: f32,
+    max_unsampled: f32,
+    /// The worst frames outside the held ones: (error, frame, delta), at most `refine_frames`.
+    worst: Vec<(f32, usize, Vec<Vec3>)>,
+    peak_extra: usize,
+    posed: Vec<Vec<Vec3>>,
+}
+
+/// Every frame in order: its delta (held or made), its coefficients and error.
+#[allow(clippy::too_many_arguments)]
+fn project_all(
+    maker: &FrameMaker,
+    clip: &MotionClip,
+    basis: &Basis,
+    held: &HashMap<usize, Held>,
+    options: &ExportOptions,
+    control: Control,
+    (done, total): (&mut usize, usize),
+    collect_posed: bool,
+) -> Result<Pass> {
+    let n = clip.len();
+    let mut pass = Pass {
+        coefficients: Vec::with_capacity(n),
+        max_error: 0.0,
+        mean_error: 0.0,
+        max_unsampled: 0.0,
+        worst: Vec::new(),
+        peak_extra: 0,
+        posed: Vec::new(),
+    };
+    let mut error_sum = 0f64;
+    let frames: Vec<usize> = (0..n).collect();
+    for chunk in frames.chunks(CHUNK) {
+        if control.cancelled() {
+            return Err(Error::invalid(CANCELLED));
+        }
+        let made: Vec<Option<(Vec<Vec3>, Vec<Vec3>)>> = chunk
+            .par_iter()
+            .map(|&f| match held.contains_key(&f) {
+                true => Ok(None),
+                false => maker.delta(&clip.frames[f]).map(Some),
+            })
+            .collect::<Result<_>>()?;
+        let fresh = made.iter().filter(|m| m.is_some()).count();
+        pass.peak_extra = pass.peak_extra.max(fresh + pass.worst.len());
+        let scored: Vec<(Vec<f64>, (f32, f32))> = chunk
+            .par_iter()
+            .zip(&made)
+            .map(|(f, m)| {
+                let delta = m.as_ref().map_or_else(|| held[f].delta.as_slice(), |m| &m.0);
+                let c = basis.coefficients(delta);
+                let e = basis.error(delta, &c);
+                (c, e)
+            })
+            .collect();
+        for ((&f, m), (c, (max, mean))) in chunk.iter().zip(made).zip(scored) {
+            pass.coefficients.push(c);
+            pass.max_error = pass.max_error.max(max);
+            error_sum += mean as f64;
+            if let Some((delta, posed)) = m {
+                pass.max_unsampled = pass.max_unsampled.max(max);
+                if options.refine_frames > 0 && max > options.error_bound {
+                    keep_worst(&mut pass.worst, (max, f, delta), options.refine_frames);
+                }
+                if collect_posed {
+                    pass.posed.push(posed);
+                }
+            } else if collect_posed {
+                let h = &held[&f];
+                pass.posed.push(h.posed.clone().unwrap_or_default());
+            }
+        }
+        *done += fresh;
+        if let Some(p) = control.progress.filter(|_| fresh > 0) {
+            p(Progress { done: *done, total });
+        }
+    }
+    pass.mean_error = (error_sum / n.max(1) as f64) as f32;
+    Ok(pass)
+}
+
+/// Keep the `cap` largest errors.
+fn keep_worst(worst: &mut Vec<(f32, usize, Vec<Vec3>)>, item: (f32, usize, Vec<Vec3>), cap: usize) {
+    if worst.len() < cap {
+        worst.push(item);
+        return;
+    }
+    let (i, least) = worst
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.0.total_cmp(&b.1.0))
+        .map(|(i, w)| (i, w.0))
+        .expect("cap > 0");
+    if item.0 > least {
+        worst[i] = item;
+    }
+}
+
+/// The posed mesh of every frame, one chunk at a time, handed to `sink` in order (OBJ/PLY
+/// sequences, `pose`): nothing is kept.
+pub fn for_each_posed(
+    maker: &FrameMaker,
+    clip: &MotionClip,
+    control: Control,
+    mut sink: impl FnMut(usize, TriMesh) -> Result<()>,
+) -> Result<()> {
+    let frames: Vec<usize> = (0..clip.len()).collect();
+    for chunk in frames.chunks(CHUNK) {
+        if control.cancelled() {
+            return Err(Error::invalid(CANCELLED));
+        }
+        let made: Vec<Vec<Vec3>> = chunk
+            .par_iter()
+            .map(|&f| maker.posed(&clip.frames[f]).map(|p| p.0))
+            .collect::<Result<_>>()?;
+        for (&f, positions) in chunk.iter().zip(made) {
+            sink(f, TriMesh::new(positions, maker.rest.faces.clone()))?;
+        }
+        if let Some(p) = control.progress {
+            p(Progress { done: chunk[chunk.len() - 1] + 1, total: clip.len() });
+        }
+    }
+    Ok(())
+}
