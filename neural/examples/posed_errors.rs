@@ -7,8 +7,8 @@
 //! `zero` the zero pose. PIECES=1: each frame's connected pieces, their area and the share of
 //! it farther than 2 cm from the truth.
 //! CAPTURE gives the body and the subject's shape (the capture the avatar was fitted from).
-//! An evaluation's avatars and captures: `AVATAR_EVAL_SAVE=DIR avatar-studio eval ...
-//! --keep-captures CAPS` writes DIR/NAME.avatar beside CAPS/NAME. AVATAR_POSE_AT_REST=1 poses
+//! An evaluation's avatars and captures: `avatar-studio eval ... --save-avatars DIR
+//! --keep-captures CAPS` writes DIR/NAME.avatar beside CAPS/NAME. AT_REST=1 poses
 //! the rest pose's canonical surface at every pose (what the pose-conditioned SDF adds).
 //! RESOLUTION=N meshes the avatar on N cells.
 use avatar_core::capture::Capture;
@@ -41,6 +41,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Ok(r) = std::env::var("RESOLUTION") {
         avatar.resolution = r.parse()?;
     }
+    // AT_REST=1: the rest pose's canonical surface at every pose.
+    let at_rest = std::env::var("AT_REST").is_ok();
     let capture = Capture::open(&args[2])?;
     let subject: u64 = args[3].parse()?;
     let every: usize = args.get(5).map(|s| s.parse()).transpose()?.unwrap_or(10);
@@ -129,7 +131,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut rows = Vec::new();
         for (i, pose) in poses {
             let truth = ground_truth_mesh(&capture.body, &template, &pose, subject);
-            let predicted = avatar.posed_mesh(&pose)?;
+            let predicted = if at_rest {
+                avatar.posed_mesh_of_surface_at(&pose, &avatar.rest_params())?
+            } else {
+                avatar.posed_mesh(&pose)?
+            };
             if std::env::var("REGIONS").is_ok() {
                 use avatar_core::eval::metrics::{Prepared, vertex_scores};
                 let gt = Prepared::new(&truth, "truth")?;

@@ -21,6 +21,8 @@ pub enum RowKind {
     StaticMetaSdf,
 }
 
+// One per evaluation row, made once per fit: boxing the larger kind buys nothing.
+#[allow(clippy::large_enum_variant)]
 enum Fitted {
     Hyper(MetaAvatar),
     /// The static avatar with its (pose-independent) canonical mesh extracted once, and that
@@ -35,6 +37,8 @@ pub struct NeuralRow {
     /// Frames of the capture to fine-tune on (all of the protocol's frames when larger).
     max_frames: usize,
     resolution: usize,
+    /// Diagnostic: save each fitted MetaAvatar as `DIR/<capture>.avatar`.
+    save_avatars: Option<std::path::PathBuf>,
     fitted: Option<Fitted>,
 }
 
@@ -47,7 +51,12 @@ impl NeuralRow {
         max_frames: usize,
         resolution: usize,
     ) -> Self {
-        NeuralRow { kind, model, options, max_frames, resolution, fitted: None }
+        NeuralRow { kind, model, options, max_frames, resolution, save_avatars: None, fitted: None }
+    }
+
+    /// Diagnostic: save each fitted MetaAvatar as `DIR/<capture>.avatar` (`eval --save-avatars`).
+    pub fn saving_avatars(self, dir: Option<std::path::PathBuf>) -> Self {
+        NeuralRow { save_avatars: dir, ..self }
     }
 }
 
@@ -73,7 +82,8 @@ impl Predictor for NeuralRow {
                 init: Some(self.model.static_siren()),
             },
         };
-        let fit = AvatarFit { kind, options: self.options.clone(), chunk: 0, cancel: None };
+        let fit =
+            AvatarFit { kind, options: self.options.clone(), chunk: 0, cancel: None, trace: None };
         self.fitted = Some(match fit_avatar(&capture, &fit, &mut |_| {}).0 {
             AnyAvatar::Meta(a) => Fitted::Hyper(a),
             AnyAvatar::Static(mut avatar) => {
@@ -85,13 +95,8 @@ impl Predictor for NeuralRow {
         });
         if let Some(Fitted::Hyper(a)) = &mut self.fitted {
             a.resolution = self.resolution;
-            // Diagnostic: AVATAR_EVAL_SAVE=DIR keeps each fitted MetaAvatar as DIR/CAPTURE.avatar
-            // (with `--keep-captures`, `examples/posed_errors` then measures changes to posing
-            // without a refit).
-            if let (Some(dir), Some(name)) =
-                (std::env::var_os("AVATAR_EVAL_SAVE"), data.capture_dir.file_name())
-            {
-                let path = std::path::Path::new(&dir).join(name).with_extension("avatar");
+            if let (Some(dir), Some(name)) = (&self.save_avatars, data.capture_dir.file_name()) {
+                let path = dir.join(name).with_extension("avatar");
                 a.save(&path).map_err(|e| Error::invalid(format!("{}: {e}", path.display())))?;
             }
         }

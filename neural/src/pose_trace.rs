@@ -3,8 +3,8 @@
 //! joints' positions, and the error split into what the frames share (the part a zero-mean
 //! constraint cannot correct) and each joint's twist about its bone and swing of the bone.
 //!
-//! `AVATAR_POSE_TRUTH=DIR` (a folder holding the exact `capture.json`; `eval` writes it there
-//! before perturbing its fittings) makes a fit print these errors after every refinement round.
+//! A fit given a [`PoseTrace`] (`AvatarFit::trace`; `avatar-studio fit --true-poses DIR`) prints
+//! these errors after every refinement round.
 
 use avatar_core::body::{
     BodyParams, JOINT_NAMES, NUM_JOINTS, forward_kinematics, skeleton::parent,
@@ -158,21 +158,43 @@ pub fn match_truth(given: &[BodyParams], exact: &[BodyParams]) -> Vec<BodyParams
         .collect()
 }
 
-/// The true fittings named by `AVATAR_POSE_TRUTH` for these given ones (`None` when unset or
-/// unreadable).
-pub fn truth_from_env(given: &[BodyParams]) -> Option<Vec<BodyParams>> {
-    let dir = std::env::var_os("AVATAR_POSE_TRUTH")?;
-    let manifest = CaptureManifest::load(std::path::Path::new(&dir)).ok()?;
-    let exact: Vec<BodyParams> = manifest.frames.iter().filter_map(|r| r.params().ok()).collect();
-    Some(match_truth(given, &exact))
+/// A diagnostic of pose refinement during a fit, chosen by its caller: the true fittings of the
+/// capture's frames (each refinement round then prints the refined fittings' errors against
+/// them), and optionally joints snapped to the truth.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PoseTrace {
+    /// The exact fittings (a `capture.json`'s records), matched to the given ones by
+    /// [`match_truth`].
+    pub truth: Vec<BodyParams>,
+    /// Set these refined values to the truth after every refinement round, to measure what
+    /// their residual error costs.
+    pub snap: Option<Snap>,
 }
 
-/// `AVATAR_POSE_SNAP`: joints (comma-separated indices, `t` for the translation) whose refined
-/// values a fit sets to the truth of `AVATAR_POSE_TRUTH` after every refinement round, to
-/// measure what their residual error costs (docs/evaluation.md). `None` when unset.
-pub fn snap_from_env() -> Option<(Vec<usize>, bool)> {
-    let v = std::env::var("AVATAR_POSE_SNAP").ok()?;
-    let items: Vec<&str> = v.split(',').map(str::trim).filter(|s| !s.is_empty()).collect();
-    let joints = items.iter().filter_map(|s| s.parse().ok()).collect();
-    Some((joints, items.contains(&"t")))
+/// Which refined values [`PoseTrace::snap`] sets to the truth.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Snap {
+    /// Joint indices (`JOINT_NAMES`).
+    pub joints: Vec<usize>,
+    pub translation: bool,
+}
+
+impl PoseTrace {
+    /// The exact fittings of the capture in `dir` (its `capture.json`).
+    pub fn from_capture(dir: &std::path::Path) -> avatar_core::Result<PoseTrace> {
+        let manifest = CaptureManifest::load(dir)?;
+        let truth = manifest.frames.iter().filter_map(|r| r.params().ok()).collect();
+        Ok(PoseTrace { truth, snap: None })
+    }
+}
+
+impl Snap {
+    /// Joints as comma-separated indices, `t` for the translation (`fit --snap-to-truth`).
+    pub fn parse(list: &str) -> Snap {
+        let items: Vec<&str> = list.split(',').map(str::trim).filter(|s| !s.is_empty()).collect();
+        Snap {
+            joints: items.iter().filter_map(|s| s.parse().ok()).collect(),
+            translation: items.contains(&"t"),
+        }
+    }
 }

@@ -34,7 +34,7 @@ fn chunked_fits_show_partial_avatars_and_stop_at_a_chunk() {
         FitKind::Meta(Init::Scratch { config, seed: 0 }),
         FitKind::Static { siren: config.siren, init: None },
     ] {
-        let fit = AvatarFit { kind, options: options.clone(), chunk: 3, cancel: None };
+        let fit = AvatarFit { kind, options: options.clone(), chunk: 3, cancel: None, trace: None };
         let (mut steps, mut partials) = (Vec::new(), Vec::new());
         let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| match e {
             FitEvent::Progress { step, steps: total, .. } => {
@@ -84,6 +84,7 @@ fn the_static_recipe_is_static_equivalent() {
         options: options.clone(),
         chunk: 0,
         cancel: None,
+        trace: None,
     };
     let (AnyAvatar::Static(a), _) = fit_avatar(&capture, &fit, &mut |_| {}) else {
         panic!("a static avatar")

@@ -20,6 +20,14 @@ use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+/// The kernels under test: `AVATAR_NO_AVX512=1` (a test-only switch, docs/architecture.md)
+/// holds the portable loops to burn's gradients on a CPU with AVX-512.
+fn choose_kernels() {
+    if std::env::var_os("AVATAR_NO_AVX512").is_some() {
+        avatar_neural::train::set_kernel_path(avatar_neural::train::KernelPath::Portable);
+    }
+}
+
 fn pose_samples(count: usize, encoding: PoseEncoding, points: usize) -> Vec<PoseSample> {
     let body = avatar_core::body::open_body_ref();
     let rest = body.shaped_vertices(&[]);
@@ -186,6 +194,7 @@ fn small_step(poses: usize) -> HyperFitOptions {
 
 #[test]
 fn compact_step_gradients_match_burn_in_every_variant() {
+    choose_kernels();
     let config = HyperConfig::compact();
     let with_normals = HyperFitOptions { weights: IgrWeights::default(), ..small_step(3) };
     let no_residual = HyperFitOptions { residual_weight: 0.0, ..small_step(3) };
@@ -211,6 +220,7 @@ fn compact_step_gradients_match_burn_in_every_variant() {
 
 #[test]
 fn other_shapes_match_burn_quaternion_encoding_and_full_residuals() {
+    choose_kernels();
     let quaternion = HyperConfig { encoding: PoseEncoding::Quaternion, ..HyperConfig::compact() };
     check_hyper(quaternion, 2, &small_step(2), true, true, "quaternion encoding");
     let full = HyperConfig {
@@ -225,6 +235,7 @@ fn other_shapes_match_burn_quaternion_encoding_and_full_residuals() {
 
 #[test]
 fn paper_step_gradients_match_burn() {
+    choose_kernels();
     // 85.6 M parameters: few points keep burn's reference step affordable in the test.
     let options = HyperFitOptions {
         poses_per_step: 2,
@@ -260,6 +271,7 @@ fn paper_step_gradients_match_burn() {
 
 #[test]
 fn static_siren_step_gradients_match_burn() {
+    choose_kernels();
     let device = cpu_training_device();
     for (config, normal_weight, prior) in [
         (SirenConfig::compact(), 0.0, true),

@@ -166,6 +166,10 @@ pub struct Args {
     /// s<subject>_<outfit>_<setting>), to inspect or fit them by hand.
     #[arg(long)]
     keep_captures: Option<PathBuf>,
+    /// Diagnostic: save each fitted MetaAvatar as DIR/<capture>.avatar (with --keep-captures,
+    /// `examples/posed_errors` then measures changes to posing without a refit).
+    #[arg(long, value_name = "DIR")]
+    save_avatars: Option<PathBuf>,
     /// Free-space samples (outside constraints on the camera rays) among each pose's
     /// off-surface points, 0 to turn them off (default: `fit`'s).
     #[arg(long)]
@@ -307,13 +311,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .insert(std::sync::Arc::new(MetaModel::load_or_shipped(args.model.as_deref())?))
                 .clone(),
         };
-        rows.push(Box::new(NeuralRow::new(
-            kind,
-            model,
-            options.clone(),
-            args.max_frames,
-            resolution,
-        )));
+        rows.push(Box::new(
+            NeuralRow::new(kind, model, options.clone(), args.max_frames, resolution)
+                .saving_avatars(args.save_avatars.clone()),
+        ));
     }
     eprintln!(
         "eval: preset {}, {} setting(s) x {} outfit(s) x {} subject(s), {} row(s)",

@@ -5,6 +5,7 @@
 use anyhow::bail;
 use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitEvent, FitKind, fit_avatar};
 use avatar_neural::capture_points::{CapturePoints, FrameCount};
+use avatar_neural::pose_trace::{PoseTrace, Snap};
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaModel};
 use std::io::Write;
 use std::path::PathBuf;
@@ -53,6 +54,14 @@ pub struct Args {
     /// avatar only; the refined poses are saved in the avatar.
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     refine_poses: String,
+    /// Diagnostic: a capture folder whose capture.json holds the exact fittings of this
+    /// capture's frames; every pose refinement round prints the refined poses' errors.
+    #[arg(long, value_name = "DIR")]
+    true_poses: Option<PathBuf>,
+    /// Diagnostic, with --true-poses: joints (comma-separated indices, `t` for the
+    /// translation) set to the truth after every refinement round.
+    #[arg(long, value_name = "LIST", requires = "true_poses")]
+    snap_to_truth: Option<String>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -122,7 +131,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let frames = args.frames.map_or(FrameCount::DEFAULT, FrameCount::exactly);
     let capture = CapturePoints::open_with(&args.capture, frames, args.body_model.as_deref())?;
-    let fit = AvatarFit { kind, options, chunk: 0, cancel: Some(&cancel) };
+    let trace = match &args.true_poses {
+        Some(dir) => Some(PoseTrace {
+            snap: args.snap_to_truth.as_deref().map(Snap::parse),
+            ..PoseTrace::from_capture(dir)?
+        }),
+        None => None,
+    };
+    let fit = AvatarFit { kind, options, chunk: 0, cancel: Some(&cancel), trace: trace.as_ref() };
     let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| {
         if let FitEvent::Progress { step, steps, loss, terms } = e {
             progress(step, steps, loss, terms)

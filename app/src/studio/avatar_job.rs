@@ -132,6 +132,7 @@ pub fn run_fit(
         options: cfg.fit_options(),
         chunk: cfg.preview_every,
         cancel: Some(cancel),
+        trace: None,
     };
     let rest = avatar_core::body::BodyParams { betas: capture.betas.clone(), ..Default::default() };
     let (avatar, report) = fit_avatar(&capture, &fit, &mut |event| match event {

@@ -4,7 +4,8 @@
 use super::model::BodyModel;
 use std::sync::OnceLock;
 
-const FULL_NPZ: &[u8] = include_bytes!("../../../assets/body/open_body.npz");
+/// The full open body's npz file, as embedded (`avatar-studio bench` times its loading).
+pub const FULL_NPZ: &[u8] = include_bytes!("../../../assets/body/open_body.npz");
 const LOWPOLY_NPZ: &[u8] = include_bytes!("../../../assets/body/open_body_lowpoly.npz");
 const METADATA: &str = include_str!("../../../assets/body/open_body.json");
 

@@ -195,12 +195,6 @@ pub fn run(
                     capture.prepare(&mut job, seed);
                     job.write_ground_truth = false;
                     generate_capture(&capture_dir, body, &job)?;
-                    // Diagnostics of pose refinement (neural/src/pose_trace.rs): the exact fittings.
-                    if let Some(dir) = std::env::var_os("AVATAR_POSE_TRUTH") {
-                        let dir = std::path::PathBuf::from(dir);
-                        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-                        crate::capture::CaptureManifest::load(&capture_dir)?.save(&dir)?;
-                    }
                     capture.perturb_fittings(&capture_dir, seed)?;
                 }
                 for (m, predictor) in predictors.iter_mut().enumerate() {

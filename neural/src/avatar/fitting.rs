@@ -15,6 +15,7 @@ use crate::error::Result;
 use crate::fit::{FitOptions, Progress, SdfOptimiser, SignPrior, fit_sdf_resuming};
 use crate::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use crate::pose_refine::{PoseRefiner, refine_round};
+use crate::pose_trace::PoseTrace;
 use crate::siren::{Siren, SirenConfig};
 use avatar_core::canonical::{ShellOptions, SurfaceChoice};
 use burn::module::Module;
@@ -43,6 +44,8 @@ pub struct AvatarFit<'a> {
     pub chunk: usize,
     /// Set to stop at the next step; the avatar of the steps that ran is returned.
     pub cancel: Option<&'a AtomicBool>,
+    /// Diagnostic: the true poses to trace pose refinement against (`None`: no trace).
+    pub trace: Option<&'a PoseTrace>,
 }
 
 /// What fitting reports.
@@ -66,6 +69,8 @@ impl FitReport {
 }
 
 /// What a fit tells its caller while it runs.
+// Sent about 50 times a fit; a partial avatar moves once per chunk, unboxed as `fit_avatar` returns it.
+#[allow(clippy::large_enum_variant)]
 pub enum FitEvent {
     /// A logged step (about 50 a fit, and the last): its index from 0, the loss and its four
     /// IGR terms (surface, normal, off-surface, eikonal).
@@ -84,7 +89,7 @@ pub fn fit_avatar(
     match &fit.kind {
         FitKind::Meta(init) => {
             let (avatar, report) =
-                fit_meta(capture, init, &fit.options, fit.chunk, fit.cancel, on_event);
+                fit_meta(capture, init, &fit.options, fit.chunk, fit.cancel, fit.trace, on_event);
             (AnyAvatar::Meta(avatar), report)
         }
         FitKind::Static { siren, init } => {
@@ -159,7 +164,7 @@ fn in_chunks(
         }
         if chunk > 0
             && done < steps
-            && done % every == 0
+            && done.is_multiple_of(every)
             && let Some(avatar) = fit(Chunk::Partial(done))
         {
             on_event(FitEvent::Partial { done, avatar });
@@ -185,6 +190,7 @@ pub(crate) fn fit_meta(
     options: &HyperFitOptions,
     chunk: usize,
     cancel: Option<&AtomicBool>,
+    trace: Option<&PoseTrace>,
     on_event: &mut dyn FnMut(FitEvent),
 ) -> (MetaAvatar, FitReport) {
     let encoding = init.config().encoding;
@@ -210,6 +216,9 @@ pub(crate) fn fit_meta(
     };
     let refine = matches!(init, Init::MetaLearned(_)) && refine_options.enabled;
     let mut refiner = refine.then(|| PoseRefiner::new(capture, refine_options));
+    if let (Some(r), Some(t)) = (refiner.as_mut(), trace) {
+        r.trace_against(&t.truth);
+    }
     // Pre-alignment against the subject's own body, before the SDF learns the misalignment.
     if let Some(r) = refiner.as_mut().filter(|r| r.options.prealign_rounds > 0) {
         let body = crate::body_sdf::BodySdf::new(capture);
@@ -247,11 +256,12 @@ pub(crate) fn fit_meta(
             );
         }
     }
-    // The diagnostic needs the truth (`AVATAR_POSE_TRUTH`); without it the fit is left as it is.
-    let snap = crate::pose_trace::snap_from_env()
+    // The diagnostic needs the truth (`PoseTrace`); without it the fit is left as it is.
+    let snap = trace
+        .and_then(|t| t.snap.clone())
         .filter(|_| refiner.as_ref().is_some_and(|r| r.truth.is_some()));
-    if let (Some(r), Some((joints, translation))) = (refiner.as_mut(), snap.as_ref()) {
-        r.snap_to_truth(joints, *translation);
+    if let (Some(r), Some(snap)) = (refiner.as_mut(), snap.as_ref()) {
+        r.snap_to_truth(&snap.joints, snap.translation);
         r.redraw_shells(&ShellOptions::default());
         r.update_samples(&mut samples, encoding);
     }
@@ -282,8 +292,8 @@ pub(crate) fn fit_meta(
         Chunk::Break => {
             if let (Some(r), Some(m)) = (refiner.as_mut(), model.as_ref()) {
                 refine_round(r, m, &mut samples, encoding);
-                if let Some((joints, translation)) = snap.as_ref() {
-                    r.snap_to_truth(joints, *translation);
+                if let Some(snap) = snap.as_ref() {
+                    r.snap_to_truth(&snap.joints, snap.translation);
                     r.update_samples(&mut samples, encoding);
                 }
             }
@@ -441,7 +451,7 @@ impl MetaAvatar {
         cancel: Option<&AtomicBool>,
         progress: Progress,
     ) -> (MetaAvatar, FitReport) {
-        fit_meta(capture, init, options, 0, cancel, &mut progress_only(progress))
+        fit_meta(capture, init, options, 0, cancel, None, &mut progress_only(progress))
     }
 }
 
@@ -477,88 +487,4 @@ impl StaticAvatar {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// What a chunk loop asked of a stand-in fit: the runs (first step, steps), the breaks
-    /// (after step), the partial avatars (after step), and the progress events (step, total).
-    #[derive(Default)]
-    struct Calls {
-        runs: Vec<(usize, usize)>,
-        breaks: Vec<usize>,
-        partials: Vec<usize>,
-        progress: Vec<(usize, usize)>,
-    }
-
-    fn loop_calls(from: usize, steps: usize, chunk: usize, breaks: &[usize]) -> (usize, Calls) {
-        let mut calls = Calls::default();
-        let mut last_done = from;
-        let mut events = Vec::new();
-        let prior = |p: &[Vec3]| vec![0.0; p.len()];
-        let mut fit = |c: Chunk| {
-            match c {
-                Chunk::Run { steps, done, prior, progress } => {
-                    calls.runs.push((done, steps));
-                    for i in 0..steps {
-                        prior(&[]);
-                        progress(i, 0.0, [0.0; 4]);
-                    }
-                    last_done = done + steps;
-                }
-                Chunk::Break => calls.breaks.push(last_done),
-                Chunk::Partial(done) => calls.partials.push(done),
-            }
-            None
-        };
-        let done = in_chunks(
-            from,
-            steps,
-            chunk,
-            breaks,
-            None,
-            &prior,
-            &mut |e| {
-                if let FitEvent::Progress { step, steps, .. } = e {
-                    events.push((step, steps));
-                }
-            },
-            &mut fit,
-        );
-        calls.progress = events;
-        (done, calls)
-    }
-
-    /// The loose cloth's longer fit goes on where the first part stopped: chunks, partial
-    /// avatars and progress continue from that step, and progress counts to the new total.
-    #[test]
-    fn the_chunk_loop_goes_on_from_where_it_stopped_to_a_new_total() {
-        let (done, first) = loop_calls(0, 256, 64, &[16, 48]);
-        assert_eq!(done, 256);
-        assert_eq!(first.runs, [(0, 16), (16, 32), (48, 16), (64, 64), (128, 64), (192, 64)]);
-        assert_eq!(first.breaks, [16, 48]);
-        assert_eq!(first.partials, [64, 128, 192]);
-        assert_eq!(first.progress.first(), Some(&(0, 256)));
-        assert_eq!(first.progress.last(), Some(&(255, 256)));
-
-        let (done, more) = loop_calls(256, 512, 64, &[]);
-        assert_eq!(done, 512);
-        assert_eq!(more.runs, [(256, 64), (320, 64), (384, 64), (448, 64)]);
-        assert!(more.breaks.is_empty());
-        assert_eq!(more.partials, [320, 384, 448]);
-        assert_eq!(more.progress.len(), 256);
-        assert_eq!(more.progress.first(), Some(&(256, 512)));
-        assert_eq!(more.progress.last(), Some(&(511, 512)));
-    }
-
-    #[test]
-    fn loose_cloth_gets_the_factor_of_the_steps_and_a_factor_of_one_none() {
-        let o = HyperFitOptions::default();
-        assert_eq!((o.steps, o.loose_steps()), (256, 512));
-        assert_eq!(
-            HyperFitOptions { steps: 100, loose_step_factor: 1.5, ..o.clone() }.loose_steps(),
-            150
-        );
-        assert_eq!(HyperFitOptions { loose_step_factor: 1.0, ..o.clone() }.loose_steps(), 256);
-        assert_eq!(HyperFitOptions { loose_step_factor: 0.0, ..o }.loose_steps(), 256);
-    }
-}
+mod tests;

@@ -351,20 +351,24 @@ impl MetaAvatar {
 
     /// The zero pose with the avatar's shape: where the surface kind is decided and where the
     /// studio and the exporter take their reference mesh.
-    fn rest_params(&self) -> BodyParams {
+    pub fn rest_params(&self) -> BodyParams {
         BodyParams { betas: self.header.betas.clone(), ..BodyParams::default() }
     }
 
     /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh).
     pub fn posed_mesh(&self, params: &BodyParams) -> Result<TriMesh> {
-        // AVATAR_POSE_AT_REST (diagnostic): the rest pose's canonical surface at every pose, to
-        // measure what the pose-conditioned SDF adds (docs/evaluation.md, session 17).
-        let conditioned = if std::env::var_os("AVATAR_POSE_AT_REST").is_some() {
-            self.rest_params()
-        } else {
-            params.clone()
-        };
-        let canonical = self.canonical_mesh_at(&conditioned, self.resolution)?;
+        self.posed_mesh_of_surface_at(params, params)
+    }
+
+    /// Diagnostic: the canonical surface the SDF gives at `surface_pose`, skinned to `params`.
+    /// With the rest pose ([`MetaAvatar::rest_params`]) it measures what the pose-conditioned
+    /// SDF adds (`examples/posed_errors`).
+    pub fn posed_mesh_of_surface_at(
+        &self,
+        params: &BodyParams,
+        surface_pose: &BodyParams,
+    ) -> Result<TriMesh> {
+        let canonical = self.canonical_mesh_at(surface_pose, self.resolution)?;
         let mut p = params.clone();
         p.betas = self.header.betas.clone();
         let bones = self.body.pose(&p).bones;

@@ -20,14 +20,14 @@ use crate::capture_points::{CapturePoints, shell_samples_of};
 use crate::encoder::PoseEncoding;
 use crate::pose_sample::PoseSample;
 use crate::siren_eval::SirenEval;
-use avatar_core::body::{
-    BodyParams, NUM_JOINTS, POSE_DOF, PoseCorrection, blend_transform, skinned_point_jacobian,
-};
+use avatar_core::body::{BodyParams, NUM_JOINTS, POSE_DOF, PoseCorrection, blend_transform};
 use avatar_core::canonical::ShellOptions;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
+mod gauss_newton;
 mod prealign;
+mod recanonicalise;
 use prealign::on_extremity;
 use serde::{Deserialize, Serialize};
 
@@ -278,13 +278,17 @@ impl<'a> PoseRefiner<'a> {
                 }
             })
             .collect();
-        let given: Vec<BodyParams> = capture.frames.iter().map(|f| f.params.clone()).collect();
-        let truth = crate::pose_trace::truth_from_env(&given);
-        let refiner = PoseRefiner { capture, rest_joints, frames, options, truth, rounds_done: 0 };
-        if let Some(e) = refiner.errors() {
+        PoseRefiner { capture, rest_joints, frames, options, truth: None, rounds_done: 0 }
+    }
+
+    /// Diagnostic: trace the rounds against these exact fittings (matched to the given ones by
+    /// `pose_trace::match_truth`); prints the given fittings' errors.
+    pub fn trace_against(&mut self, exact: &[BodyParams]) {
+        let given: Vec<BodyParams> = self.frames.iter().map(|f| f.given.clone()).collect();
+        self.truth = Some(crate::pose_trace::match_truth(&given, exact));
+        if let Some(e) = self.errors() {
             eprintln!("pose trace: given fittings: {e}\n  per joint: {}", e.per_joint());
         }
-        refiner
     }
 
     /// The corrected fitting of each frame.
@@ -299,7 +303,7 @@ impl<'a> PoseRefiner<'a> {
             .map(|t| crate::pose_trace::pose_errors(&self.refined(), t, &self.rest_joints))
     }
 
-    /// Diagnostic (`AVATAR_POSE_SNAP`, with `AVATAR_POSE_TRUTH`): set these joints' rotations
+    /// Diagnostic (`PoseTrace::snap`, after [`PoseRefiner::trace_against`]): set these joints' rotations
     /// (and the translation when `translation`) to the truth, to measure what their residual
     /// error costs the avatar. Nothing when the truth is unknown.
     pub fn snap_to_truth(&mut self, joints: &[usize], translation: bool) {
@@ -421,243 +425,6 @@ impl<'a> PoseRefiner<'a> {
             frame.free_canonical.extend(samples);
         }
     }
-
-    /// An even subsample of `count` of frame `k`'s points.
-    fn subset(&self, k: usize, count: usize) -> Vec<usize> {
-        let n = self.frames[k].posed.len();
-        let m = count.min(n);
-        (0..m).map(|i| i * n / m).collect()
-    }
-
-    /// `iterations` Gauss-Newton steps of frame `k`; residuals outside `keep` (metres, below
-    /// and above) are left out.
-    fn refine_frame(
-        &mut self,
-        k: usize,
-        sdf: FrameSdf,
-        iterations: usize,
-        keep: (f32, f32),
-        points: RoundPoints,
-    ) -> RoundReport {
-        let field = &self.capture.field;
-        let frame = &self.frames[k];
-        let mut idx = self.subset(
-            k,
-            if points == RoundPoints::All {
-                self.options.points_per_frame
-            } else {
-                self.options.prealign_points_per_frame
-            },
-        );
-        if points != RoundPoints::All {
-            idx.retain(|&i| points.takes(&field.weights_at(frame.canonical[i])));
-        }
-        // The skinning weights of the round's points, held fixed.
-        let weights: Vec<_> = idx.iter().map(|&i| field.weights_at(frame.canonical[i])).collect();
-        let posed: Vec<Vec3> = idx.iter().map(|&i| frame.posed[i]).collect();
-        let mut before = None;
-        for _ in 0..iterations.max(1) {
-            let frame = &self.frames[k];
-            let bones = frame.correction.bones(&self.rest_joints, &frame.given);
-            let blends: Vec<_> =
-                weights.iter().map(|w| blend_transform(&bones.transforms, w)).collect();
-            let xc: Vec<Vec3> =
-                blends.iter().zip(&posed).map(|(a, &y)| a.inverse().transform_point3(y)).collect();
-            let (f, g) = sdf(k, &xc);
-            let mean_abs = f.iter().map(|v| v.abs()).sum::<f32>() / f.len().max(1) as f32;
-            before.get_or_insert(mean_abs);
-            let huber = self.options.huber;
-            // Normal equations of the weighted residuals, summed over the points in parallel.
-            let (h, b) = (0..xc.len())
-                .into_par_iter()
-                .fold(
-                    || (vec![0f64; POSE_DOF * POSE_DOF], vec![0f64; POSE_DOF]),
-                    |(mut h, mut b), p| {
-                        let r = f[p];
-                        if r < keep.0 || r > keep.1 || !r.is_finite() {
-                            return (h, b);
-                        }
-                        let rho = if r.abs() <= huber { 1.0 } else { huber / r.abs() };
-                        let a3 = Mat3::from_mat4(blends[p]);
-                        let v = -(a3.inverse().transpose() * g[p]);
-                        let cols = skinned_point_jacobian(&bones, &weights[p], xc[p]);
-                        let row: Vec<f64> = cols.iter().map(|c| v.dot(*c) as f64).collect();
-                        let nz: Vec<usize> = (0..POSE_DOF).filter(|&i| row[i] != 0.0).collect();
-                        for &i in &nz {
-                            b[i] += rho as f64 * row[i] * r as f64;
-                            for &j in &nz {
-                                h[i * POSE_DOF + j] += rho as f64 * row[i] * row[j];
-                            }
-                        }
-                        (h, b)
-                    },
-                )
-                .reduce(
-                    || (vec![0f64; POSE_DOF * POSE_DOF], vec![0f64; POSE_DOF]),
-                    |(mut h1, mut b1), (h2, b2)| {
-                        h1.iter_mut().zip(&h2).for_each(|(x, y)| *x += y);
-                        b1.iter_mut().zip(&b2).for_each(|(x, y)| *x += y);
-                        (h1, b1)
-                    },
-                );
-            let mut step = self.solve_step(k, h, b, xc.len());
-            step.iter_mut()
-                .enumerate()
-                .filter(|(i, _)| !points.moves(*i))
-                .for_each(|(_, v)| *v = 0.0);
-            self.frames[k].correction.add(&step);
-        }
-        // The residual after the last step (one more evaluation).
-        let frame = &self.frames[k];
-        let bones = frame.correction.bones(&self.rest_joints, &frame.given);
-        let xc: Vec<Vec3> = weights
-            .iter()
-            .zip(&posed)
-            .map(|(w, &y)| blend_transform(&bones.transforms, w).inverse().transform_point3(y))
-            .collect();
-        let (f, _) = sdf(k, &xc);
-        let after = f.iter().map(|v| v.abs()).sum::<f32>() / f.len().max(1) as f32;
-        RoundReport { residual_before: before.unwrap_or(after), residual_after: after }
-    }
-
-    /// The damped Gauss-Newton step of frame `k` from the normal equations of `n` points.
-    fn solve_step(&self, k: usize, mut h: Vec<f64>, mut b: Vec<f64>, n: usize) -> Vec<f32> {
-        let o = &self.options;
-        let scale = 1.0 / n.max(1) as f64;
-        h.iter_mut().for_each(|x| *x *= scale);
-        b.iter_mut().for_each(|x| *x *= scale);
-        let current = self.frames[k].correction.to_vec();
-        for i in 0..POSE_DOF {
-            let prior =
-                if i < 3 * NUM_JOINTS { o.rotation_prior } else { o.translation_prior } as f64;
-            // Levenberg-Marquardt damping on the data's diagonal, then the prior toward zero.
-            h[i * POSE_DOF + i] *= 1.0 + 1e-3;
-            h[i * POSE_DOF + i] += prior;
-            b[i] += prior * current[i] as f64;
-        }
-        let mut step: Vec<f32> = match cholesky_solve(&h, &b, POSE_DOF) {
-            Some(x) => x.iter().map(|v| -*v as f32).collect(),
-            None => return vec![0.0; POSE_DOF],
-        };
-        for j in 0..=NUM_JOINTS {
-            let limit = if j < NUM_JOINTS { o.max_step_rad } else { o.max_step_m };
-            let s = Vec3::from_slice(&step[3 * j..3 * j + 3]);
-            let len = s.length();
-            if !len.is_finite() {
-                return vec![0.0; POSE_DOF];
-            }
-            if len > limit {
-                let c = s * (limit / len);
-                step[3 * j..3 * j + 3].copy_from_slice(&c.to_array());
-            }
-        }
-        step
-    }
-
-    /// Frame `k`'s depth points canonicalised anew for its corrected pose, as the capture's
-    /// were for the given one: root finding from the posed body's nearest bones, the root
-    /// nearest the rest body, the 2 cm reprojection filter. The fixed-point iterations of
-    /// [`PoseRefiner::recanonicalise`] keep each point on the root it had under the given
-    /// fitting; where that fitting chose another root (a skirt point between the thighs) the
-    /// point stays there.
-    fn recanonicalise_fully(&mut self, k: usize) {
-        use avatar_core::canonical::{Root, RootOptions, canonicalize_points, choose_nearest};
-        let capture = self.capture;
-        let frame = &self.frames[k];
-        let params = frame.correction.apply(&frame.given);
-        let posed_body = capture.body.pose(&params);
-        let chooser = |roots: &[Root]| {
-            choose_nearest(roots, |x| capture.rest_sdf.at(x).map_or(f32::INFINITY, f32::abs))
-        };
-        let options = RootOptions::default();
-        let c = canonicalize_points(
-            &capture.field,
-            &posed_body.bones,
-            &posed_body.vertices,
-            &capture.body.weights,
-            &frame.posed,
-            &frame.posed_normals,
-            &options,
-            Some(&chooser),
-        );
-        // A pose that loses most of the frame's points to the 2 cm filter is not trusted with
-        // them: the points move by the fixed-point iterations instead.
-        if c.points.len() * 2 < frame.posed.len() {
-            return self.recanonicalise(k);
-        }
-        let frame = &mut self.frames[k];
-        frame.posed = c.source.iter().map(|&i| frame.posed[i]).collect();
-        frame.posed_normals = c.source.iter().map(|&i| frame.posed_normals[i]).collect();
-        frame.canonical = c.points;
-        // The free-space samples and shells: the fixed-point iterations. Canonicalising them anew
-        // too (those inside the body dropped, the shells drawn again) measured the same (quick
-        // dress at 5 deg / 2 cm: Chamfer-L2 0.698 -> 0.699 cm) at twice the time.
-        let bones = frame.correction.bones(&self.rest_joints, &frame.given);
-        fixed_point_inverse(&capture.field, &bones, &mut frame.free_canonical, &frame.free_posed);
-    }
-
-    /// Canonical points of frame `k` again for its corrected pose: the inverse with the
-    /// weights at the current point, twice (a fixed-point iteration toward the field's root).
-    fn recanonicalise(&mut self, k: usize) {
-        let field = &self.capture.field;
-        let frame = &mut self.frames[k];
-        let bones = frame.correction.bones(&self.rest_joints, &frame.given);
-        // The free-space samples move with the points they were cast in front of.
-        fixed_point_inverse(field, &bones, &mut frame.canonical, &frame.posed);
-        fixed_point_inverse(field, &bones, &mut frame.free_canonical, &frame.free_posed);
-    }
-}
-
-/// Two fixed-point iterations of the inverse skinning of each `posed` point, from its current
-/// canonical point in `canonical` (kept where an iterate leaves the field or is not finite).
-fn fixed_point_inverse(
-    field: &avatar_core::canonical::SkinningField,
-    bones: &avatar_core::body::Bones,
-    canonical: &mut [Vec3],
-    posed: &[Vec3],
-) {
-    canonical.par_iter_mut().zip(posed).for_each(|(x, &y)| {
-        for _ in 0..2 {
-            let a = blend_transform(&bones.transforms, &field.weights_at(*x));
-            let next = a.inverse().transform_point3(y);
-            if next.is_finite() && field.contains(next) {
-                *x = next;
-            }
-        }
-    });
-}
-
-/// Solve the symmetric positive definite system `h x = b` (row-major `n x n`) by Cholesky;
-/// `None` when it is not positive definite.
-fn cholesky_solve(h: &[f64], b: &[f64], n: usize) -> Option<Vec<f64>> {
-    let mut l = vec![0f64; n * n];
-    for i in 0..n {
-        for j in 0..=i {
-            let mut s = h[i * n + j];
-            for k in 0..j {
-                s -= l[i * n + k] * l[j * n + k];
-            }
-            if i == j {
-                if s <= 0.0 || !s.is_finite() {
-                    return None;
-                }
-                l[i * n + i] = s.sqrt();
-            } else {
-                l[i * n + j] = s / l[j * n + j];
-            }
-        }
-    }
-    let mut y = vec![0f64; n];
-    for i in 0..n {
-        let s: f64 = (0..i).map(|k| l[i * n + k] * y[k]).sum();
-        y[i] = (b[i] - s) / l[i * n + i];
-    }
-    let mut x = vec![0f64; n];
-    for i in (0..n).rev() {
-        let s: f64 = (i + 1..n).map(|k| l[k * n + i] * x[k]).sum();
-        x[i] = (y[i] - s) / l[i * n + i];
-    }
-    Some(x)
 }
 
 /// One round during a fit: the SDF of each frame is the hypernetwork's SIREN for the frame's

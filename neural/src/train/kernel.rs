@@ -9,12 +9,12 @@
 use std::arch::x86_64::*;
 use std::sync::OnceLock;
 
+/// Whether the AVX-512 kernels run: the CPU has them and the caller did not choose
+/// [`super::KernelPath::Portable`].
 pub fn available() -> bool {
-    static AVAILABLE: OnceLock<bool> = OnceLock::new();
-    *AVAILABLE.get_or_init(|| {
-        std::arch::is_x86_feature_detected!("avx512f")
-            && std::env::var_os("AVATAR_NO_AVX512").is_none()
-    })
+    static DETECTED: OnceLock<bool> = OnceLock::new();
+    *DETECTED.get_or_init(|| std::arch::is_x86_feature_detected!("avx512f"))
+        && super::kernel_path() == super::KernelPath::Fastest
 }
 
 /// An epilogue over raw pointers: every pointer addresses a buffer laid out like the result
@@ -210,6 +210,7 @@ pub fn sin_cos(x: __m512) -> (__m512, __m512) {
     let k = _mm512_sub_ps(shifted, round);
     let odd = _mm512_slli_epi32::<31>(_mm512_castps_si512(shifted));
     let r = _mm512_fnmadd_ps(k, set(3.140_625), x);
+    #[allow(clippy::excessive_precision)] // the digits of pi - 3.140625
     let r = _mm512_fnmadd_ps(k, set(9.676_535_5e-4), r);
     let r2 = _mm512_mul_ps(r, r);
     let mut s = set(-1.0 / 39_916_800.0);

@@ -22,6 +22,35 @@ mod kernel;
 pub mod layout;
 pub mod siren_grad;
 
+/// Which kernels the training path's products and element-wise passes run. A test-only
+/// choice: both give the same gradients to float rounding (`tests/train_gradients.rs` holds
+/// either to burn's); `Portable` covers the plain loops on a CPU with AVX-512.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum KernelPath {
+    /// AVX-512 where the CPU has it (checked at run time), else the plain loops.
+    #[default]
+    Fastest,
+    /// The plain loops everywhere.
+    Portable,
+}
+
+static PORTABLE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Choose the kernels for the whole process (`tests/train_gradients.rs` under the test-only
+/// `AVATAR_NO_AVX512` switch, `avatar-studio bench --portable-kernels`; docs/architecture.md).
+pub fn set_kernel_path(path: KernelPath) {
+    PORTABLE.store(path == KernelPath::Portable, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// The kernels chosen by [`set_kernel_path`] ([`KernelPath::Fastest`] unless set).
+pub fn kernel_path() -> KernelPath {
+    if PORTABLE.load(std::sync::atomic::Ordering::Relaxed) {
+        KernelPath::Portable
+    } else {
+        KernelPath::Fastest
+    }
+}
+
 pub use adam::Adam;
 pub use hyper_step::{HyperBatch, HyperGradient, StepLoss};
 pub use igr::IgrPoints;

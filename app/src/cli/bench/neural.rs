@@ -11,7 +11,6 @@ use avatar_core::motion::{MotionClip, clip_by_name, library};
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
 use glam::Vec3;
-use std::path::Path;
 use std::time::Instant;
 
 /// Peak resident memory of this process so far (Linux), in bytes.
@@ -25,9 +24,10 @@ pub fn peak_memory_bytes() -> Option<u64> {
 /// `steps`: fine-tuning steps (the `fit` default is 300).
 pub fn bench_report(steps: usize) -> String {
     let mut out = String::from("## neural\n\n| what | measured | target |\n|---|---|---|\n");
-    let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
     let t = Instant::now();
-    let capture = match CapturePoints::open(&demo, 8) {
+    let capture = match super::demo_capture()
+        .and_then(|demo| CapturePoints::open(&demo, 8).map_err(|e| e.to_string()))
+    {
         Ok(c) => c,
         Err(e) => return out + &format!("| open the demo capture | failed: {e} | |\n"),
     };

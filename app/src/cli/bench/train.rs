@@ -10,7 +10,6 @@ use avatar_neural::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use avatar_neural::meta_training::MetaOptions;
 use avatar_neural::pose_sample::PoseSample;
 use avatar_neural::{FitOptions, HyperConfig, HyperNet, Init, MetaAvatar, MetaModel, fit_sdf};
-use std::path::Path;
 use std::time::Instant;
 
 /// Median step time (ms) of `steps` steps of a fit, from the progress callback's timestamps
@@ -52,9 +51,11 @@ fn hyper_step_ms(
 }
 
 fn torch_line(preset: &str) -> String {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../benches/train_step_torch.py");
-    match std::process::Command::new("python3")
-        .arg(&script)
+    // The script is embedded and read from standard input: the bench runs from the installed
+    // package.
+    const SCRIPT: &str = include_str!("../../../../benches/train_step_torch.py");
+    let child = std::process::Command::new("python3")
+        .arg("-")
         .args([
             "--preset",
             preset,
@@ -63,8 +64,16 @@ fn torch_line(preset: &str) -> String {
             "--steps",
             if preset == "paper" { "5" } else { "30" },
         ])
-        .output()
-    {
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .and_then(|mut child| {
+            use std::io::Write;
+            child.stdin.take().expect("piped").write_all(SCRIPT.as_bytes())?;
+            child.wait_with_output()
+        });
+    match child {
         Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).trim().to_string(),
         Ok(o) => {
             format!("failed: {}", String::from_utf8_lossy(&o.stderr).lines().last().unwrap_or(""))
@@ -79,8 +88,9 @@ fn threads() -> usize {
 
 pub fn bench_report() -> String {
     let mut out = String::from("## train\n\n");
-    let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
-    let capture = match CapturePoints::open(&demo, 8) {
+    let opened = super::demo_capture()
+        .and_then(|demo| Ok((CapturePoints::open(&demo, 8).map_err(|e| e.to_string())?, demo)));
+    let (capture, demo) = match opened {
         Ok(c) => c,
         Err(e) => return out + &format!("the demo capture does not open: {e}\n"),
     };
