@@ -34,6 +34,19 @@ if [ -f tests/gltf-validator/package-lock.json ] && [ ! -d tests/gltf-validator/
   npm ci --prefix tests/gltf-validator --no-audit --no-fund --loglevel=error
 fi
 
+# Style gates: formatting, clippy (the workspace lint table in Cargo.toml) with warnings as
+# errors, no source file over 500 lines, no import circle between module files.
+cargo fmt --all --check
+cargo clippy --workspace --all-targets --locked -- -D warnings
+long=$(find core neural app -name '*.rs' -exec wc -l {} + | awk '$2 != "total" && $1 > 500')
+if [ -n "$long" ]; then
+  echo "error: source files over 500 lines (split them):" >&2; echo "$long" >&2; exit 1
+fi
+circles=$(python3 scripts/import_circles.py)
+if ! grep -qx 'import circles: 0' <<<"$circles"; then
+  echo "error: import circles between module files:" >&2; echo "$circles" >&2; exit 1
+fi
+
 cargo test --workspace --locked "$@"
 
 # The .deb (packaging/README.md): the binary the tests just built, packaged from

@@ -151,8 +151,11 @@ fn kintree() -> Vec<i64> {
     k
 }
 
+/// An array's shape and values.
+type Array = (Vec<u64>, Vec<f64>);
+
 /// Write the synthetic model, optionally replacing or dropping one key.
-fn write_model(path: &Path, s: &Synthetic, tamper: Option<(&str, Option<(Vec<u64>, Vec<f64>)>)>) {
+fn write_model(path: &Path, s: &Synthetic, tamper: Option<(&str, Option<Array>)>) {
     let (nv, k) = (s.nv as u64, s.k as u64);
     let mut arrays: Vec<(&str, Vec<u64>, Data)> = vec![
         ("v_template", vec![nv, 3], Data::F64(&s.v_template)),
@@ -283,7 +286,7 @@ fn bad_model_files_name_the_problem() {
     let e = BodyModel::load_npz(&truncated).unwrap_err().to_string();
     assert!(e.contains("truncated.npz"), "{e}");
 
-    let cases: Vec<(&str, Option<(Vec<u64>, Vec<f64>)>, &str)> = vec![
+    let cases: Vec<(&str, Option<Array>, &str)> = vec![
         ("weights", None, "missing array 'weights'"),
         ("J_regressor", None, "missing array 'J_regressor'"),
         ("shapedirs", Some((vec![5, 3, 2], vec![0.0; 30])), "'shapedirs'"),

@@ -149,8 +149,9 @@ fn the_pose_independent_outfit_is_exact_at_rest_and_misses_only_the_pose_depende
 struct Inspect {
     naked: NakedBody,
     /// Per fit: the fittings and the depth's roughness (median |second difference| along rows, m).
-    seen: std::sync::Arc<std::sync::Mutex<Vec<(Vec<BodyParams>, f32)>>>,
+    seen: Seen,
 }
+type Seen = std::sync::Arc<std::sync::Mutex<Vec<(Vec<BodyParams>, f32)>>>;
 impl Predictor for Inspect {
     fn name(&self) -> String {
         "inspect".into()

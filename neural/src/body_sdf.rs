@@ -82,7 +82,7 @@ impl BodySdf {
                 .collect()
         };
         let global = median(near(None)).unwrap_or(0.0);
-        let mut offsets = vec![global; avatar_core::body::NUM_JOINTS];
+        let mut offsets = [global; avatar_core::body::NUM_JOINTS];
         for (j, o) in offsets.iter_mut().enumerate() {
             let v = near(Some(j));
             // A part with few points keeps the global offset.

@@ -16,8 +16,6 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-// `PoseSample` (one pose's training data) lives in pose_sample.rs; named here too until
-// pose_refine.rs imports it from there (then hyper_fit <-> pose_refine is no longer a circle).
 use crate::pose_sample::PoseSample;
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -158,7 +158,9 @@ impl MetaData {
             train_clips.iter().flat_map(|c| c.frames.iter().cloned()).collect();
         let jobs: Vec<(u64, Outfit)> =
             subjects.iter().flat_map(|&s| outfits.iter().map(move |&o| (s, o))).collect();
-        let per_group: Vec<Result<(Group, Vec<BodyParams>, Vec<Vec<Vec3>>, Vec<Vec<Vec3>>)>> = jobs
+        // Per group: the group, its poses, and two point sets per pose.
+        type GroupData = (Group, Vec<BodyParams>, Vec<Vec<Vec3>>, Vec<Vec<Vec3>>);
+        let per_group: Vec<Result<GroupData>> = jobs
             .par_iter()
             .enumerate()
             .map(|(g, &(subject, outfit))| {

@@ -164,7 +164,7 @@ fn resumes(saved: &MetaOptions, asked: &MetaOptions) -> bool {
         hyper_iterations: asked.hyper_iterations,
         ..saved.clone()
     };
-    same.hyper_inner.refine_poses = asked.hyper_inner.refine_poses.clone();
+    same.hyper_inner.refine_poses = asked.hyper_inner.refine_poses;
     same == *asked
 }
 

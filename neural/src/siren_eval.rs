@@ -347,6 +347,7 @@ fn sin_cos_scaled(z: &[f32], act: &mut [f32], deriv: &mut [f32]) {
 pub fn sin_cos(x: f32) -> (f32, f32) {
     const ROUND: f32 = 12_582_912.0; // 1.5 * 2^23: adding it rounds to an integer
     const PI_HI: f32 = 3.140_625; // exact in 8 bits, so k * PI_HI is exact
+    #[allow(clippy::excessive_precision)] // the digits of pi - PI_HI
     const PI_LO: f32 = 9.676_535_5e-4; // pi - PI_HI
     let shifted = x * std::f32::consts::FRAC_1_PI + ROUND;
     let k = shifted - ROUND;

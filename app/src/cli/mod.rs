@@ -48,6 +48,8 @@ pub struct StudioArgs {
     pub measure_playback: bool,
 }
 
+// Parsed once per run; boxing the larger subcommands' arguments buys nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 pub enum Command {
     /// Pose the embedded open body (or your SMPL .npz) and write a mesh.

@@ -88,7 +88,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 let mut job = SynthJob::new(args.seed + s, outfit, clip.clone());
                 job.frames = args.frames_per_clip;
                 job.turn_per_frame_deg = args.turn;
-                job.noise = noise.clone();
+                job.noise = noise;
                 job.noise_seed = args.seed.wrapping_mul(1_000_003).wrapping_add(s);
                 job.write_ground_truth = !args.no_ground_truth;
                 let report = generate_capture(&dir, body, &job)?;

@@ -130,11 +130,12 @@ impl StudioApp {
         if self.scene_dirty {
             self.scene = Arc::new(self.build_scene());
             self.scene_dirty = false;
-            if !self.framed && (self.posed.is_some() || self.view.mode != ViewMode::Posed) {
-                if let Some((lo, hi)) = self.scene.bounds() {
-                    self.view.camera.frame(lo, hi);
-                    self.framed = true;
-                }
+            if !self.framed
+                && (self.posed.is_some() || self.view.mode != ViewMode::Posed)
+                && let Some((lo, hi)) = self.scene.bounds()
+            {
+                self.view.camera.frame(lo, hi);
+                self.framed = true;
             }
         }
     }

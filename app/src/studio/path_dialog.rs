@@ -116,10 +116,9 @@ impl PathDialog {
                     .add_enabled(self.folder.parent().is_some(), egui::Button::new("Up"))
                     .on_hover_text("The parent folder")
                     .clicked()
+                    && let Some(p) = self.folder.parent()
                 {
-                    if let Some(p) = self.folder.parent() {
-                        self.go_to(p.to_path_buf());
-                    }
+                    self.go_to(p.to_path_buf());
                 }
             });
             if let Some(e) = &self.listing_error {
@@ -171,13 +170,14 @@ impl PathDialog {
                     accept |= r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
                 });
             }
-            if let Ok(p) = self.answer() {
-                if self.request.kind == PathKind::SaveFile && p.exists() {
-                    ui.colored_label(
-                        crate::studio::style::WARN,
-                        format!("{} exists and will be replaced", p.display()),
-                    );
-                }
+            if let Ok(p) = self.answer()
+                && self.request.kind == PathKind::SaveFile
+                && p.exists()
+            {
+                ui.colored_label(
+                    crate::studio::style::WARN,
+                    format!("{} exists and will be replaced", p.display()),
+                );
             }
             if let Some(p) = &self.problem {
                 ui.colored_label(crate::studio::style::ERROR, p);

@@ -104,12 +104,12 @@ impl PoseWorker {
     }
 
     fn start_queued(&mut self) {
-        if self.running.is_none() {
-            if let Some(req) = self.queued.take() {
-                let id = req.id;
-                self.running =
-                    Some((id, Task::spawn("pose worker", self.wake.clone(), move |_| pose(&req))));
-            }
+        if self.running.is_none()
+            && let Some(req) = self.queued.take()
+        {
+            let id = req.id;
+            self.running =
+                Some((id, Task::spawn("pose worker", self.wake.clone(), move |_| pose(&req))));
         }
     }
 

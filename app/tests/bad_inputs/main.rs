@@ -62,6 +62,8 @@ fn run(args: &[OsString], cache: &Path, index: usize) -> Run {
     } else {
         Command::new(env!("CARGO_BIN_EXE_avatar-studio"))
     };
+    // Reaped by wait4 below, whose rusage gives the peak memory.
+    #[allow(clippy::zombie_processes)]
     let mut child = command
         .args(args)
         .env("XDG_CACHE_HOME", cache)

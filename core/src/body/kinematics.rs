@@ -26,7 +26,7 @@ impl Bones {
 
     /// Global rotation of each joint.
     pub fn global_rotations(&self) -> [Mat3; NUM_JOINTS] {
-        self.world.map(|m| Mat3::from_mat4(m))
+        self.world.map(Mat3::from_mat4)
     }
 }
 

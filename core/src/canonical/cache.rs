@@ -130,7 +130,7 @@ fn decode(bytes: &[u8], path: &Path) -> Result<SkinningField> {
     let origin = Vec3::new(f32_at(20), f32_at(24), f32_at(28));
     let cell = f32_at(32);
     let n = dims.iter().product::<usize>();
-    if dims.iter().any(|&d| d < 2 || d > 4096)
+    if dims.iter().any(|&d| !(2..=4096).contains(&d))
         || !(cell > 0.0)
         || !origin.is_finite()
         || bytes.len() != 36 + n * TOP * 3

@@ -106,7 +106,7 @@ pub fn list_files(dir: &Path, ext: &str) -> Result<Vec<PathBuf>> {
                     .is_some_and(|e| e.eq_ignore_ascii_case(ext))
         })
         .collect();
-    files.sort_by(|a, b| natural_key(a).cmp(&natural_key(b)));
+    files.sort_by_key(|p| natural_key(p));
     Ok(files)
 }
 

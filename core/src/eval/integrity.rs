@@ -2,7 +2,8 @@
 //! `mesh::integrity` for both (whole surface and clothed region), and the share of the
 //! predicted surface that faces the wrong way (inside-out patches).
 
-use super::metrics::{Prepared, Summary};
+use super::prepared::Prepared;
+use super::summary::Summary;
 use crate::mesh::TriMesh;
 use crate::mesh::integrity::{Integrity, integrity_in};
 use glam::Vec3;

@@ -24,19 +24,19 @@
 
 use super::integrity::{FrameIntegrity, frame_integrity};
 use super::occupancy::volumetric_iou;
-use super::sampling::sample_surface;
-use super::surface_error::{SampleDistances, SurfaceErrors, region_errors};
+use super::surface_error::{SurfaceErrors, region_errors};
 use crate::body::skeleton::CLOTHED_JOINTS;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use crate::mesh::bvh::Bvh;
-use crate::mesh::point_index::PointIndex;
 use crate::synth::ClothedTemplate;
 use glam::Vec3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+pub use super::prepared::{Prepared, check_mesh};
+pub use super::summary::Summary;
+use super::summary::mean;
 pub use super::surface_error::CM;
 
 /// Sampling settings of the metrics that sample (IoU, Chamfer).
@@ -109,90 +109,20 @@ impl Regions {
 /// The metric mask: clothed-region vertices (by dominant joint), visible ones only when a
 /// visibility flag is given.
 pub fn clothed_mask(vertex_joint: &[u8], visible: Option<&[bool]>) -> Result<Vec<bool>> {
-    if let Some(v) = visible {
-        if v.len() != vertex_joint.len() {
-            return Err(Error::invalid(format!(
-                "visibility has {} entries for {} vertices",
-                v.len(),
-                vertex_joint.len()
-            )));
-        }
+    if let Some(v) = visible
+        && v.len() != vertex_joint.len()
+    {
+        return Err(Error::invalid(format!(
+            "visibility has {} entries for {} vertices",
+            v.len(),
+            vertex_joint.len()
+        )));
     }
     Ok(vertex_joint
         .iter()
         .enumerate()
         .map(|(i, &j)| CLOTHED_JOINTS.contains(&(j as usize)) && visible.is_none_or(|v| v[i]))
         .collect())
-}
-
-/// A mesh prepared for repeated queries (normals, vertex index, BVH).
-pub struct Prepared<'a> {
-    pub mesh: &'a TriMesh,
-    pub normals: Vec<Vec3>,
-    pub vertices: PointIndex,
-    pub bvh: Bvh,
-}
-
-impl<'a> Prepared<'a> {
-    /// `what` names the mesh in errors ("predicted", "ground-truth").
-    pub fn new(mesh: &'a TriMesh, what: &str) -> Result<Prepared<'a>> {
-        check_mesh(mesh, what)?;
-        Ok(Prepared {
-            mesh,
-            normals: mesh.vertex_normals(),
-            vertices: PointIndex::new(&mesh.positions)?,
-            bvh: Bvh::build(mesh),
-        })
-    }
-}
-
-impl Prepared<'_> {
-    /// Distance from `p` to the surface, given an upper bound (e.g. the nearest-vertex
-    /// distance) that prunes the BVH search.
-    pub fn surface_distance_below(&self, p: Vec3, bound: f32) -> f32 {
-        self.bvh
-            .closest_point_within(p, bound * (1.0 + 1e-5) + 1e-9)
-            .map_or(bound, |h| h.distance.min(bound))
-    }
-
-    /// Distance from `p` to the surface.
-    pub fn surface_distance(&self, p: Vec3) -> f32 {
-        self.surface_distance_below(p, self.vertices.nearest(p).1)
-    }
-
-    /// `n` area-uniform samples of this surface measured to `other`; `clothed(p)` says
-    /// whether a sample lies in the clothed region.
-    pub fn sample_distances(
-        &self,
-        other: &Prepared,
-        n: usize,
-        rng: &mut ChaCha8Rng,
-        clothed: impl Fn(Vec3) -> bool,
-    ) -> Result<SampleDistances> {
-        let points = sample_surface(self.mesh, n.max(1), rng)?;
-        Ok(SampleDistances {
-            distance: points.iter().map(|&p| other.surface_distance(p)).collect(),
-            clothed: points.iter().map(|&p| clothed(p)).collect(),
-        })
-    }
-}
-
-/// A mesh must have faces, finite positions and valid indices to be scored.
-pub fn check_mesh(mesh: &TriMesh, what: &str) -> Result<()> {
-    if mesh.faces.is_empty() {
-        return Err(Error::invalid(format!("{what} mesh is empty")));
-    }
-    if let Some(p) = mesh.positions.iter().position(|p| !p.is_finite()) {
-        return Err(Error::invalid(format!(
-            "{what} mesh vertex {p} is not finite ({})",
-            mesh.positions[p]
-        )));
-    }
-    let n = mesh.positions.len() as u32;
-    if let Some(f) = mesh.faces.iter().position(|f| f.iter().any(|&i| i >= n)) {
-        return Err(Error::invalid(format!("{what} mesh face {f} refers to a vertex beyond {n}")));
-    }
-    Ok(())
 }
 
 /// Per-vertex Dp, Df (metres) and normal differences |n_pred - n_gt| for the given points.
@@ -282,34 +212,6 @@ pub fn chamfer_l2(a: &Prepared, b: &Prepared, samples: usize, rng: &mut ChaCha8R
     let ab = a.sample_distances(b, samples, rng, |_| false)?;
     let ba = b.sample_distances(a, samples, rng, |_| false)?;
     Ok(0.5 * (mean(&ab.distance) + mean(&ba.distance)))
-}
-
-fn mean(v: &[f32]) -> f32 {
-    (v.iter().map(|&x| x as f64).sum::<f64>() / v.len().max(1) as f64) as f32
-}
-
-/// Mean, median, min and max of a metric over frames (the paper reports the mean).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Summary {
-    pub mean: f32,
-    pub median: f32,
-    pub min: f32,
-    pub max: f32,
-    pub count: usize,
-}
-
-impl Summary {
-    /// `None` for no values.
-    pub fn of(values: &[f32]) -> Option<Summary> {
-        if values.is_empty() {
-            return None;
-        }
-        let mut v = values.to_vec();
-        v.sort_by(f32::total_cmp);
-        let n = v.len();
-        let median = if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) };
-        Some(Summary { mean: mean(&v), median, min: v[0], max: v[n - 1], count: n })
-    }
 }
 
 #[cfg(test)]

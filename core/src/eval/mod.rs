@@ -7,10 +7,12 @@ pub mod integrity;
 pub mod metrics;
 pub mod occupancy;
 pub mod predictor;
+mod prepared;
 pub mod protocol;
 pub mod report;
 pub mod runner;
 pub mod sampling;
+mod summary;
 pub mod surface_error;
 pub mod truth;
 

@@ -18,7 +18,7 @@ pub struct GlbBuilder {
 
 impl GlbBuilder {
     fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let offset = self.bin.len();
@@ -78,14 +78,14 @@ impl GlbBuilder {
 
     /// Assemble the GLB: `doc` gets the buffers, bufferViews and accessors.
     pub fn finish(mut self, mut doc: Value) -> Vec<u8> {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         doc["buffers"] = json!([{"byteLength": self.bin.len()}]);
         doc["bufferViews"] = Value::Array(self.buffer_views);
         doc["accessors"] = Value::Array(self.accessors);
         let mut text = serde_json::to_vec(&doc).expect("JSON values serialise");
-        while text.len() % 4 != 0 {
+        while !text.len().is_multiple_of(4) {
             text.push(b' ');
         }
         let total = 12 + 8 + text.len() + 8 + self.bin.len();

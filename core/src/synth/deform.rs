@@ -3,6 +3,7 @@
 //! - folds gather at bent elbows and knees, their depth growing with the flexion angle;
 //! - the shirt's hem slides up when the arms rise;
 //! - free panels (skirt, tails) swing with the thighs and flare when the legs spread.
+//!
 //! The canonical surface is then posed by linear blend skinning with the garment's weights.
 
 use super::outfit::{ClothedTemplate, joint::*};

@@ -153,16 +153,16 @@ pub fn generate_capture(dir: &Path, body: &BodyModel, job: &SynthJob) -> Result<
     let mut gt_frames = Vec::with_capacity(params.len());
     let mut depth_pixels = 0;
     let garment = job.garment_track(body, &template);
-    if let Some(g) = &garment {
-        if g.frames.len() != job.clip.len() {
-            return Err(Error::invalid(format!(
-                "the simulated {} has {} frames for the {} of clip {:?}",
-                job.outfit.name(),
-                g.frames.len(),
-                job.clip.len(),
-                job.clip.name
-            )));
-        }
+    if let Some(g) = &garment
+        && g.frames.len() != job.clip.len()
+    {
+        return Err(Error::invalid(format!(
+            "the simulated {} has {} frames for the {} of clip {:?}",
+            job.outfit.name(),
+            g.frames.len(),
+            job.clip.len(),
+            job.clip.name
+        )));
     }
     let picks = job.picks();
     for (i, p) in params.iter().enumerate() {

@@ -8,6 +8,8 @@ use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use glam::Vec3;
 
+mod cape;
+
 /// SMPL joint indices used by the outfits.
 pub mod joint {
     pub const PELVIS: usize = 0;
@@ -300,7 +302,7 @@ impl ClothedTemplate {
             t.add_panel(&rest, &joints, panel);
         }
         if outfit == Outfit::SimCape {
-            super::cloth::add_cape(&mut t);
+            cape::add_cape(&mut t);
         }
         t
     }

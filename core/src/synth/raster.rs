@@ -233,10 +233,10 @@ pub(crate) mod tests {
                 let dir = cam.ray(u as f32, v as f32);
                 let mut best: Option<(f32, u32)> = None;
                 for (k, t) in f.iter().enumerate() {
-                    if let Some(s) = ray_triangle(Vec3::ZERO, dir, t.map(|i| pc[i as usize])) {
-                        if best.is_none_or(|(b, _)| s < b) {
-                            best = Some((s, k as u32));
-                        }
+                    if let Some(s) = ray_triangle(Vec3::ZERO, dir, t.map(|i| pc[i as usize]))
+                        && best.is_none_or(|(b, _)| s < b)
+                    {
+                        best = Some((s, k as u32));
                     }
                 }
                 let (d, tri) = r.at(u, v);

@@ -28,6 +28,8 @@ pub use meta_avatar::{Init, META_AVATAR_KIND, MetaAvatar};
 pub use static_avatar::{STATIC_AVATAR_KIND, StaticAvatar};
 
 /// An avatar file of either kind, routed by its header.
+// Made once per fit or load and then kept in place: boxing the larger kind buys nothing.
+#[allow(clippy::large_enum_variant)]
 pub enum AnyAvatar {
     Static(StaticAvatar),
     Meta(MetaAvatar),

@@ -6,8 +6,8 @@
 use rayon::prelude::*;
 use std::ops::Range;
 
-pub(super) const BETA1: f32 = 0.9;
-pub(super) const BETA2: f32 = 0.999;
+const BETA1: f32 = 0.9;
+const BETA2: f32 = 0.999;
 const EPSILON: f32 = 1e-5;
 
 struct Group {
@@ -55,7 +55,17 @@ impl Adam {
                 .zip(g.m.par_chunks_mut(CHUNK))
                 .zip(g.v.par_chunks_mut(CHUNK))
                 .for_each(|(((p, gr), m), v)| {
-                    super::elementwise::adam_update(p, gr, m, v, first, lr, factor, eps)
+                    super::elementwise::adam_update(
+                        p,
+                        gr,
+                        m,
+                        v,
+                        [BETA1, BETA2],
+                        first,
+                        lr,
+                        factor,
+                        eps,
+                    )
                 });
         }
     }

@@ -62,20 +62,19 @@ with_avx512! {
 }
 
 with_avx512! {
-    /// Adam's update of parameters `p` from gradients `g` and moments `m`, `v` (`first`: the
-    /// moments start from this gradient, as burn's do). The same operations in the same order
-    /// on every lane, so the update is the scalar one bit for bit.
+    /// Adam's update of parameters `p` from gradients `g` and moments `m`, `v` with decay
+    /// rates `betas` (`first`: the moments start from this gradient, as burn's do). The same
+    /// operations in the same order on every lane, so the update is the scalar one bit for bit.
     #[allow(clippy::too_many_arguments)]
-    pub fn adam_update(p: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32], first: bool, lr: f32, factor: f32, eps: f32) {
-        const BETA1: f32 = super::adam::BETA1;
-        const BETA2: f32 = super::adam::BETA2;
+    pub fn adam_update(p: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32], betas: [f32; 2], first: bool, lr: f32, factor: f32, eps: f32) {
+        let [beta1, beta2] = betas;
         for (((p, &gr), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
             if first {
-                *m = gr * (1.0 - BETA1);
-                *v = gr * gr * (1.0 - BETA2);
+                *m = gr * (1.0 - beta1);
+                *v = gr * gr * (1.0 - beta2);
             } else {
-                *m = *m * BETA1 + gr * (1.0 - BETA1);
-                *v = *v * BETA2 + gr * gr * (1.0 - BETA2);
+                *m = *m * beta1 + gr * (1.0 - beta1);
+                *v = *v * beta2 + gr * gr * (1.0 - beta2);
             }
             *p -= lr * (*m * factor / (v.sqrt() + eps));
         }

@@ -131,7 +131,7 @@ impl HyperGradient {
         for v in [&mut self.pose_params, &mut self.residuals, &mut self.pose_grads] {
             v.resize_with(poses, || vec![0f32; shape.len()]);
         }
-        let (heads_out, layout) = (&self.head_passes, &*lay);
+        let (heads_out, layout) = (&self.head_passes, lay);
         let residual_sq: f64 = self.residuals[..poses]
             .par_iter_mut()
             .zip(&mut self.pose_params[..poses])

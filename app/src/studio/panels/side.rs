@@ -239,14 +239,12 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
                 .weak(),
             );
         }
-        if let Some(s) = jv.preview_step {
-            if running {
-                ui.label(
-                    egui::RichText::new(format!("Partial result shown (step {s})"))
-                        .small()
-                        .color(WARN),
-                );
-            }
+        if let Some(s) = jv.preview_step
+            && running
+        {
+            ui.label(
+                egui::RichText::new(format!("Partial result shown (step {s})")).small().color(WARN),
+            );
         }
         let line = egui_plot::Line::new("log10 loss", jv.losses.clone()).color(ACCENT).width(1.5);
         egui_plot::Plot::new("loss plot")

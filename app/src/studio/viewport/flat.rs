@@ -40,7 +40,7 @@ pub fn install(render_state: &egui_wgpu::RenderState, backdrop: egui::Color32) {
     });
     let image_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("flat image"),
-        entries: &super::texture_and_sampler_entries(0),
+        entries: &super::pipelines::texture_and_sampler_entries(0),
     });
     // egui's target holds gamma-encoded 8-bit values (as egui's own shader writes them).
     let [r, g, b, a] = backdrop.to_normalized_gamma_f32();
@@ -55,7 +55,7 @@ pub fn install(render_state: &egui_wgpu::RenderState, backdrop: egui::Color32) {
             bind_group_layouts: layouts,
             immediate_size: 0,
         });
-        super::fullscreen_pipeline(
+        super::pipelines::fullscreen_pipeline(
             device,
             label,
             &layout,
@@ -76,7 +76,7 @@ pub fn install(render_state: &egui_wgpu::RenderState, backdrop: egui::Color32) {
         Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
     );
     // egui's sampler for `TextureOptions::LINEAR`.
-    let sampler = super::linear_clamp_sampler(device, "flat image");
+    let sampler = super::pipelines::linear_clamp_sampler(device, "flat image");
     render_state.renderer.write().callback_resources.insert(Flat {
         backdrop,
         image,

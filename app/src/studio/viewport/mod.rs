@@ -22,11 +22,14 @@ const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// The viewport's background (linear RGB).
 pub const BACKGROUND: [f64; 3] = [0.018, 0.020, 0.026];
 
+mod callback;
 pub mod flat;
 mod pipelines;
 mod scene;
 pub mod ui_meshes;
-use pipelines::ScenePipelines;
+use pipelines::{
+    ScenePipelines, fullscreen_pipeline, linear_clamp_sampler, texture_and_sampler_entries,
+};
 pub use scene::{ColoredPoint, MeshVertex, Scene};
 
 /// How meshes are shaded.
@@ -447,59 +450,6 @@ impl ViewportResources {
     }
 }
 
-impl egui_wgpu::CallbackTrait for ViewportCallback {
-    fn prepare(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        _screen: &egui_wgpu::ScreenDescriptor,
-        encoder: &mut wgpu::CommandEncoder,
-        resources: &mut egui_wgpu::CallbackResources,
-    ) -> Vec<wgpu::CommandBuffer> {
-        if let Some(res) = resources.get_mut::<ViewportResources>() {
-            let samples = res.samples(self.moving);
-            let size = res.render_size(self.size, self.moving);
-            // Points keep their size on screen.
-            let point_size = self.point_size * size[0] as f32 / self.size[0].max(1) as f32;
-            res.render(
-                device,
-                queue,
-                encoder,
-                &self.scene,
-                &self.camera,
-                self.shading,
-                point_size,
-                size,
-                self.light,
-                samples,
-            );
-        }
-        Vec::new()
-    }
-
-    fn paint(
-        &self,
-        _info: egui::PaintCallbackInfo,
-        pass: &mut wgpu::RenderPass<'static>,
-        resources: &egui_wgpu::CallbackResources,
-    ) {
-        let Some(res) = resources.get::<ViewportResources>() else {
-            return;
-        };
-        let Some(targets) = &res.targets else {
-            return;
-        };
-        // Pixel for pixel when the scene has the viewport's size (the still look), else stretched.
-        pass.set_pipeline(if targets.size == self.size {
-            &res.blit_pipeline
-        } else {
-            &res.blit_scaled_pipeline
-        });
-        pass.set_bind_group(0, &targets.blit_group, &[]);
-        pass.draw(0..3, 0..1);
-    }
-}
-
 /// The scene's resolution per axis, relative to the viewport's pixels: all of them, except
 /// while the view moves on a software renderer ([`SOFTWARE_MOVING_SCALE`]).
 pub fn render_scale(software: bool, moving: bool) -> f32 {
@@ -512,108 +462,4 @@ pub fn scaled_size(size: [u32; 2], scale: f32) -> [u32; 2] {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn only_a_moving_view_on_a_software_renderer_is_drawn_smaller() {
-        assert_eq!(render_scale(true, true), SOFTWARE_MOVING_SCALE);
-        assert!(
-            SOFTWARE_MOVING_SCALE < 1.0 && SOFTWARE_MOVING_SCALE >= 0.5,
-            "a moving view stays recognisable"
-        );
-        assert_eq!(
-            render_scale(true, false),
-            1.0,
-            "still: every pixel (the look of the screenshots)"
-        );
-        assert_eq!(render_scale(false, true), 1.0, "a GPU draws every pixel");
-        assert_eq!(render_scale(false, false), 1.0);
-    }
-
-    #[test]
-    fn scaled_sizes_round_and_stay_positive() {
-        assert_eq!(scaled_size([787, 714], 1.0), [787, 714]);
-        assert_eq!(scaled_size([787, 714], 0.5), [394, 357]);
-        assert_eq!(scaled_size([1, 3], 0.25), [1, 1]);
-    }
-}
-
-/// A pipeline that draws one full-viewport triangle (`fullscreen.wgsl`'s `vs_fullscreen`, which
-/// `shader` must include) with `shader`'s fragment entry point `fragment` into `format`: the
-/// blit's and flat.rs's fills.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn fullscreen_pipeline(
-    device: &wgpu::Device,
-    label: &str,
-    layout: &wgpu::PipelineLayout,
-    shader: &wgpu::ShaderModule,
-    fragment: &str,
-    constants: &[(&str, f64)],
-    format: wgpu::TextureFormat,
-    blend: Option<wgpu::BlendState>,
-) -> wgpu::RenderPipeline {
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(label),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module: shader,
-            entry_point: Some("vs_fullscreen"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        },
-        primitive: wgpu::PrimitiveState::default(),
-        depth_stencil: None,
-        multisample: wgpu::MultisampleState::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: shader,
-            entry_point: Some(fragment),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants,
-                ..Default::default()
-            },
-            targets: &[Some(wgpu::ColorTargetState {
-                format,
-                blend,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
-}
-
-/// Bilinear filtering clamped at the edges (egui's `TextureOptions::LINEAR` too).
-pub(super) fn linear_clamp_sampler(device: &wgpu::Device, label: &str) -> wgpu::Sampler {
-    device.create_sampler(&wgpu::SamplerDescriptor {
-        label: Some(label),
-        mag_filter: wgpu::FilterMode::Linear,
-        min_filter: wgpu::FilterMode::Linear,
-        address_mode_u: wgpu::AddressMode::ClampToEdge,
-        address_mode_v: wgpu::AddressMode::ClampToEdge,
-        ..Default::default()
-    })
-}
-
-/// A filterable 2D texture at `binding` and its sampler at `binding + 1`, both for the fragment
-/// stage: what every copy of an image into egui's pass binds.
-pub(super) fn texture_and_sampler_entries(binding: u32) -> [wgpu::BindGroupLayoutEntry; 2] {
-    [
-        wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                view_dimension: wgpu::TextureViewDimension::D2,
-                multisampled: false,
-            },
-            count: None,
-        },
-        wgpu::BindGroupLayoutEntry {
-            binding: binding + 1,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-            count: None,
-        },
-    ]
-}
+mod tests;

@@ -53,7 +53,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
         },
         count: None,
     };
-    let [texture, sampler] = super::texture_and_sampler_entries(1);
+    let [texture, sampler] = super::pipelines::texture_and_sampler_entries(1);
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("ui meshes"),
         entries: &[uniforms, texture, sampler],
@@ -101,7 +101,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
         cache: None,
     });
     // egui's sampler for the font atlas (`TextureOptions::LINEAR`).
-    let sampler = super::linear_clamp_sampler(device, "ui meshes");
+    let sampler = super::pipelines::linear_clamp_sampler(device, "ui meshes");
     let screen = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("ui meshes screen"),
         size: 16,

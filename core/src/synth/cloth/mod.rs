@@ -13,6 +13,6 @@ pub mod garment;
 pub mod solver;
 pub mod track;
 
-pub use garment::{add_cape, garment_mesh, pinned_vertices};
+pub use garment::{garment_mesh, pinned_vertices};
 pub use solver::{BodyCollider, Cloth, ClothConfig};
 pub use track::{GarmentTrack, simulate_garment, with_garment};

@@ -1,0 +1,170 @@
+use super::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn random_soup(rng: &mut ChaCha8Rng, n: usize) -> Vec<[Vec3; 3]> {
+    (0..n)
+        .map(|_| {
+            let c = Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            );
+            let mut v = || {
+                c + Vec3::new(
+                    rng.random_range(-0.2..0.2),
+                    rng.random_range(-0.2..0.2),
+                    rng.random_range(-0.2..0.2),
+                )
+            };
+            [v(), v(), v()]
+        })
+        .collect()
+}
+
+/// Reference distance: minimise over a fine barycentric sampling of the triangle, then
+/// over its edges; an upper bound that is within the sampling step of the truth.
+fn sampled_distance(p: Vec3, [a, b, c]: [Vec3; 3]) -> f32 {
+    let n = 200;
+    let mut best = f32::INFINITY;
+    for i in 0..=n {
+        for j in 0..=(n - i) {
+            let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+            best = best.min((a + (b - a) * u + (c - a) * v).distance(p));
+        }
+    }
+    best
+}
+
+#[test]
+fn closest_point_on_triangle_matches_dense_sampling() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for _ in 0..200 {
+        let tri = random_soup(&mut rng, 1)[0];
+        let p = Vec3::new(
+            rng.random_range(-1.5..1.5),
+            rng.random_range(-1.5..1.5),
+            rng.random_range(-1.5..1.5),
+        );
+        let q = closest_point_on_triangle(p, tri[0], tri[1], tri[2]);
+        let exact = q.distance(p);
+        let sampled = sampled_distance(p, tri);
+        // The closest point must lie on the triangle and no sample may be closer.
+        assert!(exact <= sampled + 1e-5, "closest point {exact} farther than a sample {sampled}");
+        assert!(sampled - exact < 0.01, "closest point {exact} too close vs samples {sampled}");
+        let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
+        assert!((q - tri[0]).dot(n).abs() < 1e-4, "closest point off the triangle plane");
+    }
+}
+
+#[test]
+fn bvh_closest_point_equals_brute_force() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let tris = random_soup(&mut rng, 500);
+    let bvh = Bvh::from_triangles(tris.clone());
+    for _ in 0..500 {
+        let q = Vec3::new(
+            rng.random_range(-2.0..2.0),
+            rng.random_range(-2.0..2.0),
+            rng.random_range(-2.0..2.0),
+        );
+        let hit = bvh.closest_point(q).unwrap();
+        let (brute_face, brute) = tris
+            .iter()
+            .enumerate()
+            .map(|(f, t)| (f, closest_point_on_triangle(q, t[0], t[1], t[2]).distance(q)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        assert!((hit.distance - brute).abs() < 1e-6, "bvh {} vs brute {brute}", hit.distance);
+        assert!((hit.point.distance(q) - hit.distance).abs() < 1e-5);
+        // Ties aside, the face must be the brute-force one.
+        let t = tris[hit.face as usize];
+        assert!(
+            (closest_point_on_triangle(q, t[0], t[1], t[2]).distance(q)
+                - tris_dist(&tris, brute_face, q))
+            .abs()
+                < 1e-6
+        );
+    }
+    assert!(bvh.closest_point_within(Vec3::splat(10.0), 1.0).is_none());
+    assert!(Bvh::from_triangles(Vec::new()).closest_point(Vec3::ZERO).is_none());
+}
+
+fn tris_dist(tris: &[[Vec3; 3]], f: usize, q: Vec3) -> f32 {
+    let t = tris[f];
+    closest_point_on_triangle(q, t[0], t[1], t[2]).distance(q)
+}
+
+#[test]
+fn bvh_rays_equal_brute_force() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let tris = random_soup(&mut rng, 300);
+    let bvh = Bvh::from_triangles(tris.clone());
+    for _ in 0..300 {
+        let o = Vec3::new(
+            rng.random_range(-2.0..2.0),
+            rng.random_range(-2.0..2.0),
+            rng.random_range(-2.0..2.0),
+        );
+        let d = (Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        ) - o * 0.3)
+            .normalize();
+        let mut brute: Vec<f32> = tris
+            .iter()
+            .filter_map(|t| ray_triangle(o, d, t[0], t[1], t[2]).map(|h| h.0))
+            .filter(|&t| t > 0.0 && t < 100.0)
+            .collect();
+        brute.sort_by(f32::total_cmp);
+        let hits = bvh.ray_hits(o, d, 0.0, 100.0);
+        assert_eq!(hits.len(), brute.len());
+        for (h, t) in hits.iter().zip(&brute) {
+            assert!((h.t - t).abs() < 1e-6);
+        }
+        let first = bvh.ray_cast(o, d, 0.0, 100.0).map(|h| h.t);
+        assert_eq!(first, brute.first().copied());
+    }
+    // Axis-parallel rays (infinite inverse components) work too.
+    let hits = bvh.ray_hits(Vec3::new(0.1, 0.2, -5.0), Vec3::Z, 0.0, 100.0);
+    let brute = tris
+        .iter()
+        .filter(|t| {
+            ray_triangle(Vec3::new(0.1, 0.2, -5.0), Vec3::Z, t[0], t[1], t[2])
+                .is_some_and(|h| h.0 > 0.0)
+        })
+        .count();
+    assert_eq!(hits.len(), brute);
+}
+
+#[test]
+fn ray_reports_front_and_back_side() {
+    // Triangle in z = 0 with normal +z.
+    let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+    let down = ray_triangle(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, a, b, c).unwrap();
+    assert!(down.3 && (down.0 - 1.0).abs() < 1e-6);
+    let up = ray_triangle(Vec3::new(0.2, 0.2, -1.0), Vec3::Z, a, b, c).unwrap();
+    assert!(!up.3);
+    assert!(ray_triangle(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z, a, b, c).is_none());
+}
+
+#[test]
+fn a_ray_along_a_box_face_plane_still_finds_the_triangles_beyond() {
+    // Upright triangles at x = 1..40 whose boxes all start at y = 0, and a ray along +x
+    // from a point on that plane (y = 0 exactly, so 0 * inf meets the slab test).
+    let tris: Vec<[Vec3; 3]> = (1..40)
+        .map(|i| {
+            let x = i as f32;
+            [Vec3::new(x, 0.0, -1.0), Vec3::new(x, 0.0, 1.0), Vec3::new(x, 1.0, 0.0)]
+        })
+        .collect();
+    let bvh = Bvh::from_triangles(tris);
+    let hit = bvh
+        .ray_cast(Vec3::new(0.0, 0.0, 0.5), Vec3::X, 0.0, 100.0)
+        .expect("the first triangle lies 1 m ahead");
+    assert!((hit.t - 1.0).abs() < 1e-6, "hit at {}", hit.t);
+    assert_eq!(bvh.ray_hits(Vec3::new(0.0, 0.0, 0.5), Vec3::X, 0.0, 100.0).len(), 39);
+    // Beside the slab (y < 0) the same ray misses every box.
+    assert!(bvh.ray_cast(Vec3::new(0.0, -0.01, 0.5), Vec3::X, 0.0, 100.0).is_none());
+}
