@@ -4,6 +4,7 @@
 pub mod animated;
 pub mod glb;
 pub mod morph;
+mod options;
 pub mod source;
 pub mod stream;
 

@@ -12,8 +12,8 @@
 //! At most `sample_frames + refine_frames` deltas and one chunk of frames in the making are
 //! held at once ([`Streamed::peak_frames_held`] counts them).
 
-use super::animated::{ExportOptions, top4};
 use super::morph::Basis;
+use super::options::{ExportOptions, top4};
 use crate::avatar::AvatarSource;
 use crate::body::{BodyParams, Weights, blend_transform};
 use crate::canonical::SurfaceSmoother;
