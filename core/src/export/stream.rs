@@ -204,6 +204,7 @@ pub fn stream_frames(
     let mut basis = fit(&held);
     let mut posed_all = Vec::new();
     let mut refined = 0;
+    let mut previous: Option<(Basis, Pass)> = None;
     loop {
         let collect = keep_posed && refined == 0;
         let pass =
@@ -214,6 +215,22 @@ pub fn stream_frames(
         }
         let over: Vec<(f32, usize, Vec<Vec3>)> =
             pass.worst.into_iter().filter(|w| w.0 > options.error_bound).collect();
+        // The refined basis is kept only where it rebuilds the worst frame better.
+        if let Some((old_basis, old)) =
+            previous.take().filter(|(_, o)| o.max_error < pass.max_error)
+        {
+            return Ok(Streamed {
+                basis_frames: held.len() - refined,
+                basis: old_basis,
+                coefficients: old.coefficients,
+                max_error: old.max_error,
+                mean_error: old.mean_error,
+                max_error_unsampled: old.max_unsampled,
+                refined_frames: 0,
+                peak_frames_held: peak,
+                posed: posed_all,
+            });
+        }
         if refined > 0 || over.is_empty() || options.refine_frames == 0 {
             return Ok(Streamed {
                 basis_frames: held.len(),
@@ -232,7 +249,8 @@ pub fn stream_frames(
         for (_, f, delta) in over {
             held.insert(f, Held { delta, posed: None });
         }
-        basis = fit(&held);
+        let kept = Pass { worst: Vec::new(), posed: Vec::new(), ..pass };
+        previous = Some((std::mem::replace(&mut basis, fit(&held)), kept));
         total += n - held.len();
         progress(done, total);
     }
