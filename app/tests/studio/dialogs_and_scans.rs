@@ -117,7 +117,7 @@ fn the_capture_view_shows_the_refined_pose_of_a_frame() {
     assert!(h.state().refined_fitting(&other).is_none());
 }
 
-/// An OBJ scan opens like a capture (issue 18): the in-app dialog lists the .obj, the scan is
+/// An OBJ scan opens like a capture: the in-app dialog lists the .obj, the scan is
 /// seen by a ring of virtual depth cameras (`import scan`'s recipe) into a capture in the
 /// cache, the depth points lie on the scan's surface, the user's folder is only read, and a
 /// scan without its fitting is refused with a message naming the file.

@@ -102,7 +102,7 @@ pub const SCRATCH_ENCODER_RATE: f64 = 1e-4;
 /// The finest grid the loose pieces (a skirt, a coat's tails) are extracted on. Loose cloth is
 /// learned from a few noisy depth frames and its SDF carries flaps and holes a few
 /// millimetres across that a finer grid draws; the coarser one draws the cloth's shape. One
-/// fitted dress per subject, held-out poses (docs/evaluation.md, session 17): 192 cells
+/// fitted dress per subject, held-out poses (docs/decisions.md): 192 cells
 /// 0.841 cm / 10.7 % spurious, 128 cells 0.765 / 9.0 %, NC 0.830 -> 0.827; 96 cells loses NC
 /// (0.800 on subject 1004). Tight clothing (the wrapped body) does not depend on it.
 pub const LOOSE_RESOLUTION: usize = 128;

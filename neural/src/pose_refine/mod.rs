@@ -31,14 +31,15 @@ mod recanonicalise;
 use prealign::on_extremity;
 use serde::{Deserialize, Serialize};
 
-/// How poses are refined during a fit (docs/neural.md has the measurements behind each value).
+/// How poses are refined during a fit (docs/decisions.md has the measurements behind each
+/// value).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PoseRefineOptions {
     pub enabled: bool,
     /// A refinement round after step 1 and then every `every` fitting steps, up to step
     /// `until`; the SDF then fits the aligned points. Early and often is better: the
     /// meta-learned SDF is a good target while it is still close to its prior, and the longer
-    /// it learns from misaligned points the more it holds the misalignment (docs/neural.md).
+    /// it learns from misaligned points the more it holds the misalignment (docs/decisions.md).
     pub every: usize,
     pub until: usize,
     /// Gauss-Newton steps a round.
@@ -98,16 +99,16 @@ impl Default for PoseRefineOptions {
             // After pre-alignment, a round against the avatar's SDF once it has learned from
             // the aligned points (step 16) and one more once it is sharper (step 48): tight
             // outfit, 5 deg / 2 cm, Chamfer 0.261 -> 0.233 cm, exact fittings 0.181 -> 0.184
-            // (docs/evaluation.md, session 9). Every 3 steps up to 64 (session 3's schedule)
-            // let the translations drift: Chamfer 0.85 against 0.53 cm (session 4).
+            // (docs/decisions.md). A round every 3 steps up to 64 (`without_prealignment`'s
+            // schedule) let the translations drift: Chamfer 0.85 against 0.53 cm.
             every: 32,
             until: 49,
             iterations: 2,
-            // 3,000 (1,000 before session 4): exact fittings move less with more points (tight
+            // 3,000 rather than 1,000: exact fittings move less with more points (tight
             // outfit: Chamfer 0.310 -> 0.287 cm), perturbed ones come closer (0.338 -> 0.329).
-            // 8,000 in the rounds against the avatar's SDF since session 13, whose points are
-            // canonicalised anew each round: quick dress at 5 deg / 2 cm 0.698 -> 0.678 cm
-            // (docs/evaluation.md, session 13).
+            // 8,000 in the rounds against the avatar's SDF, whose points are canonicalised
+            // anew each round: quick dress at 5 deg / 2 cm 0.698 -> 0.678 cm rather than 3,000
+            // (docs/decisions.md).
             points_per_frame: 8000,
             prealign_points_per_frame: 3000,
             rotation_prior: 1e-4,
@@ -116,11 +117,11 @@ impl Default for PoseRefineOptions {
             max_step_rad: 3f32.to_radians(),
             max_step_m: 0.01,
             zero_mean: true,
-            // 8 rounds of 8 steps (4 of 5 before session 11): the frames' shared translation
+            // 8 rounds of 8 steps rather than 4 of 5: the frames' shared translation
             // across the body converges slowly against a body whose clothing offset each frame
             // takes from the side its camera sees (tight outfit, 5 deg / 2 cm: translation 0.28
             // -> 0.22 cm, Chamfer 0.233 -> 0.215 cm; exact fittings stop after round 2 as
-            // before; docs/evaluation.md, session 11).
+            // before; docs/decisions.md).
             prealign_rounds: 8,
             prealign_iterations: 8,
             prealign_cutoff: 0.03,
@@ -129,7 +130,7 @@ impl Default for PoseRefineOptions {
             // The whole body at once let a squat's spine bend 10 degrees sideways and the
             // pelvis rise 1.4 cm to fit the arms (its residual 4.3 mm, 2.9 at the truth):
             // 2 subjects' tight outfit at 5 deg / 2 cm, Chamfer-L2 0.235 -> 0.216 cm; exact
-            // fittings keep the whole body's start (docs/evaluation.md, session 14).
+            // fittings keep the whole body's start (docs/decisions.md).
             prealign_trunk_first: true,
         }
     }
@@ -140,7 +141,7 @@ impl PoseRefineOptions {
         PoseRefineOptions { enabled: false, ..Self::default() }
     }
 
-    /// Session 3's schedule (a round after step 1 and every 3 steps up to 64), for captures
+    /// A round after step 1 and every 3 steps up to 64, for captures
     /// that pre-alignment leaves alone (loose clothing).
     pub fn without_prealignment(&self) -> Self {
         PoseRefineOptions { first: 1, every: 3, until: 64, prealign_rounds: 0, ..*self }

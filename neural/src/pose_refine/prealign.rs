@@ -1,15 +1,15 @@
 //! Pre-alignment of the frames' poses against a fixed target that knows the subject's shape
 //! (the shaped body, `crate::body_sdf::BodySdf`), before the avatar's SDF has learned anything
-//! from the misaligned points (docs/neural.md, "Pose refinement").
+//! from the misaligned points (docs/neural.md, "Pose refinement"; the measurements behind the
+//! defaults: docs/decisions.md).
 
 use super::{FrameSdf, PoseRefiner, RoundPoints, RoundReport};
 use avatar_core::body::{PoseCorrection, blend_transform};
 use glam::Vec3;
 
-/// Rounds, and Gauss-Newton steps a round, of the upper body's pre-alignment: session 10's 4 of
-/// 5. The whole body's longer schedule (`PoseRefineOptions::prealign_rounds`, session 11) moved
-/// the quick dress's poses a little closer (4.45 -> 4.40 deg) and its Chamfer-L2 0.793 -> 0.890
-/// cm at 5 deg / 2 cm.
+/// Rounds, and Gauss-Newton steps a round, of the upper body's pre-alignment: 4 of 5. The whole
+/// body's longer schedule (`PoseRefineOptions::prealign_rounds`) moved the quick dress's poses a
+/// little closer (4.45 -> 4.40 deg) but its Chamfer-L2 0.793 -> 0.890 cm at 5 deg / 2 cm.
 const UPPER_BODY_SCHEDULE: (usize, usize) = (4, 5);
 
 /// What pre-alignment changes of a frame: its correction, its canonical points and its
@@ -20,10 +20,9 @@ impl PoseRefiner<'_> {
     /// [`PoseRefiner::prealign`] on the points of the spine, the arms and the head's joints
     /// alone (the pelvis's and the legs' left out, besides the extremities): a dress's skirt
     /// hides the thighs and its points near the hips biased the translations when the whole
-    /// body was pre-aligned (session 4), but its bodice and arms are tight. The legs keep the
+    /// body was pre-aligned, but its bodice and arms are tight. The legs keep the
     /// given fittings for the later rounds. Quick preset's dress at 5 deg / 2 cm: NC 0.723 ->
-    /// 0.758, Chamfer-L2 0.851 -> 0.849 cm; exact fittings 0.693 -> 0.688 (docs/evaluation.md,
-    /// session 10).
+    /// 0.758, Chamfer-L2 0.851 -> 0.849 cm; exact fittings 0.693 -> 0.688 (docs/decisions.md).
     pub fn prealign_upper_body(&mut self, sdf: FrameSdf) -> RoundReport {
         self.prealign_points(sdf, RoundPoints::UpperBody, UPPER_BODY_SCHEDULE)
     }
