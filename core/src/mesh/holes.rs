@@ -59,13 +59,18 @@ pub fn loop_length(mesh: &TriMesh, path: &[u32]) -> f32 {
     (0..path.len()).map(|i| p(i).distance(p(i + 1))).sum()
 }
 
-/// Closes every border loop shorter than `max_length` (metres) with a fan around its centroid,
-/// facing as the faces around it do. Returns the mesh and how many holes were closed.
+/// Closes every border loop shorter than `max_length` (metres) that passes each of its vertices
+/// once with a fan around its centroid, facing as the faces around it do. Returns the mesh and how many holes were closed.
 pub fn close_short_holes(mesh: &TriMesh, max_length: f32) -> (TriMesh, usize) {
     let mut out = mesh.clone();
     let mut closed = 0;
     for path in border_loops(mesh) {
-        if loop_length(mesh, &path) >= max_length {
+        // A loop through a vertex twice (two holes meeting at a pinch) would get a fan on both
+        // sides of that vertex: edges of three faces. Such loops stay open.
+        let mut seen = path.clone();
+        seen.sort_unstable();
+        seen.dedup();
+        if loop_length(mesh, &path) >= max_length || seen.len() != path.len() {
             continue;
         }
         let centre =
@@ -135,5 +140,32 @@ mod tests {
         let loops = border_loops(&closed);
         assert_eq!(loops.len(), 1);
         assert!(loop_length(&closed, &loops[0]) > 1.8);
+    }
+
+    #[test]
+    fn two_holes_meeting_at_a_vertex_leave_no_non_manifold_edge() {
+        // A 6 x 6 grid of quads with two cells cut out that touch at one corner (a pinch).
+        let n = 7;
+        let positions: Vec<Vec3> = (0..n * n)
+            .map(|i| Vec3::new((i % n) as f32 * 0.02, (i / n) as f32 * 0.02, 0.0))
+            .collect();
+        let idx = |r: usize, c: usize| (r * n + c) as u32;
+        let mut faces = Vec::new();
+        for r in 0..n - 1 {
+            for c in 0..n - 1 {
+                if (r, c) == (2, 2) || (r, c) == (3, 3) {
+                    continue;
+                }
+                faces.push([idx(r, c), idx(r, c + 1), idx(r + 1, c + 1)]);
+                faces.push([idx(r, c), idx(r + 1, c + 1), idx(r + 1, c)]);
+            }
+        }
+        let grid = TriMesh::new(positions, faces);
+        let (closed, _) = close_short_holes(&grid, 0.3);
+        let i = integrity(&closed);
+        assert_eq!(i.non_manifold_edges, 0, "{i:?}");
+        // The outer border (0.48 m) is no hole; the pinched pair (0.16 m, through one vertex
+        // twice) stays open rather than get a fan on both sides of the pinch.
+        assert!((i.boundary_length_m - 0.64).abs() < 1e-4, "{i:?}");
     }
 }
