@@ -25,7 +25,7 @@ use crate::mesh::TriMesh;
 use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
 use crate::mesh::holes::close_short_holes;
-use crate::mesh::topology::{compact, drop_small_pieces, face_components};
+use crate::mesh::topology::{compact, drop_small_pieces, edge_use, face_components};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -228,16 +228,11 @@ impl BodyWrap {
         let chosen = close_short_holes(&chosen, o.max_hole).0;
         let mut pieces = self.clothing_pieces(&chosen, &bvh);
         // Border edges (one face) of the pieces: their vertices go onto the body nearby.
-        let mut edge_faces: std::collections::HashMap<(u32, u32), u32> =
-            std::collections::HashMap::new();
-        for f in &pieces.faces {
-            for k in 0..3 {
-                let (a, b) = (f[k], f[(k + 1) % 3]);
-                *edge_faces.entry((a.min(b), a.max(b))).or_default() += 1;
-            }
-        }
-        let mut border: Vec<u32> =
-            edge_faces.iter().filter(|(_, n)| **n == 1).flat_map(|(e, _)| [e.0, e.1]).collect();
+        let mut border: Vec<u32> = edge_use(&pieces.faces)
+            .iter()
+            .filter(|(_, n)| **n == 1)
+            .flat_map(|(e, _)| [e.0, e.1])
+            .collect();
         border.sort_unstable();
         border.dedup();
         for v in border {

@@ -3,6 +3,7 @@
 //! through a thin sheet are short ones.
 
 use super::TriMesh;
+use super::topology::edge_use;
 use glam::Vec3;
 use std::collections::HashMap;
 
@@ -10,12 +11,7 @@ use std::collections::HashMap;
 /// (a face (a, b, c) with its edge a -> b on the border continues the loop from b). Border
 /// edges that do not close into a loop (at non-manifold vertices) are left out.
 pub fn border_loops(mesh: &TriMesh) -> Vec<Vec<u32>> {
-    let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
-    for &[a, b, c] in &mesh.faces {
-        for (u, v) in [(a, b), (b, c), (c, a)] {
-            *uses.entry((u.min(v), u.max(v))).or_insert(0) += 1;
-        }
-    }
+    let uses = edge_use(&mesh.faces);
     // Directed border edges, from each start vertex.
     let mut next: HashMap<u32, Vec<u32>> = HashMap::new();
     let mut starts = Vec::new();

@@ -7,6 +7,7 @@
 
 use super::TriMesh;
 use super::bvh::ray_triangle;
+use super::topology::edge_use;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -30,9 +31,6 @@ pub struct Integrity {
     /// Share (0-1) of the faces that cross another face they share no vertex with.
     pub self_intersecting: f32,
 }
-
-/// An undirected edge of merged vertices (smaller index first).
-type Edge = (u32, u32);
 
 /// Faces re-indexed onto merged vertices, degenerate faces (two equal corners) dropped.
 struct Welded {
@@ -63,21 +61,6 @@ fn weld(mesh: &TriMesh) -> Welded {
         }
     }
     Welded { positions, faces }
-}
-
-fn edge(a: u32, b: u32) -> Edge {
-    (a.min(b), a.max(b))
-}
-
-/// How many faces use each edge.
-fn edge_use(faces: &[[u32; 3]]) -> HashMap<Edge, u32> {
-    let mut uses: HashMap<Edge, u32> = HashMap::with_capacity(faces.len() * 3 / 2);
-    for &[a, b, c] in faces {
-        for e in [edge(a, b), edge(b, c), edge(c, a)] {
-            *uses.entry(e).or_insert(0) += 1;
-        }
-    }
-    uses
 }
 
 /// The open border: every edge used by exactly one face, as its two end points.
@@ -228,6 +211,14 @@ mod tests {
         extract(|p: &[Vec3]| p.iter().map(|x| x.distance(center) - r).collect(), &o).unwrap().mesh
     }
 
+    /// Both meshes in one (`b`'s vertices after `a`'s).
+    fn joined(mut a: TriMesh, b: &TriMesh) -> TriMesh {
+        let n = a.positions.len() as u32;
+        a.positions.extend(&b.positions);
+        a.faces.extend(b.faces.iter().map(|f| f.map(|v| v + n)));
+        a
+    }
+
     #[test]
     fn a_closed_sphere_is_whole() {
         let s = sphere(Vec3::ZERO, 0.3, 32);
@@ -279,12 +270,7 @@ mod tests {
 
     #[test]
     fn two_spheres_are_two_pieces_and_a_shard_is_small() {
-        let a = sphere(Vec3::ZERO, 0.3, 32);
-        let b = sphere(Vec3::new(1.0, 0.0, 0.0), 0.02, 12);
-        let mut m = a.clone();
-        let n = m.positions.len() as u32;
-        m.positions.extend(&b.positions);
-        m.faces.extend(b.faces.iter().map(|f| f.map(|v| v + n)));
+        let m = joined(sphere(Vec3::ZERO, 0.3, 32), &sphere(Vec3::new(1.0, 0.0, 0.0), 0.02, 12));
         let i = integrity(&m);
         assert_eq!(i.pieces, 2);
         assert_eq!(i.small_pieces, 1, "a 2 cm sphere is under 1 % of a 30 cm one's area");
@@ -299,12 +285,7 @@ mod tests {
 
     #[test]
     fn overlapping_spheres_cross_each_other_along_one_circle() {
-        let a = sphere(Vec3::ZERO, 0.3, 32);
-        let b = sphere(Vec3::new(0.3, 0.0, 0.0), 0.3, 32);
-        let mut m = a.clone();
-        let n = m.positions.len() as u32;
-        m.positions.extend(&b.positions);
-        m.faces.extend(b.faces.iter().map(|f| f.map(|v| v + n)));
+        let m = joined(sphere(Vec3::ZERO, 0.3, 32), &sphere(Vec3::new(0.3, 0.0, 0.0), 0.3, 32));
         let i = integrity(&m);
         assert_eq!(i.pieces, 2);
         let crossing = self_intersecting_faces(&m.positions, &m.faces);

@@ -74,6 +74,18 @@ pub fn compact(positions: &[glam::Vec3], faces: &[[u32; 3]]) -> TriMesh {
     TriMesh::new(kept, faces)
 }
 
+/// How many faces use each undirected edge (smaller vertex index first): 1 on an open border,
+/// 2 inside a surface, 3 or more where it is non-manifold.
+pub fn edge_use(faces: &[[u32; 3]]) -> std::collections::HashMap<(u32, u32), u32> {
+    let mut uses = std::collections::HashMap::with_capacity(faces.len() * 3 / 2);
+    for &[a, b, c] in faces {
+        for (u, v) in [(a, b), (b, c), (c, a)] {
+            *uses.entry((u.min(v), u.max(v))).or_insert(0) += 1;
+        }
+    }
+    uses
+}
+
 /// Label each face with its piece, faces sharing an edge being connected (two sheets that
 /// touch at a single vertex are two pieces). Returns (face labels, number of pieces).
 pub fn edge_components(faces: &[[u32; 3]]) -> (Vec<u32>, usize) {
