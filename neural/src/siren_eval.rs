@@ -1,5 +1,6 @@
 //! Fast CPU evaluation of one SIREN (meshing, projection onto the surface, the pose slider):
-//! plain f32 matrices multiplied with matrixmultiply's SGEMM (AVX2/FMA picked at run time) and a
+//! plain f32 matrices multiplied by the training path's products (`train::gemm`: its AVX-512
+//! kernel with the sine in the epilogue where the CPU has it, matrixmultiply otherwise) and a
 //! branch-free sine the compiler vectorises, over blocks of points that stay in cache, the
 //! blocks spread over rayon's threads. Training keeps burn; burn's CPU matrix multiply keeps to
 //! one core and allocates a tensor per step, which made a posed mesh and the export's Newton
@@ -10,6 +11,7 @@
 //! twice the cost of the values alone, against four times for forward-mode tangents.
 
 use crate::siren::W0;
+use crate::train::gemm::{Epilogue, Mat, dots, gemm, gemm_then};
 use avatar_core::canonical::Normalisation;
 use burn::tensor::Tensor;
 use glam::Vec3;
@@ -158,38 +160,32 @@ impl SirenEval {
         // Forward: activation l+1 = sin(W0 (h_l W_l + b_l)); derivative factors kept per layer.
         for (l, layer) in self.layers.iter().enumerate() {
             let (m, k, nout) = (n, layer.fan_in, layer.fan_out);
-            let z = &mut s.z[..m * nout];
-            for row in z.chunks_exact_mut(nout) {
-                row.copy_from_slice(&layer.b);
-            }
-            let h: &[f32] = if l == 0 { &s.input[..m * 3] } else { &s.acts[l - 1][..m * k] };
-            // SAFETY: the slices hold m*k, k*nout and m*nout elements with the strides given.
-            unsafe {
-                matrixmultiply::sgemm(
-                    m,
-                    k,
-                    nout,
-                    1.0,
-                    h.as_ptr(),
-                    k as isize,
-                    1,
-                    layer.w.as_ptr(),
-                    nout as isize,
-                    1,
-                    1.0,
-                    z.as_mut_ptr(),
-                    nout as isize,
-                    1,
-                );
-            }
+            let (done, rest) = s.acts.split_at_mut(l);
+            let h: &[f32] = if l == 0 { &s.input[..m * 3] } else { &done[l - 1][..m * k] };
             if l == last {
-                values.copy_from_slice(&z[..n]);
+                // The output layer (width 1): one dot product per point.
+                values.fill(layer.b[0]);
+                dots(h, &layer.w, k, 1.0, values);
                 break;
             }
-            let act = &mut s.acts[l][..m * nout];
+            let act = &mut rest[0][..m * nout];
+            let w = Mat::new(&layer.w, k, nout);
             match s.derivs.get_mut(l) {
-                Some(d) => sin_cos_scaled(z, act, &mut d[..m * nout]),
-                None => sin_scaled(z, act),
+                // act = sin(W0 (h W + b)), deriv = W0 cos(...), in the product's epilogue.
+                Some(d) => gemm_then(
+                    Mat::new(h, m, k),
+                    w,
+                    act,
+                    Epilogue::Sine { w0: W0, bias: &layer.b, deriv: &mut d[..m * nout] },
+                ),
+                None => {
+                    let z = &mut s.z[..m * nout];
+                    for row in z.chunks_exact_mut(nout) {
+                        row.copy_from_slice(&layer.b);
+                    }
+                    gemm(Mat::new(h, m, k), w, 1.0, z);
+                    sin_scaled(z, act);
+                }
             }
         }
         let Some(grads) = grads else { return };
@@ -207,26 +203,8 @@ impl SirenEval {
             }
             let k = layer.fan_in;
             let (src, dst) = (&s.grad_a[..n * width], &mut s.grad_b[..n * k]);
-            // SAFETY: src is n x width, W_l^T is width x k (strides of the [k, width] matrix
-            // swapped), dst is n x k.
-            unsafe {
-                matrixmultiply::sgemm(
-                    n,
-                    width,
-                    k,
-                    1.0,
-                    src.as_ptr(),
-                    width as isize,
-                    1,
-                    layer.w.as_ptr(),
-                    1,
-                    width as isize,
-                    0.0,
-                    dst.as_mut_ptr(),
-                    k as isize,
-                    1,
-                );
-            }
+            // grad of the input = src W_l^T: dot products of src's rows with W_l's rows.
+            gemm(Mat::new(src, n, width), Mat::new(&layer.w, k, width).t(), 0.0, dst);
             std::mem::swap(&mut s.grad_a, &mut s.grad_b);
             width = k;
         }
@@ -327,15 +305,6 @@ impl Scratch {
 fn sin_scaled(z: &[f32], act: &mut [f32]) {
     for (a, &z) in act.iter_mut().zip(z) {
         *a = sin_cos(W0 * z).0;
-    }
-}
-
-/// act = sin(W0 z), deriv = W0 cos(W0 z).
-fn sin_cos_scaled(z: &[f32], act: &mut [f32], deriv: &mut [f32]) {
-    for ((a, d), &z) in act.iter_mut().zip(deriv.iter_mut()).zip(z) {
-        let (s, c) = sin_cos(W0 * z);
-        *a = s;
-        *d = W0 * c;
     }
 }
 

@@ -3,11 +3,10 @@
 //! with the same networks, `--static` the pose-independent SDF.
 
 use anyhow::bail;
-use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitEvent, FitKind, fit_avatar};
+use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitKind, fit_avatar};
 use avatar_neural::capture_points::{CapturePoints, FrameCount};
 use avatar_neural::pose_trace::{PoseTrace, Snap};
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaModel};
-use std::io::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -62,6 +61,10 @@ pub struct Args {
     /// translation) set to the truth after every refinement round.
     #[arg(long, value_name = "LIST", requires = "true_poses")]
     snap_to_truth: Option<String>,
+    /// Print the seconds each phase of the fit took (canonicalization, pre-alignment,
+    /// training, refinement rounds, the loose check, saving) at the end.
+    #[arg(long)]
+    timings: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -88,24 +91,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         });
     }
     let t = Instant::now();
-    // The fit's own count: an avatar with loose cloth goes on past --steps
-    // (`HyperFitOptions::loose_step_factor`).
-    let progress = |step: usize, steps: usize, loss: f32, terms: [f32; 4]| {
-        let done = (step + 1) as f64 / steps as f64;
-        let left = t.elapsed().as_secs_f64() * (1.0 - done) / done.max(1e-9);
-        let bar: String =
-            (0..20).map(|i| if (i as f64) < done * 20.0 { '#' } else { '.' }).collect();
-        eprint!(
-            "\rfit [{bar}] step {:>5}/{steps} loss {loss:>9.3} (surface {:.3} normal {:.3} off {:.3} eikonal {:.3}) {:>4.0} s left ",
-            step + 1,
-            terms[0],
-            terms[1],
-            terms[2],
-            terms[3],
-            left
-        );
-        let _ = std::io::stderr().flush();
-    };
+    let mut progress = super::fit_progress::FitProgress::new();
     // The hypernetwork from scratch needs no meta-model (its networks come from --preset).
     let model = if args.from_scratch && !args.static_sdf {
         None
@@ -130,7 +116,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ),
     };
     let frames = args.frames.map_or(FrameCount::DEFAULT, FrameCount::exactly);
-    let capture = CapturePoints::open_with(&args.capture, frames, args.body_model.as_deref())?;
+    let capture = progress.outer("canonicalization", || {
+        CapturePoints::open_with(&args.capture, frames, args.body_model.as_deref())
+    })?;
     let trace = match &args.true_poses {
         Some(dir) => Some(PoseTrace {
             snap: args.snap_to_truth.as_deref().map(Snap::parse),
@@ -139,12 +127,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => None,
     };
     let fit = AvatarFit { kind, options, chunk: 0, cancel: Some(&cancel), trace: trace.as_ref() };
-    let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| {
-        if let FitEvent::Progress { step, steps, loss, terms } = e {
-            progress(step, steps, loss, terms)
-        }
-    });
-    avatar.save(&args.out)?;
+    let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| progress.event(&e));
+    progress.finish();
+    progress.outer("saving", || avatar.save(&args.out))?;
     let what = match (&avatar, &fit.kind) {
         (AnyAvatar::Meta(a), FitKind::Meta(init)) => {
             let refined = match &a.header.refined_poses {
@@ -179,5 +164,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         report.dropped,
         t.elapsed().as_secs_f64()
     );
+    if args.timings {
+        print!("\n{}", progress.table());
+    }
     Ok(())
 }

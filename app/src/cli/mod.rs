@@ -7,6 +7,7 @@ mod check;
 mod eval;
 mod export;
 mod fit;
+mod fit_progress;
 mod import;
 mod meta_train;
 mod pose;

@@ -5,7 +5,7 @@ use crate::studio::avatar::{CanonicalMesh, StudioAvatar, studio_avatar};
 use crate::studio::fit_config::FitConfig;
 use crate::studio::tasks::Task;
 use avatar_neural::MetaModel;
-use avatar_neural::avatar::{AvatarFit, FitEvent, fit_avatar};
+use avatar_neural::avatar::{AvatarFit, FitEvent, TimeLeft, fit_avatar};
 use avatar_neural::capture_points::{CapturePoints, FrameCount};
 use crossbeam_channel::Receiver;
 use std::path::{Path, PathBuf};
@@ -26,6 +26,13 @@ pub enum JobEvent {
         loss: f32,
         terms: [f32; 4],
         elapsed_s: f64,
+        /// From the fit's plan and each phase's measured cost (None until one has run).
+        left_s: Option<f64>,
+    },
+    /// A phase of the fit starts (pre-alignment, training, a refinement round, ...).
+    Phase {
+        label: &'static str,
+        left_s: Option<f64>,
     },
     /// The partial result.
     Preview {
@@ -135,14 +142,27 @@ pub fn run_fit(
         trace: None,
     };
     let rest = avatar_core::body::BodyParams { betas: capture.betas.clone(), ..Default::default() };
+    // The time left counts from the fit's start (canonicalization is done).
+    let (start, mut left) = (Instant::now(), TimeLeft::default());
     let (avatar, report) = fit_avatar(&capture, &fit, &mut |event| match event {
-        FitEvent::Progress { step, steps, loss, terms } => send(JobEvent::Progress {
-            step: step + 1,
-            steps,
-            loss,
-            terms,
-            elapsed_s: t.elapsed().as_secs_f64(),
-        }),
+        FitEvent::Plan(plan) => left.plan(plan),
+        FitEvent::Phase(phase) => {
+            let at = start.elapsed().as_secs_f64();
+            left.phase(phase, at);
+            send(JobEvent::Phase { label: phase.label(), left_s: left.left(at) })
+        }
+        FitEvent::Progress { step, steps, loss, terms } => {
+            let at = start.elapsed().as_secs_f64();
+            left.steps(step + 1, at);
+            send(JobEvent::Progress {
+                step: step + 1,
+                steps,
+                loss,
+                terms,
+                elapsed_s: t.elapsed().as_secs_f64(),
+                left_s: left.left(at),
+            })
+        }
         FitEvent::Partial { done, mut avatar } => {
             avatar.set_resolution(cfg.preview_resolution.clamp(8, 256));
             if let Ok(mesh) = avatar.source().canonical_mesh(&rest) {

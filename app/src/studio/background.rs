@@ -141,7 +141,12 @@ impl StudioApp {
                     self.job_view.points = points;
                     self.job_view.frames = frames;
                 }
-                JobEvent::Progress { step, steps, loss, terms, elapsed_s } => {
+                JobEvent::Phase { label, left_s } => {
+                    self.job_view.phase = label;
+                    self.job_view.left_s = left_s;
+                }
+                JobEvent::Progress { step, steps, loss, terms, elapsed_s, left_s } => {
+                    self.job_view.left_s = left_s;
                     self.job_view.step = step;
                     self.job_view.steps = steps;
                     self.job_view.loss = loss;

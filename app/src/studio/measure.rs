@@ -70,8 +70,9 @@ impl StudioApp {
     }
 }
 
-/// CPU time of the whole process (all threads) in seconds, from /proc (0 where there is none).
-fn cpu_seconds() -> f64 {
+/// CPU time of the whole process (all threads) in seconds, from /proc (0 where there is none;
+/// also `fit --timings`).
+pub fn cpu_seconds() -> f64 {
     let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
     // The fields after the command's closing parenthesis; utime and stime are the 12th and 13th.
     let fields: Vec<&str> =

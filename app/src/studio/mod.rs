@@ -20,7 +20,7 @@ pub mod capture_view;
 pub mod commands;
 pub mod demo;
 pub mod fit_config;
-mod measure;
+pub mod measure;
 pub mod panels;
 pub mod path_dialog;
 pub mod playback;

@@ -67,6 +67,9 @@ pub struct JobView {
     pub loss: f32,
     pub terms: [f32; 4],
     pub elapsed_s: f64,
+    /// The phase under way ("" before the first) and the fit's estimate of the time left.
+    pub phase: &'static str,
+    pub left_s: Option<f64>,
     /// (step, log10 loss)
     pub losses: Vec<[f64; 2]>,
     pub points: usize,
@@ -80,10 +83,9 @@ impl JobView {
         if self.steps == 0 { 0.0 } else { self.step as f32 / self.steps as f32 }
     }
 
+    /// The fit's own estimate (its plan and each phase's measured cost), once it has one.
     pub fn seconds_left(&self) -> Option<f64> {
-        (self.step > 0 && self.steps > 0).then(|| {
-            self.elapsed_s * (self.steps - self.step.min(self.steps)) as f64 / self.step as f64
-        })
+        self.left_s
     }
 }
 

@@ -7,11 +7,11 @@
 //!
 //! Training runs where `crate::compute::select` chose (`training_device`).
 
+use crate::avatar::fit_plan::{FitPhase, FitPlan};
 use crate::avatar::meta_avatar::{Init, MetaAvatar, SCRATCH_ENCODER_RATE};
 use crate::avatar::static_avatar::StaticAvatar;
 use crate::avatar::{AnyAvatar, PartialFit};
 use crate::capture_points::CapturePoints;
-use crate::error::Result;
 use crate::fit::{FitOptions, Progress, SdfOptimiser, SignPrior, fit_sdf_resuming};
 use crate::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use crate::pose_refine::{PoseRefiner, refine_round};
@@ -20,7 +20,6 @@ use crate::siren::{Siren, SirenConfig};
 use avatar_core::canonical::{ShellOptions, SurfaceChoice};
 use burn::module::Module;
 use glam::Vec3;
-use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Which avatar a fit makes, and where its networks start.
@@ -78,6 +77,10 @@ pub enum FitEvent {
     /// The avatar after `done` steps, at the end of a chunk (the caller may block here: the
     /// fit waits).
     Partial { done: usize, avatar: AnyAvatar },
+    /// What the whole fit will do (first, then revised as the fit decides).
+    Plan(FitPlan),
+    /// A phase starts (the one before ends).
+    Phase(FitPhase),
 }
 
 /// Fit an avatar to a canonicalized capture.
@@ -150,6 +153,7 @@ fn in_chunks(
         let next_look = (done / every + 1) * every;
         let next_break = breaks.iter().copied().find(|&s| s > done).unwrap_or(usize::MAX);
         let base = done;
+        on_event(FitEvent::Phase(FitPhase::Training));
         let n = next_look.min(next_break).min(steps) - base;
         let mut progress = |step: usize, loss: f32, terms: [f32; 4]| {
             on_event(FitEvent::Progress { step: base + step, steps, loss, terms })
@@ -160,17 +164,26 @@ fn in_chunks(
             break;
         }
         if breaks.contains(&done) {
+            on_event(FitEvent::Phase(FitPhase::Refinement));
             fit(Chunk::Break);
         }
-        if chunk > 0
-            && done < steps
-            && done.is_multiple_of(every)
-            && let Some(avatar) = fit(Chunk::Partial(done))
-        {
-            on_event(FitEvent::Partial { done, avatar });
+        if chunk > 0 && done < steps && done.is_multiple_of(every) {
+            on_event(FitEvent::Phase(FitPhase::Partial));
+            if let Some(avatar) = fit(Chunk::Partial(done)) {
+                on_event(FitEvent::Partial { done, avatar });
+            }
         }
     }
     done
+}
+
+/// The partial avatars [`in_chunks`] makes from step `from` to `to`.
+fn partials(from: usize, to: usize, chunk: usize) -> usize {
+    if chunk == 0 || to <= from {
+        return 0;
+    }
+    let every = chunk_len(chunk, to);
+    (to - 1) / every - from / every
 }
 
 /// Pre-alignment runs when at least this share of the points is near the body (midway between
@@ -219,8 +232,26 @@ pub(crate) fn fit_meta(
     if let (Some(r), Some(t)) = (refiner.as_mut(), trace) {
         r.trace_against(&t.truth);
     }
+    // The plan: a loose outfit's longer fit is expected where pre-alignment finds the body
+    // explains few points (the dress's 41-50 %), and is checked after the steps.
+    let longer =
+        if matches!(init, Init::MetaLearned(_)) { options.loose_steps() } else { options.steps };
+    let plan = |prealignment: bool, rounds: usize, loose: bool| {
+        let steps = if loose { longer } else { options.steps };
+        FitPlan {
+            prealignment: prealignment as usize,
+            steps,
+            refinements: rounds,
+            loose_checks: (longer > options.steps) as usize,
+            partials: partials(0, options.steps, chunk)
+                + if loose { partials(options.steps, longer, chunk) } else { 0 },
+        }
+    };
+    let prealigns = refiner.as_ref().is_some_and(|r| r.options.prealign_rounds > 0);
+    on_event(FitEvent::Plan(plan(prealigns, rounds.len(), false)));
     // Pre-alignment against the subject's own body, before the SDF learns the misalignment.
     if let Some(r) = refiner.as_mut().filter(|r| r.options.prealign_rounds > 0) {
+        on_event(FitEvent::Phase(FitPhase::PreAlignment));
         let body = crate::body_sdf::BodySdf::new(capture);
         let band = r.options.prealign_cutoff;
         let sdf = |_: usize, p: &[Vec3]| body.beyond_clothing(p, band);
@@ -248,6 +279,7 @@ pub(crate) fn fit_meta(
             r.redraw_shells(&ShellOptions::default());
             r.update_samples(&mut samples, encoding);
         }
+        on_event(FitEvent::Plan(plan(true, rounds.len(), share < PREALIGN_MIN_NEAR)));
         if r.truth.is_some() {
             eprintln!(
                 "pose trace: {:.0} % of the points near the body: pre-alignment {}",
@@ -315,10 +347,10 @@ pub(crate) fn fit_meta(
     // an avatar with loose pieces by then goes on (`HyperFitOptions::loose_step_factor`). Not
     // from scratch: a barely trained random SDF's blobs are no cloth, and the baseline keeps
     // the budget it is compared at.
-    let longer =
-        if matches!(init, Init::MetaLearned(_)) { options.loose_steps() } else { options.steps };
     if done == options.steps && longer > done && !cancelled(cancel) {
+        on_event(FitEvent::Phase(FitPhase::LooseCheck));
         let has_loose = matches!(run(Chunk::Partial(done)), Some(AnyAvatar::Meta(a)) if a.surface_kind() == SurfaceChoice::WrappedWithLoose);
+        on_event(FitEvent::Plan(plan(prealigns, rounds.len(), has_loose)));
         if has_loose {
             total.set(longer);
             done = in_chunks(done, longer, chunk, &[], cancel, &prior, on_event, &mut run);
@@ -357,6 +389,11 @@ pub(crate) fn fit_static(
     let device = crate::compute::training_device();
     let mut model = Some(init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device));
     let mut optimiser = SdfOptimiser::default();
+    on_event(FitEvent::Plan(FitPlan {
+        steps: options.steps,
+        partials: partials(0, options.steps, chunk),
+        ..FitPlan::default()
+    }));
     let done = in_chunks(
         0,
         options.steps,
@@ -416,74 +453,6 @@ fn static_avatar(
     let mut avatar = StaticAvatar::from_fitted(capture, siren, model);
     avatar.header.partial = PartialFit::of(done, requested);
     avatar
-}
-
-/// A progress callback as a fit's event callback (partial avatars dropped).
-pub(crate) fn progress_only(progress: crate::fit::Progress<'_>) -> impl FnMut(FitEvent) + '_ {
-    move |e| {
-        if let FitEvent::Progress { step, loss, terms, .. } = e {
-            progress(step, loss, terms)
-        }
-    }
-}
-
-/// One-chunk fits of either kind with a progress callback (tests, examples and benches).
-impl MetaAvatar {
-    /// Fine-tune on the first `frames` usable frames of a capture.
-    pub fn fit_capture(
-        dir: &Path,
-        frames: usize,
-        init: &Init,
-        options: &HyperFitOptions,
-        cancel: Option<&AtomicBool>,
-        progress: Progress,
-    ) -> Result<(MetaAvatar, FitReport)> {
-        let capture = CapturePoints::open(dir, frames)?;
-        Ok(Self::fit_points(&capture, init, options, cancel, progress))
-    }
-
-    /// Fine-tune on a canonicalized capture: every frame is one pose sample (one chunk of
-    /// [`crate::avatar::fitting::fit_avatar`]).
-    pub fn fit_points(
-        capture: &CapturePoints,
-        init: &Init,
-        options: &HyperFitOptions,
-        cancel: Option<&AtomicBool>,
-        progress: Progress,
-    ) -> (MetaAvatar, FitReport) {
-        fit_meta(capture, init, options, 0, cancel, None, &mut progress_only(progress))
-    }
-}
-
-impl StaticAvatar {
-    /// Fit to the first `frames` usable frames of a capture, from SIREN's random
-    /// initialisation (`init` None) or from given weights (the static meta-SDF).
-    pub fn fit_capture(
-        dir: &Path,
-        frames: usize,
-        siren: SirenConfig,
-        init: Option<Siren>,
-        options: &FitOptions,
-        cancel: Option<&AtomicBool>,
-        progress: Progress,
-    ) -> Result<(StaticAvatar, FitReport)> {
-        let capture = CapturePoints::open(dir, frames)?;
-        Ok(Self::fit_points(&capture, siren, init, options, cancel, progress))
-    }
-
-    /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose) with
-    /// these options (one chunk of `fit_static`; the avatars of `fit_avatar` take theirs
-    /// from `HyperFitOptions::static_equivalent`).
-    pub fn fit_points(
-        capture: &CapturePoints,
-        siren: SirenConfig,
-        init: Option<Siren>,
-        options: &FitOptions,
-        cancel: Option<&AtomicBool>,
-        progress: Progress,
-    ) -> (StaticAvatar, FitReport) {
-        fit_static(capture, siren, init, options, 0, cancel, &mut progress_only(progress))
-    }
 }
 
 #[cfg(test)]

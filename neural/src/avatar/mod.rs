@@ -13,6 +13,8 @@
 //! re-exported here.
 
 pub mod body;
+mod fit_once;
+pub mod fit_plan;
 pub mod fitting;
 pub mod header;
 pub mod meta_avatar;
@@ -22,6 +24,7 @@ pub mod static_avatar;
 use crate::weights_file;
 pub use avatar_core::avatar::{AvatarSource, PROJECTION_STEPS, PoseSurface};
 pub use avatar_core::export::{ExportOptions, export_glb};
+pub use fit_plan::{FitPhase, FitPlan, TimeLeft};
 pub use fitting::{AvatarFit, FitEvent, FitKind, FitReport, fit_avatar};
 pub use header::PartialFit;
 pub use meta_avatar::{Init, META_AVATAR_KIND, MetaAvatar};

@@ -221,7 +221,7 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
             jv.seconds_left().map(|s| format!(" · {} left", human_seconds(s))).unwrap_or_default();
         ui.add(
             egui::ProgressBar::new(jv.fraction())
-                .text(format!("step {} / {}{left}", jv.step, jv.steps))
+                .text(format!("{}step {} / {}{left}", phase_prefix(jv.phase), jv.step, jv.steps))
                 .fill(egui::Color32::from_rgb(48, 98, 170)),
         );
         ui.label(
@@ -321,4 +321,9 @@ fn export_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) 
             ui.label("Exporting…");
         });
     }
+}
+
+/// "refining poses · " before the step count while a phase other than training runs.
+fn phase_prefix(phase: &str) -> String {
+    if phase.is_empty() || phase == "training" { String::new() } else { format!("{phase} · ") }
 }

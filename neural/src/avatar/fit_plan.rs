@@ -1,0 +1,215 @@
+//! What a fit will do, phase by phase, and the time left it implies. `fit_avatar` announces
+//! its [`FitPlan`] (and revises it when it decides: after pre-alignment, after the loose
+//! check) and each [`FitPhase`] as it starts; [`TimeLeft`] turns those events and the clock
+//! of the caller into an estimate (the CLI's `fit`, the studio's fit job). No clock is read
+//! here: callers pass the seconds elapsed.
+
+/// A part of a fit, announced as it starts (it ends where the next one starts, or the fit
+/// returns).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FitPhase {
+    /// The poses aligned to the subject's own body, before the first step.
+    PreAlignment,
+    /// A run of training steps (sampling, loss and gradient, Adam), up to the next break.
+    Training,
+    /// A pose refinement round against the avatar's SDF, between steps.
+    Refinement,
+    /// The avatar meshed once to see whether it has loose pieces (they earn more steps).
+    LooseCheck,
+    /// The partial avatar made for the caller after a chunk (the caller's own work on it,
+    /// the studio's preview mesh, counts here too).
+    Partial,
+}
+
+impl FitPhase {
+    pub const ALL: [FitPhase; 5] = [
+        FitPhase::PreAlignment,
+        FitPhase::Training,
+        FitPhase::Refinement,
+        FitPhase::LooseCheck,
+        FitPhase::Partial,
+    ];
+
+    /// A short label for progress lines.
+    pub fn label(self) -> &'static str {
+        match self {
+            FitPhase::PreAlignment => "pre-aligning poses",
+            FitPhase::Training => "training",
+            FitPhase::Refinement => "refining poses",
+            FitPhase::LooseCheck => "checking for loose cloth",
+            FitPhase::Partial => "partial avatar",
+        }
+    }
+
+    fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The cost of one of this phase in training steps, until the fit has measured both.
+    /// Measured on the demo (`fit --timings`, docs/performance.md): a pre-alignment about 45
+    /// steps, a refinement round about 4, the loose check about 25, a preview about 8.
+    fn steps_equivalent(self) -> f64 {
+        match self {
+            FitPhase::PreAlignment => 45.0,
+            FitPhase::Training => 1.0,
+            FitPhase::Refinement => 4.0,
+            FitPhase::LooseCheck => 25.0,
+            FitPhase::Partial => 8.0,
+        }
+    }
+}
+
+/// How much of each phase a whole fit holds (steps for training, occurrences otherwise),
+/// counted from its start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FitPlan {
+    pub prealignment: usize,
+    pub steps: usize,
+    pub refinements: usize,
+    pub loose_checks: usize,
+    pub partials: usize,
+}
+
+impl FitPlan {
+    fn count(&self, phase: FitPhase) -> usize {
+        match phase {
+            FitPhase::PreAlignment => self.prealignment,
+            FitPhase::Training => self.steps,
+            FitPhase::Refinement => self.refinements,
+            FitPhase::LooseCheck => self.loose_checks,
+            FitPhase::Partial => self.partials,
+        }
+    }
+}
+
+/// The time a fit has left, from its events: each phase's own measured cost once one has
+/// run, the fit's overall pace in training steps for the phases not yet seen.
+#[derive(Debug, Clone, Default)]
+pub struct TimeLeft {
+    plan: FitPlan,
+    /// Per phase: seconds spent and units done (steps for training; phases ended otherwise).
+    spent: [f64; 5],
+    done: [f64; 5],
+    current: Option<(FitPhase, f64)>,
+    /// Steps done at the last progress event (training's units).
+    steps: usize,
+}
+
+impl TimeLeft {
+    pub fn plan(&mut self, plan: FitPlan) {
+        self.plan = plan;
+    }
+
+    /// A phase starts `at` seconds into the fit (the one before ends).
+    pub fn phase(&mut self, phase: FitPhase, at: f64) {
+        self.close(at);
+        self.current = Some((phase, at));
+    }
+
+    /// `steps` training steps are done, `at` seconds into the fit.
+    pub fn steps(&mut self, steps: usize, at: f64) {
+        self.steps = steps;
+        if let Some((FitPhase::Training, start)) = self.current {
+            let t = FitPhase::Training.index();
+            self.spent[t] += at - start;
+            self.done[t] = steps as f64;
+            self.current = Some((FitPhase::Training, at));
+        }
+    }
+
+    /// The fit returned `at` seconds in.
+    pub fn finish(&mut self, at: f64) {
+        self.close(at);
+    }
+
+    fn close(&mut self, at: f64) {
+        if let Some((phase, start)) = self.current.take() {
+            self.spent[phase.index()] += at - start;
+            if phase != FitPhase::Training {
+                self.done[phase.index()] += 1.0;
+            }
+        }
+    }
+
+    /// Seconds spent in each phase so far (the current one up to its last event).
+    pub fn spent(&self) -> impl Iterator<Item = (FitPhase, f64, usize)> + '_ {
+        FitPhase::ALL.into_iter().map(|p| (p, self.spent[p.index()], self.done[p.index()] as usize))
+    }
+
+    /// The seconds left `at` seconds into the fit; `None` until a phase has ended or a
+    /// step has run (nothing measured yet).
+    pub fn left(&self, at: f64) -> Option<f64> {
+        let units: f64 =
+            FitPhase::ALL.iter().map(|p| self.done[p.index()] * p.steps_equivalent()).sum();
+        let seconds: f64 = self.spent.iter().sum();
+        if units <= 0.0 || seconds <= 0.0 {
+            return None;
+        }
+        let pace = seconds / units;
+        let mut left = 0.0;
+        for p in FitPhase::ALL {
+            let i = p.index();
+            let each = if self.done[i] > 0.0 {
+                self.spent[i] / self.done[i]
+            } else {
+                pace * p.steps_equivalent()
+            };
+            let remaining = (self.plan.count(p) as f64 - self.done[i]).max(0.0);
+            left += remaining * each;
+        }
+        // The phase under way has run for a while already (its share is counted above).
+        if let Some((p, start)) = self.current
+            && p != FitPhase::Training
+        {
+            left -= (at - start).min(left);
+        }
+        Some(left.max(0.0))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fit that runs as planned at a steady pace: the estimate after the first phase is
+    /// the true time left, and it falls to zero at the end.
+    #[test]
+    fn a_steady_fit_is_estimated_from_its_first_phase() {
+        let plan = FitPlan { prealignment: 1, steps: 100, refinements: 2, ..FitPlan::default() };
+        let mut t = TimeLeft::default();
+        t.plan(plan);
+        assert_eq!(t.left(0.0), None);
+        t.phase(FitPhase::PreAlignment, 0.0);
+        // 0.1 s a step: pre-alignment 4.5 s, rounds 0.4 s each: 4.5 + 10 + 0.8 = 15.3 s.
+        t.phase(FitPhase::Training, 4.5);
+        let left = t.left(4.5).expect("a phase ended");
+        assert!((left - 10.8).abs() < 1e-9, "{left}");
+        t.steps(50, 9.5);
+        t.phase(FitPhase::Refinement, 9.5);
+        t.phase(FitPhase::Training, 10.3);
+        // Measured: 0.1 s a step, 0.8 s a round: 50 steps and one round left.
+        let left = t.left(10.3).unwrap();
+        assert!((left - 5.8).abs() < 1e-9, "{left}");
+        t.steps(100, 15.3);
+        t.phase(FitPhase::Refinement, 15.3);
+        t.finish(16.1);
+        assert_eq!(t.left(16.1), Some(0.0));
+        let training = t.spent().find(|s| s.0 == FitPhase::Training).unwrap();
+        assert!((training.1 - 10.0).abs() < 1e-9 && training.2 == 100);
+    }
+
+    /// A revised plan (loose cloth: twice the steps) moves the estimate at once.
+    #[test]
+    fn a_longer_plan_adds_its_steps() {
+        let mut t = TimeLeft::default();
+        t.plan(FitPlan { steps: 10, ..FitPlan::default() });
+        t.phase(FitPhase::Training, 0.0);
+        t.steps(10, 2.0);
+        assert_eq!(t.left(2.0), Some(0.0));
+        t.plan(FitPlan { steps: 20, loose_checks: 1, ..FitPlan::default() });
+        t.phase(FitPhase::LooseCheck, 2.0);
+        let left = t.left(2.0).unwrap();
+        // 10 steps at 0.2 s and a loose check at 25 steps' pace.
+        assert!((left - (2.0 + 5.0)).abs() < 1e-9, "{left}");
+    }
+}
