@@ -5,7 +5,8 @@ training step side by side with the tool users would otherwise pick.
 Same networks, sizes and loss as `avatar-studio bench --only train`: the hierarchical bone
 encoder (frozen, as fine-tuning keeps it), one head per SIREN layer (Linear-LayerNorm-ReLU x2,
 then a linear layer; low-rank residuals U_l C(pose) for `compact`, full residuals for `paper`),
-a SIREN per pose (w0 = 30), 8 poses x (500 surface + 500 off-surface) points, the spatial
+a SIREN per pose (w0 = 30), 8 poses x (1,000 surface + 1,000 off-surface) points (the fit's
+defaults; `avatar-studio bench --only train` passes its workload), the spatial
 gradient by double backward (create_graph=True), the IGR loss (on-surface |f|, off-surface
 exp(-100|f|), eikonal, the sign prior's hinge) plus the residual regulariser, and Adam with
 burn's defaults. Random data of the same shapes: the cost of a step does not depend on it.
@@ -107,8 +108,8 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--steps", type=int, default=30)
     ap.add_argument("--poses", type=int, default=8)
-    ap.add_argument("--surface", type=int, default=500)
-    ap.add_argument("--off", type=int, default=500)
+    ap.add_argument("--surface", type=int, default=1000)
+    ap.add_argument("--off", type=int, default=1000)
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     torch.manual_seed(0)

@@ -1,9 +1,10 @@
 //! `fit_avatar`, the one entry point of both kinds: a fit in chunks shows the partial avatar
-//! after each chunk but the last, reports every step range once and in order, and a cancel at a
+//! after each chunk but the last, reports every step range once and in order, announces a plan
+//! that holds what runs and each phase as it starts, and a cancel at a
 //! chunk's end keeps the avatar of the steps that ran. A static fit in one chunk of the
 //! `fit_avatar` recipe is `StaticAvatar::fit_points` with `static_equivalent` options.
 
-use avatar_neural::avatar::{AvatarFit, FitEvent, FitKind, fit_avatar};
+use avatar_neural::avatar::{AvatarFit, FitEvent, FitKind, FitPhase, FitPlan, fit_avatar};
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::encoder::PoseEncoding;
 use avatar_neural::*;
@@ -36,7 +37,10 @@ fn chunked_fits_show_partial_avatars_and_stop_at_a_chunk() {
     ] {
         let fit = AvatarFit { kind, options: options.clone(), chunk: 3, cancel: None, trace: None };
         let (mut steps, mut partials) = (Vec::new(), Vec::new());
+        let (mut plan, mut phases) = (None, Vec::new());
         let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| match e {
+            FitEvent::Plan(p) => plan = Some(p),
+            FitEvent::Phase(p) => phases.push(p),
             FitEvent::Progress { step, steps: total, .. } => {
                 assert_eq!(total, 7);
                 steps.push(step);
@@ -52,6 +56,10 @@ fn chunked_fits_show_partial_avatars_and_stop_at_a_chunk() {
         });
         assert_eq!(steps, (0..7).collect::<Vec<_>>(), "every step logged once, in order");
         assert_eq!(partials, [3, 6], "after each chunk but the last");
+        // The plan holds what ran (the time left is reckoned from it), each phase announced.
+        assert_eq!(plan, Some(FitPlan { steps: 7, partials: 2, ..FitPlan::default() }));
+        use FitPhase::{Partial, Training};
+        assert_eq!(phases, [Training, Partial, Training, Partial, Training]);
         assert_eq!(avatar.partial(), None);
         assert_eq!(report.frames, 2);
 

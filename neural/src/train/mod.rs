@@ -51,6 +51,16 @@ pub fn kernel_path() -> KernelPath {
     }
 }
 
+/// The kernels the training path runs now: "AVX-512" or "portable" (plain loops and
+/// matrixmultiply, which picks its own SIMD at run time).
+pub fn kernel_name() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    if kernel::available() {
+        return "AVX-512";
+    }
+    "portable"
+}
+
 pub use adam::Adam;
 pub use hyper_step::{HyperBatch, HyperGradient, StepLoss};
 pub use igr::IgrPoints;

@@ -9,6 +9,7 @@ use avatar_neural::compute::{Compute, select};
 use avatar_neural::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use avatar_neural::meta_training::MetaOptions;
 use avatar_neural::pose_sample::PoseSample;
+use avatar_neural::train::{KernelPath, kernel_name, kernel_path, set_kernel_path};
 use avatar_neural::{FitOptions, HyperConfig, HyperNet, Init, MetaAvatar, MetaModel, fit_sdf};
 use std::time::Instant;
 
@@ -50,20 +51,18 @@ fn hyper_step_ms(
     ms
 }
 
-fn torch_line(preset: &str) -> String {
+/// The PyTorch side of one preset at a workload (poses, surface and off-surface points a
+/// pose): its report line, or why there is none.
+fn torch_line(preset: &str, (poses, surface, off): (usize, usize, usize)) -> String {
     // The script is embedded and read from standard input: the bench runs from the installed
     // package.
     const SCRIPT: &str = include_str!("../../../../benches/train_step_torch.py");
     let child = std::process::Command::new("python3")
         .arg("-")
-        .args([
-            "--preset",
-            preset,
-            "--threads",
-            &threads().to_string(),
-            "--steps",
-            if preset == "paper" { "5" } else { "30" },
-        ])
+        .args(["--preset", preset, "--threads", &threads().to_string()])
+        .args(["--steps", if preset == "paper" { "5" } else { "30" }])
+        .args(["--poses", &poses.to_string(), "--surface", &surface.to_string()])
+        .args(["--off", &off.to_string()])
         .stdin(std::process::Stdio::piped())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
@@ -82,6 +81,25 @@ fn torch_line(preset: &str) -> String {
     }
 }
 
+/// The median step (ms) in PyTorch's line ("...: 123.4 ms a step ...").
+fn torch_ms(line: &str) -> Option<f64> {
+    let (before, _) = line.split_once(" ms a step")?;
+    before.rsplit(' ').next()?.parse().ok()
+}
+
+/// The CPU's model name (/proc/cpuinfo; "unknown CPU" elsewhere).
+pub(super) fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into())
+}
+
 fn threads() -> usize {
     std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
 }
@@ -96,43 +114,62 @@ pub fn bench_report() -> String {
     };
     let shipped = MetaModel::shipped();
     let samples = capture.pose_samples(shipped.header.config.encoding);
-    out += "| step (8 poses x (500 + 500) points, fine-tuning defaults) | training path | burn autodiff | ratio |\n|---|---|---|---|\n";
-
-    // Compact: the shipped model, fine-tuning defaults; the two paths interleaved twice.
-    let compact = shipped.hyper_net();
-    let ours_opts = HyperFitOptions { steps: 30, ..HyperFitOptions::default() };
-    let burn_opts = HyperFitOptions { steps: 6, ..HyperFitOptions::default() };
-    let (mut ours, mut burn) = (Vec::new(), Vec::new());
-    for _ in 0..2 {
-        ours.push(hyper_step_ms(&compact, &samples, &ours_opts, &capture, Compute::Cpu));
-        burn.push(hyper_step_ms(&compact, &samples, &burn_opts, &capture, Compute::CpuBurn));
-    }
-    let (o, b) = (
-        ours.iter().copied().fold(f64::MAX, f64::min),
-        burn.iter().copied().fold(f64::MAX, f64::min),
+    let fit = HyperFitOptions::default();
+    let work = (samples.len().min(fit.poses_per_step), fit.surface_per_pose, fit.off_per_pose);
+    let points = work.0 * (work.1 + work.2);
+    let label = format!("{} poses x ({} + {}) points", work.0, work.1, work.2);
+    out += &format!(
+        "CPU: {}, {} threads. Every line: one step of the fit's defaults ({label}: sampling, \
+         sign prior, loss and gradient, Adam); PyTorch at the same workload (no sampling, no \
+         sign prior), right after ours.\n\n",
+        cpu_model(),
+        threads()
     );
-    out += &format!("| compact (1.0 M parameters) | {o:.1} ms | {b:.0} ms | {:.1}x |\n", b / o);
-
-    // Paper: 85.6 M parameters, from its initialisation (the cost does not depend on values).
+    out += "| preset | workload | kernels | ours | ours a point | burn autodiff | PyTorch | ours / PyTorch |\n|---|---|---|---|---|---|---|---|\n";
+    let paths: Vec<KernelPath> = if cfg!(target_arch = "x86_64") && kernel_name() != "portable" {
+        vec![KernelPath::Fastest, KernelPath::Portable]
+    } else {
+        vec![KernelPath::Portable]
+    };
+    let chosen = kernel_path();
+    let compact = shipped.hyper_net();
     let config = HyperConfig::paper();
     let device = avatar_neural::cpu_training_device();
     let paper = config.init(config.siren.init(0, &device), 0, &device);
     let paper_samples: Vec<PoseSample> = capture.pose_samples(config.encoding);
-    let o = hyper_step_ms(
-        &paper,
-        &paper_samples,
-        &HyperFitOptions { steps: 6, ..HyperFitOptions::default() },
-        &capture,
-        Compute::Cpu,
-    );
-    let b = hyper_step_ms(
-        &paper,
-        &paper_samples,
-        &HyperFitOptions { steps: 3, ..HyperFitOptions::default() },
-        &capture,
-        Compute::CpuBurn,
-    );
-    out += &format!("| paper (85.6 M parameters) | {o:.0} ms | {b:.0} ms | {:.1}x |\n", b / o);
+    for (preset, model, samples, ours_steps, burn_steps) in
+        [("compact", &compact, &samples, 30, 6), ("paper", &paper, &paper_samples, 6, 3)]
+    {
+        let torch = torch_line(preset, work);
+        for (i, path) in paths.iter().enumerate() {
+            set_kernel_path(*path);
+            let ours_opts = HyperFitOptions { steps: ours_steps, ..fit.clone() };
+            let o = (0..2)
+                .map(|_| hyper_step_ms(model, samples, &ours_opts, &capture, Compute::Cpu))
+                .fold(f64::MAX, f64::min);
+            let burn = if i == 0 {
+                let opts = HyperFitOptions { steps: burn_steps, ..fit.clone() };
+                format!(
+                    "{:.0} ms",
+                    hyper_step_ms(model, samples, &opts, &capture, Compute::CpuBurn)
+                )
+            } else {
+                String::new()
+            };
+            let (t, ratio) = match torch_ms(&torch) {
+                Some(t) => (format!("{t:.1} ms"), format!("{:.2}x", o / t)),
+                None => ("-".into(), "-".into()),
+            };
+            out += &format!(
+                "| {preset} ({:.1} M parameters) | {label} | {} | {o:.1} ms | {:.2} us | {burn} | {t} | {ratio} |\n",
+                model.config().num_params() as f64 / 1e6,
+                kernel_name(),
+                o * 1e3 / points as f64,
+            );
+        }
+        out += &format!("\nPyTorch, {preset}: {torch}\n\n");
+    }
+    set_kernel_path(chosen);
     drop(paper);
 
     // Meta-training: Alg. 1's inner fit (one task) and Alg. 2's (a task of 8 frames).
@@ -228,11 +265,5 @@ pub fn bench_report() -> String {
         }
     );
 
-    out += &format!(
-        "\nPyTorch (`benches/train_step_torch.py`, {} threads), same sitting:\n\n- compact: {}\n- paper: {}\n",
-        threads(),
-        torch_line("compact"),
-        torch_line("paper")
-    );
     out
 }

@@ -81,3 +81,15 @@ fn loose_cloth_gets_the_factor_of_the_steps_and_a_factor_of_one_none() {
     assert_eq!(HyperFitOptions { loose_step_factor: 1.0, ..o.clone() }.loose_steps(), 256);
     assert_eq!(HyperFitOptions { loose_step_factor: 0.0, ..o }.loose_steps(), 256);
 }
+
+/// The plan's count of partial avatars is the chunk loop's, for a fit from its start and for
+/// the loose cloth's longer fit that goes on from `steps` (the time left is reckoned from it).
+#[test]
+fn the_plan_counts_the_partial_avatars_the_loop_makes() {
+    for (from, to, chunk) in [(0, 256, 64), (0, 7, 3), (0, 10, 0), (256, 512, 64), (7, 14, 3)] {
+        for breaks in [&[][..], &[16, 48]] {
+            let (_, calls) = loop_calls(from, to, chunk, breaks);
+            assert_eq!(partials(from, to, chunk), calls.partials.len(), "{from}..{to} by {chunk}");
+        }
+    }
+}
