@@ -22,6 +22,7 @@ pub mod off_surface;
 pub mod pose_refine;
 pub mod pose_sample;
 pub mod pose_trace;
+pub mod sine;
 pub mod siren;
 pub mod siren_eval;
 pub mod train;

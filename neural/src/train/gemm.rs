@@ -154,7 +154,7 @@ pub fn gemm_then(a: Mat, b: Mat, out: &mut [f32], ep: Epilogue) {
             plain(0.0, out);
             for (row, d_row) in out.chunks_exact_mut(n).zip(deriv.chunks_exact_mut(n)) {
                 for ((o, d), b) in row.iter_mut().zip(d_row.iter_mut()).zip(bias) {
-                    let (s, c) = crate::siren_eval::sin_cos(w0 * (*o + b));
+                    let (s, c) = crate::sine::sin_cos(w0 * (*o + b));
                     (*o, *d) = (s, w0 * c);
                 }
             }
