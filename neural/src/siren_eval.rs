@@ -170,24 +170,19 @@ impl SirenEval {
                 break;
             }
             let act = &mut rest[0][..m * nout];
-            let w = Mat::new(&layer.w, k, nout);
-            match s.derivs.get_mut(l) {
-                // act = sin(W0 (h W + b)), deriv = W0 cos(...), in the product's epilogue.
-                Some(d) => gemm_then(
-                    Mat::new(h, m, k),
-                    w,
-                    act,
-                    Epilogue::Sine { w0: W0, bias: &layer.b, deriv: &mut d[..m * nout] },
-                ),
-                None => {
-                    let z = &mut s.z[..m * nout];
-                    for row in z.chunks_exact_mut(nout) {
-                        row.copy_from_slice(&layer.b);
-                    }
-                    gemm(Mat::new(h, m, k), w, 1.0, z);
-                    sin_scaled(z, act);
-                }
-            }
+            // act = sin(W0 (h W + b)) and its derivative W0 cos(...) in the product's epilogue
+            // (kept per layer for the gradient, else dropped in `z`): the values are the same
+            // bits with and without gradients.
+            let deriv = match s.derivs.get_mut(l) {
+                Some(d) => &mut d[..m * nout],
+                None => &mut s.z[..m * nout],
+            };
+            gemm_then(
+                Mat::new(h, m, k),
+                Mat::new(&layer.w, k, nout),
+                act,
+                Epilogue::Sine { w0: W0, bias: &layer.b, deriv },
+            );
         }
         let Some(grads) = grads else { return };
         // Backward: d f / d h_{L-1} is the last layer's weight column for every point.
@@ -299,13 +294,6 @@ impl Scratch {
             grad_a: if gradients { buf() } else { Vec::new() },
             grad_b: if gradients { buf() } else { Vec::new() },
         }
-    }
-}
-
-/// act = sin(W0 z).
-fn sin_scaled(z: &[f32], act: &mut [f32]) {
-    for (a, &z) in act.iter_mut().zip(z) {
-        *a = sin_cos(W0 * z).0;
     }
 }
 

@@ -47,6 +47,11 @@ impl StudioApp {
             Some(Err(e)) => self.fail(e.to_string()),
             None => {}
         }
+        if let Some(task) = &self.tasks.export
+            && let Some(p) = task.events.try_iter().last()
+        {
+            self.tasks.export_progress = Some(p);
+        }
         match take_done(&mut self.tasks.export) {
             Some(Ok(m)) => self.info(m),
             Some(Err(e)) => self.fail(format!("Export failed: {e}")),

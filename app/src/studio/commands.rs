@@ -330,8 +330,13 @@ impl StudioApp {
         let clip = self.timeline.clip.clone();
         let options =
             avatar_core::export::ExportOptions { color: self.view.material, ..Default::default() };
-        let task = Task::spawn("export", self.wake(), move |_| -> crate::error::Result<String> {
-            let e = avatar_core::export::export_glb(avatar.source(), &clip, &options)?;
+        self.tasks.export_progress = None;
+        let task = Task::spawn("export", self.wake(), move |cx| -> crate::error::Result<String> {
+            // Frames made of all the export will make, after every chunk (the side panel's bar).
+            let progress = |p: avatar_core::export::Progress| cx.send(p);
+            let control = avatar_core::export::Control { progress: Some(&progress), cancel: None };
+            let e =
+                avatar_core::export::export_glb_with(avatar.source(), &clip, &options, control)?;
             avatar_core::io::write_bytes_atomic(&path, &e.glb)?;
             Ok(format!(
                 "Exported {} ({} frames, {} vertices, {:.2} MB)",

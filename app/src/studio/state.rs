@@ -97,8 +97,9 @@ pub struct Tasks {
     pub capture: Option<(String, Task<LoadedCapture>)>,
     /// Opening or meshing an avatar.
     pub avatar: Option<Task<AvatarReady>>,
-    /// Writing the animated glTF.
-    pub export: Option<Task<String>>,
+    /// Writing the animated glTF, and its last progress (frames made of all).
+    pub export: Option<Task<String, avatar_core::export::Progress>>,
+    pub export_progress: Option<avatar_core::export::Progress>,
 }
 
 pub struct StudioApp {

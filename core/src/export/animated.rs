@@ -59,6 +59,16 @@ pub fn export_glb(
     export_with(source, clip, options, Control::default(), true)
 }
 
+/// [`export_glb`] with progress and cancellation through `control` (the studio's export).
+pub fn export_glb_with(
+    source: &dyn AvatarSource,
+    clip: &MotionClip,
+    options: &ExportOptions,
+    control: Control,
+) -> Result<Exported> {
+    export_with(source, clip, options, control, true)
+}
+
 /// The animated glTF, frames streamed (`export::stream`): memory bounded whatever the clip's
 /// length; progress and cancellation through `control`.
 pub fn export_glb_streaming(

@@ -10,8 +10,8 @@ pub mod stream;
 
 pub use crate::avatar::AvatarSource;
 pub use animated::{
-    DEFAULT_COLOR, ExportOptions, Exported, check_clip, export_glb, export_glb_streaming, top4,
-    write_mesh_sequence,
+    DEFAULT_COLOR, ExportOptions, Exported, check_clip, export_glb, export_glb_streaming,
+    export_glb_with, top4, write_mesh_sequence,
 };
 pub use morph::{Basis, MorphTargets, compress};
 pub use source::SyntheticAvatar;

@@ -316,10 +316,20 @@ fn export_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) 
         }
     });
     if app.exporting() {
-        ui.horizontal(|ui| {
-            ui.spinner();
-            ui.label("Exporting…");
-        });
+        match app.tasks.export_progress {
+            Some(p) if p.total > 0 => {
+                ui.add(
+                    egui::ProgressBar::new(p.done as f32 / p.total as f32)
+                        .text(format!("Exporting: frames {} / {}", p.done, p.total)),
+                );
+            }
+            _ => {
+                ui.horizontal(|ui| {
+                    ui.spinner();
+                    ui.label("Exporting…");
+                });
+            }
+        }
     }
 }
 
