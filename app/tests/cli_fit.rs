@@ -17,7 +17,7 @@ fn fits_the_demo_from_the_shipped_meta_model_and_writes_a_loadable_avatar() {
         .arg(&demo)
         .arg("--out")
         .arg(&out)
-        .args(["--steps", "3", "--frames", "2"])
+        .args(["--steps", "3", "--frames", "2", "--timings"])
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&run.stdout);
@@ -26,6 +26,11 @@ fn fits_the_demo_from_the_shipped_meta_model_and_writes_a_loadable_avatar() {
         stdout.contains("pose-dependent avatar (meta-learned") && stdout.contains("2 frames"),
         "{stdout}"
     );
+    // --timings: the phases that ran, training's three steps among them.
+    for row in ["| canonicalization |", "| pre-aligning poses |", "| saving |", "| total |"] {
+        assert!(stdout.contains(row), "{row} in {stdout}");
+    }
+    assert!(stdout.contains("| training |") && stdout.contains("3 steps"), "{stdout}");
     let avatar = avatar_neural::MetaAvatar::load(&out).unwrap();
     assert_eq!(avatar.header.config, avatar_neural::HyperConfig::compact());
     assert_eq!(
