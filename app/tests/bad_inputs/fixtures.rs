@@ -79,6 +79,7 @@ pub fn meta_header() -> MetaAvatarHeader {
         partial: None,
         body: None,
         refined_poses: None,
+        frame_indices: None,
     }
 }
 
