@@ -47,12 +47,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         avatar.resolution = r.parse()?;
     }
     // An avatar file older than its reference pose: the least bent training pose.
-    if avatar.header.reference_pose.is_none() && std::env::var("ZERO_REFERENCE").is_err() {
-        if let Some(poses) = &avatar.header.refined_poses {
-            let refined: Vec<_> = poses.iter().map(|p| p.refined.clone()).collect();
-            avatar.header.reference_pose =
-                avatar_core::body::BodyParams::least_bent(&refined).cloned();
-        }
+    if avatar.header.reference_pose.is_none()
+        && std::env::var("ZERO_REFERENCE").is_err()
+        && let Some(poses) = &avatar.header.refined_poses
+    {
+        let refined: Vec<_> = poses.iter().map(|p| p.refined.clone()).collect();
+        avatar.header.reference_pose = avatar_core::body::BodyParams::least_bent(&refined).cloned();
     }
     // AT_REST=1: the rest pose's canonical surface at every pose.
     let at_rest = std::env::var("AT_REST").is_ok();

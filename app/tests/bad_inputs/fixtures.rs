@@ -80,6 +80,7 @@ pub fn meta_header() -> MetaAvatarHeader {
         body: None,
         refined_poses: None,
         reference_pose: None,
+        frame_indices: None,
     }
 }
 

@@ -101,6 +101,10 @@ pub struct MetaAvatarHeader {
     /// saw. Absent in older files: the zero pose.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference_pose: Option<BodyParams>,
+    /// The capture's frames the avatar was fitted on (manifest indices, in the take's order;
+    /// absent in avatars made before the frames were chosen over the whole capture).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_indices: Option<Vec<usize>>,
 }
 
 /// The bone encoder's Adam rate when fine-tuning from scratch (the reference's).
@@ -183,6 +187,7 @@ impl MetaAvatar {
             body: section,
             refined_poses,
             reference_pose,
+            frame_indices: Some(capture.frames.iter().map(|f| f.index).collect()),
         };
         let wrap = Arc::new(BodyWrap::new(&body, &capture.betas));
         MetaAvatar {
@@ -227,6 +232,15 @@ impl MetaAvatar {
                 }
                 if let Some(poses) = &h.refined_poses {
                     refined_poses::check(poses, h.frames)?;
+                }
+                if let Some(list) = &h.frame_indices
+                    && (list.len() != h.frames || list.windows(2).any(|w| w[0] >= w[1]))
+                {
+                    return Err(Error::invalid(format!(
+                        "\"frame_indices\" holds {} frames, not {} ascending ones",
+                        list.len(),
+                        h.frames
+                    )));
                 }
                 Ok(h.config.num_params() + h.body.as_ref().map_or(0, BodySection::len))
             })?;
