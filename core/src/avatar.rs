@@ -52,9 +52,53 @@ impl PoseSurface {
     }
 }
 
+/// An avatar's rest surface, made once, and what posing it needs: its skinning weights and
+/// its smoother. Every pose is this surface moved onto the pose's surface
+/// ([`PoseSurface::project`]: the moves bounded and smoothed, `canonical::pose_displacement`)
+/// and skinned, so a surface that is whole at rest is whole at every pose (FITE's explicit
+/// template). The evaluation's posed meshes of the neural avatars; the exporter and the
+/// studio's poser pose the same way.
+pub struct PoseTemplate {
+    pub rest: TriMesh,
+    pub weights: Vec<Weights>,
+    pub smoother: Option<SurfaceSmoother>,
+}
+
+impl PoseTemplate {
+    /// The template of `source`: its canonical surface at its reference pose.
+    pub fn new(source: &dyn AvatarSource) -> Result<PoseTemplate> {
+        let rest = source.canonical_mesh(&source.reference_params())?;
+        let weights = source.mesh_skinning_weights(&rest);
+        let smoother = source.surface_smoother(&rest);
+        Ok(PoseTemplate { rest, weights, smoother })
+    }
+
+    /// The posed mesh (world) at `params`, with the avatar's shape.
+    pub fn posed_mesh(&self, source: &dyn AvatarSource, params: &BodyParams) -> Result<TriMesh> {
+        let params = BodyParams { betas: source.betas().to_vec(), ..params.clone() };
+        let mut points = source.project(&params, &self.rest.positions, PROJECTION_STEPS)?;
+        if let Some(smoother) = &self.smoother {
+            smoother.smooth(&mut points);
+        }
+        let bones = source.body().pose(&params).bones.transforms;
+        let posed = points
+            .par_iter()
+            .zip(&self.weights)
+            .map(|(v, w)| blend_transform(&bones, w).transform_point3(*v))
+            .collect();
+        Ok(TriMesh::new(posed, self.rest.faces.clone()))
+    }
+}
+
 pub trait AvatarSource: Sync {
     fn body(&self) -> &BodyModel;
     fn betas(&self) -> &[f32];
+    /// The pose whose canonical surface is the avatar's reference mesh, which every pose moves
+    /// and skins (`PoseTemplate`, the exporter, the studio's poser): by default the zero pose,
+    /// with the avatar's shape.
+    fn reference_params(&self) -> BodyParams {
+        BodyParams { betas: self.betas().to_vec(), ..Default::default() }
+    }
     /// The clothed surface at a pose, in canonical (unposed) body space.
     fn canonical_mesh(&self, params: &BodyParams) -> Result<TriMesh>;
     /// Signed distance (metres, negative inside) of canonical points to the surface at a pose.

@@ -10,7 +10,12 @@
 //! An evaluation's avatars and captures: `avatar-studio eval ... --save-avatars DIR
 //! --keep-captures CAPS` writes DIR/NAME.avatar beside CAPS/NAME. AT_REST=1 poses
 //! the rest pose's canonical surface at every pose (what the pose-conditioned SDF adds).
-//! RESOLUTION=N meshes the avatar on N cells.
+//! RESOLUTION=N meshes the avatar on N cells. EXTRACT=1 extracts each pose's own surface
+//! instead of moving the reference surface (`MetaAvatar::posed_mesh`); TEMPLATE_POSE=K takes
+//! the reference surface at capture frame K's pose; ZERO_REFERENCE=1 at the zero pose (an
+//! avatar file without a reference pose otherwise gets its least bent training pose).
+//! LOOPS=1 prints each frame's border loops; LOOSE_SHEET=PREFIX draws every piece but the
+//! largest close up.
 use avatar_core::capture::Capture;
 use avatar_core::eval::metrics::{MetricOptions, Regions, evaluate_frame};
 use avatar_core::eval::runner::{ground_truth_mesh, query};
@@ -40,6 +45,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // `LOOSE_RESOLUTION`).
     if let Ok(r) = std::env::var("RESOLUTION") {
         avatar.resolution = r.parse()?;
+    }
+    // An avatar file older than its reference pose: the least bent training pose.
+    if avatar.header.reference_pose.is_none()
+        && std::env::var("ZERO_REFERENCE").is_err()
+        && let Some(poses) = &avatar.header.refined_poses
+    {
+        let refined: Vec<_> = poses.iter().map(|p| p.refined.clone()).collect();
+        avatar.header.reference_pose = avatar_core::body::BodyParams::least_bent(&refined).cloned();
     }
     // AT_REST=1: the rest pose's canonical surface at every pose.
     let at_rest = std::env::var("AT_REST").is_ok();
@@ -109,7 +122,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
     }
+    // TEMPLATE_POSE=K: the template is the canonical surface at capture frame K's pose.
+    let seen_template = match std::env::var("TEMPLATE_POSE") {
+        Ok(k) => {
+            use avatar_core::avatar::AvatarSource;
+            let p = capture.frames[k.parse::<usize>()?].params.clone();
+            let rest = avatar.canonical_mesh_at(&p, avatar.resolution)?;
+            let weights = avatar.mesh_skinning_weights(&rest);
+            let smoother = avatar.surface_smoother(&rest);
+            Some(avatar_core::avatar::PoseTemplate { rest, weights, smoother })
+        }
+        Err(_) => None,
+    };
     let mut all = Vec::new();
+    let mut integ = Vec::new();
     // SHEET=OUT.png: the frame with the most spurious surface, truth beside the avatar and its
     // faces farther than 2 cm from the truth (front, side, back, below).
     let mut worst: Option<(f32, Vec<avatar_core::mesh::TriMesh>, String)> = None;
@@ -131,7 +157,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut rows = Vec::new();
         for (i, pose) in poses {
             let truth = ground_truth_mesh(&capture.body, &template, &pose, subject);
-            let predicted = if at_rest {
+            let predicted = if let Some(t) = &seen_template {
+                t.posed_mesh(&avatar, &pose)?
+            } else if std::env::var("EXTRACT").is_ok() {
+                avatar.posed_mesh_of_surface_at(&pose, &pose)?
+            } else if at_rest {
                 avatar.posed_mesh_of_surface_at(&pose, &avatar.rest_params())?
             } else {
                 avatar.posed_mesh(&pose)?
@@ -168,6 +198,56 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if std::env::var("PIECES").is_ok() {
                 println!("{name} {i}: {}", pieces_report(&predicted, &truth));
             }
+            integ.push(avatar_core::mesh::integrity::integrity(&predicted));
+            if let Ok(out) = std::env::var("LOOSE_SHEET") {
+                // Every piece but the largest (the wrapped body), close up.
+                let (labels, count) = avatar_core::mesh::topology::face_components(&predicted);
+                let mut area = vec![0f32; count];
+                for (f, &l) in labels.iter().enumerate() {
+                    area[l as usize] += predicted.triangle_area(f);
+                }
+                let big = (0..count).max_by(|&a, &b| area[a].total_cmp(&area[b])).unwrap_or(0);
+                let faces: Vec<[u32; 3]> = predicted
+                    .faces
+                    .iter()
+                    .zip(&labels)
+                    .filter(|(_, l)| **l as usize != big)
+                    .map(|(f, _)| *f)
+                    .collect();
+                let loose = avatar_core::mesh::topology::compact(&predicted.positions, &faces);
+                let views = [
+                    Vec3::Z,
+                    Vec3::X,
+                    Vec3::NEG_Z,
+                    Vec3::new(0.0, -1.0, 0.35),
+                    Vec3::new(0.0, 1.0, 0.2),
+                ];
+                avatar_core::synth::contact_sheet::write_view_sheet_from(
+                    format!("{out}-{name}{i}.png").as_ref(),
+                    &[loose],
+                    &views,
+                    1.6,
+                )?;
+            }
+            if std::env::var("LOOPS").is_ok() {
+                let mut loops: Vec<(f32, f32, f32)> =
+                    avatar_core::mesh::holes::border_loops(&predicted)
+                        .iter()
+                        .map(|l| {
+                            let c =
+                                l.iter().map(|&v| predicted.positions[v as usize]).sum::<Vec3>()
+                                    / l.len() as f32;
+                            (avatar_core::mesh::holes::loop_length(&predicted, l), c.y, c.z)
+                        })
+                        .collect();
+                loops.sort_by(|a, b| b.0.total_cmp(&a.0));
+                let t: Vec<String> = loops
+                    .iter()
+                    .take(12)
+                    .map(|(l, y, z)| format!("{l:.2}m@y{y:.2}z{z:.2}"))
+                    .collect();
+                println!("{name} {i}: loops {}", t.join(" "));
+            }
             let metrics = evaluate_frame(&predicted, &truth, &regions, &options, i as u64)?;
             if worst.as_ref().is_none_or(|w| metrics.surface.spurious > w.0) {
                 let far = far_faces(&predicted, &truth);
@@ -201,6 +281,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         all.iter().map(|m| m.nc).sum::<f32>() / n,
         100.0 * all.iter().map(|m| m.surface.spurious).sum::<f32>() / n,
         100.0 * all.iter().map(|m| m.surface.missing).sum::<f32>() / n
+    );
+    let m = integ.len() as f32;
+    println!(
+        "integrity: border {:.2} m, non-manifold {:.1}, pieces {:.1}, small {:.1}, self-intersecting {:.2} %",
+        integ.iter().map(|i| i.boundary_length_m).sum::<f32>() / m,
+        integ.iter().map(|i| i.non_manifold_edges as f32).sum::<f32>() / m,
+        integ.iter().map(|i| i.pieces as f32).sum::<f32>() / m,
+        integ.iter().map(|i| i.small_pieces as f32).sum::<f32>() / m,
+        100.0 * integ.iter().map(|i| i.self_intersecting).sum::<f32>() / m
     );
     if let (Ok(out), Some((spurious, meshes, which))) = (std::env::var("SHEET"), worst) {
         let views = [Vec3::Z, Vec3::X, Vec3::NEG_Z, Vec3::new(0.0, -1.0, 0.35)];

@@ -11,7 +11,9 @@ use avatar_core::canonical::{
     Canonicalizer, FieldOptions, Normalisation, ShellOptions, SkinningField, default_cache_dir,
     shell_samples,
 };
-use avatar_core::capture::{Capture, CaptureOptions, FreeSpaceOptions, free_space_samples};
+use avatar_core::capture::{
+    CaptureOptions, CaptureSource, FrameChoice, FreeSpaceOptions, free_space_samples,
+};
 use avatar_core::mesh::signed_distance::SignedDistance;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -19,6 +21,8 @@ use std::sync::Arc;
 
 /// One frame's canonical points (normalised space) with normals, and its body pose.
 pub struct FramePoints {
+    /// The frame's index in the capture's manifest.
+    pub index: usize,
     pub params: BodyParams,
     pub points: Vec<Vec3>,
     pub normals: Vec<Vec3>,
@@ -45,6 +49,8 @@ pub struct CapturePoints {
     pub field_cells: usize,
     pub normalisation: Normalisation,
     pub frames: Vec<FramePoints>,
+    /// Frames in the capture (its manifest), of which `frames` were chosen.
+    pub capture_frames: usize,
     /// Points dropped by the 2 cm filter or with no converged root.
     pub dropped: usize,
     pub warnings: Vec<String>,
@@ -119,13 +125,17 @@ impl FrameCount {
 }
 
 impl CapturePoints {
-    /// Canonicalize the first `frames` usable frames of the capture in `dir`.
+    /// Canonicalize `frames` usable frames of the capture in `dir` (all of them when it has
+    /// no more; else chosen over the whole capture: [`CapturePoints::open_with`]).
     pub fn open(dir: &Path, frames: usize) -> Result<CapturePoints> {
         Self::open_with(dir, FrameCount::exactly(frames), None)
     }
 
     /// Like [`CapturePoints::open`], for a range of frame counts, with `body_model` (an SMPL
-    /// npz) replacing the body model the capture names (`fit --body-model`).
+    /// npz) replacing the body model the capture names (`fit --body-model`). The frames are
+    /// chosen over the whole capture ([`FrameChoice`]: spread over the poses, the views of the
+    /// body and the time; every frame when the capture has no more than asked) and only the
+    /// chosen ones are read; a frame that cannot be used is replaced by the next of the choice.
     pub fn open_with(
         dir: &Path,
         count: FrameCount,
@@ -133,42 +143,56 @@ impl CapturePoints {
     ) -> Result<CapturePoints> {
         let (frames, at_least) =
             (count.at_most.max(1), count.at_least.clamp(1, count.at_most.max(1)));
-        let capture = Capture::open_with(
-            dir,
-            &CaptureOptions {
-                body_model: body_model.map(Path::to_path_buf),
-                ..CaptureOptions::default()
-            },
-        )?;
-        let mut warnings: Vec<String> = capture.warnings.iter().map(|w| w.to_string()).collect();
-        // Most frames without depth near the body: the one-line reason (units, camera, axes).
-        warnings.extend(capture.diagnose());
+        let options = CaptureOptions {
+            body_model: body_model.map(Path::to_path_buf),
+            ..CaptureOptions::default()
+        };
+        let source = CaptureSource::open(dir, &options)?;
+        let mut choice = FrameChoice::new(&source.manifest);
+        let mut capture = source.into_capture(Vec::new(), Vec::new());
+        capture.read_chosen(&mut choice, frames, &options)?;
+        if capture.frames.is_empty() {
+            return Err(capture.no_usable_frame().into());
+        }
         // Too few usable frames is refused here already, before the skinning field is built.
-        let opened: Vec<usize> = capture.frames.iter().map(|f| f.index).take(frames).collect();
+        let opened: Vec<usize> = capture.frames.iter().map(|f| f.index).collect();
         avatar_core::capture::plausibility::require_usable_frames(
             &capture,
             at_least,
             &opened,
             &[],
         )?;
-        let betas = capture.frames[0].params.betas.clone();
+        // The shape of the earliest frame read (every frame's, for a capture with one subject).
+        let first = capture.frames.iter().min_by_key(|f| f.index).expect("a usable frame");
+        let betas = first.params.betas.clone();
         let field_options = FieldOptions::default();
         let cache = default_cache_dir();
-        let canon = Canonicalizer::new(&capture.body, &betas, &field_options, cache.as_deref())?;
-        warnings.extend(canon.cache_warning.clone());
+        let body = capture.body.clone();
+        let canon = Canonicalizer::new(&body, &betas, &field_options, cache.as_deref())?;
+        let cache_warning = canon.cache_warning.clone();
         let norm = canon.normalisation;
         let mut out = Vec::new();
         let mut dropped = 0;
-        // The first `frames` usable frames: a frame skipped here is replaced by the next one.
-        let (mut used, mut skipped) = (Vec::new(), Vec::new());
-        for f in &capture.frames {
+        // A frame skipped here is replaced by the next one of the choice.
+        let (mut used, mut skipped, mut skip_warnings) = (Vec::new(), Vec::new(), Vec::new());
+        let mut next = 0;
+        loop {
             if out.len() >= frames {
                 break;
             }
+            if next == capture.frames.len() {
+                let want = next + frames - out.len();
+                capture.read_chosen(&mut choice, want, &options)?;
+                if next == capture.frames.len() {
+                    break;
+                }
+            }
+            let f = &capture.frames[next];
+            next += 1;
             let c = canon.frame(f);
             dropped += c.dropped + c.unsolved;
             if c.points.len() < MIN_FRAME_POINTS {
-                warnings.push(format!(
+                skip_warnings.push(format!(
                     "{}: frame {}: only {} canonical points survived; skipped",
                     dir.display(),
                     f.index,
@@ -189,6 +213,7 @@ impl CapturePoints {
             );
             let free_space = canon.free_space(f, &free).iter().map(|p| norm.to_unit(*p)).collect();
             out.push(FramePoints {
+                index: f.index,
                 params: f.params.clone(),
                 points: c.points.iter().map(|p| norm.to_unit(*p)).collect(),
                 normals: c.normals,
@@ -196,6 +221,14 @@ impl CapturePoints {
                 shells: Vec::new(),
             });
         }
+        // In the take's order (with every frame chosen, the capture's own order).
+        out.sort_by_key(|f| f.index);
+        used.sort_unstable();
+        let mut warnings: Vec<String> = capture.warnings.iter().map(|w| w.to_string()).collect();
+        // Most frames without depth near the body: the one-line reason (units, camera, axes).
+        warnings.extend(capture.diagnose());
+        warnings.extend(cache_warning);
+        warnings.extend(skip_warnings);
         // Fewer usable frames than asked (and than the capture has) is an error naming them.
         avatar_core::capture::plausibility::require_usable_frames(
             &capture, at_least, &used, &skipped,
@@ -217,12 +250,30 @@ impl CapturePoints {
             field_cells: field_options.cells_along_height,
             normalisation: norm,
             frames: out,
+            capture_frames: capture.manifest.frames.len(),
             dropped,
             warnings,
         };
         capture.add_shell_samples(&ShellOptions::default());
         capture.drop_free_space_inside_body();
         Ok(capture)
+    }
+
+    /// Which frames the fit takes, in one line: "32 of the capture's 3000 frames, chosen over
+    /// the whole take: 0, 94, ...".
+    pub fn choice_summary(&self) -> String {
+        let list: Vec<String> = self.frames.iter().map(|f| f.index.to_string()).collect();
+        let how = if self.frames.len() < self.capture_frames {
+            "chosen over the whole take"
+        } else {
+            "every frame"
+        };
+        format!(
+            "frames: {} of the capture's {} ({how}): {}",
+            self.frames.len(),
+            self.capture_frames,
+            list.join(", ")
+        )
     }
 
     /// Free-space samples whose canonical position the sign prior calls inside the body are

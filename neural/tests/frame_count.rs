@@ -1,8 +1,11 @@
 //! How many frames a fit takes (`FrameCount`): `fit`'s default and the studio's panel take up
 //! to their most and only refuse below their least; an exact count (`fit --frames N`) refuses
-//! fewer usable frames, naming the bad one.
+//! fewer usable frames, naming the bad one; a long capture gives frames from all of it.
 
-use avatar_core::capture::CaptureManifest;
+use avatar_core::body::open_body_ref;
+use avatar_core::capture::{CaptureManifest, FrameChoice};
+use avatar_core::motion::{MotionClip, library};
+use avatar_core::synth::{Outfit, SynthJob, generate_capture};
 use avatar_neural::capture_points::{CapturePoints, FrameCount};
 use std::path::Path;
 
@@ -32,11 +35,18 @@ fn a_range_takes_every_usable_frame_up_to_its_most_and_an_exact_count_refuses_fe
     let all = CapturePoints::open_with(dir.path(), FrameCount { at_least: 3, at_most: 32 }, None)
         .unwrap();
     assert_eq!(all.frames.len(), 4);
-    // At most 2: the first two usable frames.
+    let indices = |c: &CapturePoints| c.frames.iter().map(|f| f.index).collect::<Vec<_>>();
+    assert_eq!(indices(&all), [0, 1, 3, 4], "every usable frame, in the capture's order");
+    // At most 2: the first two usable frames of the choice over the whole capture.
     let two =
         CapturePoints::open_with(dir.path(), FrameCount { at_least: 1, at_most: 2 }, None).unwrap();
     assert_eq!(two.frames.len(), 2);
-    assert_eq!(two.frames[1].params, all.frames[1].params);
+    let manifest = CaptureManifest::load(dir.path()).unwrap();
+    let mut chosen: Vec<usize> = FrameChoice::new(&manifest).filter(|&i| i != 2).take(2).collect();
+    chosen.sort_unstable();
+    assert_eq!(indices(&two), chosen);
+    let k = all.frames.iter().position(|f| f.index == chosen[1]).unwrap();
+    assert_eq!(two.frames[1].params, all.frames[k].params);
     // Exactly 5 is more than are usable: refused, naming the capture and the broken frame.
     let err = CapturePoints::open_with(dir.path(), FrameCount::exactly(5), None)
         .err()
@@ -54,4 +64,27 @@ fn a_range_takes_every_usable_frame_up_to_its_most_and_an_exact_count_refuses_fe
     assert_eq!(FrameCount::up_to(4), FrameCount::exactly(4));
     assert_eq!(FrameCount::up_to(32), FrameCount::DEFAULT);
     assert_eq!(FrameCount::up_to(20), FrameCount { at_least: 8, at_most: 20 });
+}
+
+#[test]
+fn a_long_capture_gives_frames_from_all_of_it_and_says_which() {
+    // Every library clip back to back (every 12th frame), the person turning as they move.
+    let frames: Vec<_> =
+        library::library().iter().flat_map(|c| c.frames.iter().step_by(12).cloned()).collect();
+    let mut job = SynthJob::new(5, Outfit::TshirtShorts, MotionClip::new("long_take", 2.5, frames));
+    job.turn_per_frame_deg = 11.0;
+    job.write_ground_truth = false;
+    let dir = tempfile::tempdir().unwrap();
+    let n = generate_capture(dir.path(), open_body_ref(), &job).unwrap().frames;
+    let capture = CapturePoints::open_with(dir.path(), FrameCount::up_to(8), None).unwrap();
+    let read: Vec<usize> = capture.frames.iter().map(|f| f.index).collect();
+    assert_eq!(read.len(), 8);
+    assert_eq!(capture.capture_frames, n);
+    assert!(read.windows(2).all(|w| w[0] < w[1]), "in the take's order: {read:?}");
+    assert!(read[0] < n / 8 && read[7] - read[0] > n * 3 / 4, "{read:?} of {n} frames");
+    let manifest = CaptureManifest::load(dir.path()).unwrap();
+    assert_eq!(read, FrameChoice::first(&manifest, 8));
+    let summary = capture.choice_summary();
+    assert!(summary.contains(&format!("8 of the capture's {n}")), "{summary}");
+    assert!(summary.contains("chosen over the whole take"), "{summary}");
 }

@@ -84,6 +84,7 @@ fn capture_with_error(
             None,
         );
         out.push(FramePoints {
+            index: k,
             params: given,
             points: c.points.iter().map(|p| norm.to_unit(*p)).collect(),
             normals: c.normals,
@@ -104,6 +105,7 @@ fn capture_with_error(
         field,
         field_cells: 48,
         normalisation: norm,
+        capture_frames: frames,
         frames: out,
         dropped: 0,
         warnings: Vec::new(),

@@ -23,7 +23,7 @@ pub struct Args {
     /// body model capture.json names. The avatar stores the subject's shaped body, not the file.
     #[arg(long)]
     body_model: Option<PathBuf>,
-    /// Use the first N usable frames (default: up to 32, refused under 8; more frames average
+    /// Use N usable frames, chosen over the whole capture (default: up to 32, refused under 8; more frames average
     /// down the fittings' shared error, which pose refinement cannot see: docs/results.md).
     #[arg(long)]
     frames: Option<usize>,
@@ -119,6 +119,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let capture = progress.outer("canonicalization", || {
         CapturePoints::open_with(&args.capture, frames, args.body_model.as_deref())
     })?;
+    eprintln!("{}", capture.choice_summary());
     let trace = match &args.true_poses {
         Some(dir) => Some(PoseTrace {
             snap: args.snap_to_truth.as_deref().map(Snap::parse),

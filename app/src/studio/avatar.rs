@@ -98,7 +98,10 @@ pub struct CanonicalMesh {
 
 /// The canonical mesh of an avatar (at the rest pose) with its skinning weights.
 pub fn canonical_of(avatar: &dyn StudioAvatar, body_betas: &[f32]) -> Result<CanonicalMesh> {
-    let params = avatar_core::body::BodyParams { betas: body_betas.to_vec(), ..Default::default() };
+    let params = avatar_core::body::BodyParams {
+        betas: body_betas.to_vec(),
+        ..avatar.source().reference_params()
+    };
     let mesh = avatar.source().canonical_mesh(&params)?;
     let weights = avatar.source().mesh_skinning_weights(&mesh);
     let smoother = avatar.source().surface_smoother(&mesh).map(Arc::new);

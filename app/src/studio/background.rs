@@ -60,11 +60,18 @@ impl StudioApp {
         self.poll_job();
         match self.bakes.poll() {
             Some(Ok(b)) => {
-                self.info(format!(
-                    "Baked {} frames for playback in {:.1} s",
-                    b.frames.len(),
-                    b.seconds
-                ));
+                if b.seconds.is_nan() {
+                    self.info(format!(
+                        "Kept {} baked frames for playback; the others are posed live",
+                        b.frames.len()
+                    ));
+                } else {
+                    self.info(format!(
+                        "Baked {} frames for playback in {:.1} s",
+                        b.frames.len(),
+                        b.seconds
+                    ));
+                }
                 self.show_baked();
             }
             Some(Err(e)) => self.fail(format!("{e}")),
@@ -233,12 +240,11 @@ impl StudioApp {
         self.bakes.start(key, posable.exact(), body, params, wake);
     }
 
-    /// Show the baked mesh of the current frame, if the clip is baked. Returns true if shown.
+    /// Show the baked mesh of the current frame, if it is baked (by a finished bake or the
+    /// running one). Returns true if shown.
     fn show_baked(&mut self) -> bool {
         let Some((key, _)) = self.current_bake() else { return false };
-        let Some(frame) =
-            self.bakes.get(&key).and_then(|b| b.frames.get(self.timeline.current_frame()).cloned())
-        else {
+        let Some(frame) = self.bakes.frame(&key, self.timeline.current_frame()) else {
             return false;
         };
         if !self.posed.as_ref().is_some_and(|p| Arc::ptr_eq(p, &frame)) {

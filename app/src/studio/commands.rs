@@ -37,6 +37,8 @@ pub enum Command {
     /// Show a fine-tuning job started elsewhere (tests start a gated one).
     WatchFit(FitJob),
     CancelFit,
+    /// Stop baking the clip: the frames baked so far play, the rest are posed live.
+    StopBake,
     /// Ask the user for a path (native dialog, else the in-app one); the answer becomes the
     /// purpose's command.
     AskPath(PathPurpose),
@@ -100,6 +102,10 @@ impl StudioApp {
                     j.cancel();
                     self.info("Cancelling: the partial avatar is kept");
                 }
+            }
+            Command::StopBake => {
+                self.bakes.stop();
+                self.info("Stopped baking: the frames baked so far play, the rest are posed live");
             }
             Command::AskPath(purpose) => self.ask_path(purpose),
             Command::SetMode(mode) => self.set_mode(mode),

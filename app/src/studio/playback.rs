@@ -1,6 +1,9 @@
 //! Playback at the clip's rate: a pose takes longer than a frame on two cores, so the clip's
-//! poses are baked once in the background (with progress) and played from memory. Bakes are
-//! cached per posable (avatar, body or partial result) and per clip with its joint offsets.
+//! poses are baked once in the background (with progress) and played from memory, each frame
+//! as soon as it is baked (a long take plays its start while the rest bakes). Bakes are cached
+//! per posable (avatar, body or partial result) and per clip with its joint offsets; at most
+//! [`MAX_BAKED_FRAMES`] frames are held in all (a longer clip's later frames are posed live),
+//! and a bake stopped by hand keeps the frames it made.
 
 use crate::error::StudioError;
 use crate::studio::posing::{Posable, PoseRequest, PosedMesh, pose};
@@ -10,6 +13,9 @@ use std::sync::Arc;
 
 /// How many bakes are kept (the oldest is dropped first).
 const CACHED: usize = 3;
+/// The most frames baked for one clip and held by all bakes together: 1,200 frames (40 s at
+/// 30 fps) of a 13,380-vertex avatar are about 480 MB. Frames past it are posed live.
+pub const MAX_BAKED_FRAMES: usize = 1200;
 
 /// What a bake depends on: the canonical mesh posed (by identity), the clip and the joint
 /// offsets (bit patterns, so that the key is exact).
@@ -48,11 +54,15 @@ pub struct Baked {
 #[derive(Default)]
 pub struct Bakes {
     done: Vec<Arc<Baked>>,
-    running: Option<(BakeKey, Task<Baked, usize>)>,
+    running: Option<(BakeKey, Task<Baked, Arc<PosedMesh>>)>,
+    /// The running bake's frames so far (played while it runs).
+    partial: Vec<Arc<PosedMesh>>,
     /// (frames baked, frames) of the running bake.
     pub progress: Option<(usize, usize)>,
     /// Bakes that failed (not retried).
     failed: Vec<BakeKey>,
+    /// The bake stopped by hand (its frames are kept when it ends).
+    stopped: Option<BakeKey>,
 }
 
 impl Bakes {
@@ -62,6 +72,22 @@ impl Bakes {
 
     pub fn baking(&self) -> bool {
         self.running.is_some()
+    }
+
+    /// Frame `frame` of the bake `key`: done, or already made by the running bake.
+    pub fn frame(&self, key: &BakeKey, frame: usize) -> Option<Arc<PosedMesh>> {
+        if let Some(b) = self.get(key) {
+            return b.frames.get(frame).cloned();
+        }
+        match &self.running {
+            Some((k, _)) if k == key => self.partial.get(frame).cloned(),
+            _ => None,
+        }
+    }
+
+    /// Frames held by the finished bakes and the running one.
+    pub fn held_frames(&self) -> usize {
+        self.done.iter().map(|b| b.frames.len()).sum::<usize>() + self.partial.len()
     }
 
     /// Start baking `params` (one per frame) unless that bake exists or runs; a bake of another
@@ -80,12 +106,21 @@ impl Bakes {
         {
             return;
         }
+        self.cancel();
+        self.running = None;
+        self.partial.clear();
+        let mut params = params;
+        params.truncate(MAX_BAKED_FRAMES);
+        // Room for the new bake: the oldest bakes go first.
+        while !self.done.is_empty() && self.held_frames() + params.len() > MAX_BAKED_FRAMES {
+            self.done.remove(0);
+        }
         let n = params.len();
         let k = key.clone();
         let task = Task::spawn("playback bake", wake, move |cx| {
             let t = std::time::Instant::now();
             let mut frames: Vec<Arc<PosedMesh>> = Vec::with_capacity(n);
-            for (f, params) in params.into_iter().enumerate() {
+            for params in params {
                 if cx.cancelled() {
                     return Err(StudioError::invalid("cancelled"));
                 }
@@ -98,8 +133,9 @@ impl Bakes {
                 if let Some(first) = frames.first() {
                     m.faces = first.faces.clone(); // one copy of the triangles for the whole clip
                 }
-                frames.push(Arc::new(m));
-                cx.send(f + 1);
+                let m = Arc::new(m);
+                frames.push(m.clone());
+                cx.send(m);
             }
             Ok(Baked { key: k, frames, seconds: t.elapsed().as_secs_f64() })
         });
@@ -108,25 +144,24 @@ impl Bakes {
     }
 
     /// Progress and the finished bake, if it just finished (errors are returned for the status
-    /// bar; a cancelled bake is dropped quietly).
+    /// bar; a cancelled bake is dropped quietly, a stopped one keeps its frames).
     pub fn poll(&mut self) -> Option<crate::error::Result<Arc<Baked>>> {
         let (key, task) = self.running.as_ref()?;
-        if let (Some(done), Some((_, n))) = (task.drain_events().last().copied(), self.progress) {
-            self.progress = Some((done, n));
+        self.partial.extend(task.drain_events());
+        if let Some((_, n)) = self.progress {
+            self.progress = Some((self.partial.len(), n));
         }
         let r = task.poll()?;
         let cancelled = task.is_cancelling();
         let key = key.clone();
         self.running = None;
         self.progress = None;
+        let partial = std::mem::take(&mut self.partial);
+        let stopped = self.stopped.take().is_some_and(|k| k == key);
         match r {
-            Ok(b) => {
-                let b = Arc::new(b);
-                self.done.push(b.clone());
-                if self.done.len() > CACHED {
-                    self.done.remove(0);
-                }
-                Some(Ok(b))
+            Ok(b) => Some(Ok(self.keep(b))),
+            Err(_) if stopped => {
+                Some(Ok(self.keep(Baked { key, frames: partial, seconds: f64::NAN })))
             }
             Err(_) if cancelled => None,
             Err(e) => {
@@ -136,8 +171,30 @@ impl Bakes {
         }
     }
 
+    fn keep(&mut self, b: Baked) -> Arc<Baked> {
+        let b = Arc::new(b);
+        self.done.push(b.clone());
+        while self.done.len() > CACHED
+            || (self.done.len() > 1 && self.held_frames() > MAX_BAKED_FRAMES)
+        {
+            self.done.remove(0);
+        }
+        b
+    }
+
+    /// Cancel the running bake (another clip or avatar is shown): its frames are dropped.
     pub fn cancel(&mut self) {
         if let Some((_, t)) = &self.running {
+            t.cancel();
+        }
+        self.partial.clear();
+    }
+
+    /// Stop the running bake by hand: the frames baked so far are kept and played, the rest
+    /// posed live, and the bake is not started again for this clip.
+    pub fn stop(&mut self) {
+        if let Some((k, t)) = &self.running {
+            self.stopped = Some(k.clone());
             t.cancel();
         }
     }

@@ -7,6 +7,10 @@ use eframe::egui;
 use glam::{EulerRot, Quat, Vec3};
 use std::path::Path;
 
+/// Motion files recorded faster are played (and baked) at this rate, as `export` and `pose`
+/// write them by default.
+pub const PLAYBACK_FPS: f32 = 30.0;
+
 /// Joints with their own controls (SMPL indices).
 pub const MAJOR_JOINTS: [usize; 12] = [0, 3, 6, 12, 16, 17, 18, 19, 1, 2, 4, 5];
 
@@ -90,10 +94,17 @@ impl Timeline {
         p
     }
 
+    /// A motion file; one recorded faster than [`PLAYBACK_FPS`] (a 120 fps take) is resampled
+    /// to it, its source rate kept (`clip.source_fps`, shown on the timeline).
     pub fn load_file(path: &Path) -> crate::error::Result<Timeline> {
-        let clip = MotionClip::load(path)?;
+        let mut clip = MotionClip::load(path)?;
         if clip.frames.is_empty() {
             return Err(crate::error::StudioError::file(path, "the motion has no frames"));
+        }
+        if clip.fps > PLAYBACK_FPS {
+            clip = clip.resample(PLAYBACK_FPS).map_err(|e| {
+                crate::error::StudioError::file(path, format!("cannot resample the motion: {e}"))
+            })?;
         }
         Ok(Timeline::new(clip, path.display().to_string()))
     }
@@ -133,7 +144,9 @@ pub fn timeline_bar(ui: &mut egui::Ui, t: &mut Timeline) -> TimelineActions {
         }
         let n = t.frames();
         let mut f = t.current_frame();
-        ui.spacing_mut().slider_width = (ui.available_width() - 400.0).max(120.0);
+        // Room for the time (and a resampled clip's source rate), speed and clip.
+        let reserve = if t.clip.source_fps != t.clip.fps { 540.0 } else { 400.0 };
+        ui.spacing_mut().slider_width = (ui.available_width() - reserve).max(120.0);
         let r = ui.add(
             egui::Slider::new(&mut f, 0..=n - 1)
                 .text("frame")
@@ -144,9 +157,16 @@ pub fn timeline_bar(ui: &mut egui::Ui, t: &mut Timeline) -> TimelineActions {
             t.playing = false;
             a.changed = true;
         }
+        let source = if t.clip.source_fps != t.clip.fps {
+            // A BVH's frame time gives 119.99999: rates to the hundredth.
+            let rate = |f: f32| (f * 100.0).round() / 100.0;
+            format!(" ({} fps source at {})", rate(t.clip.source_fps), rate(t.clip.fps))
+        } else {
+            String::new()
+        };
         ui.label(
             egui::RichText::new(format!(
-                "{:.2} s",
+                "{:.2} s{source}",
                 t.current_frame() as f32 / t.clip.fps.max(1e-3)
             ))
             .monospace()

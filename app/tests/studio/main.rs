@@ -322,3 +322,4 @@ fn private_demo() -> tempfile::TempDir {
 
 mod dialogs_and_scans;
 mod jobs_and_playback;
+mod long_take;

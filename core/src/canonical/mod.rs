@@ -10,6 +10,7 @@ pub mod fold_guard;
 pub mod garment_skinning;
 pub mod normalise;
 pub mod offset_smoothing;
+pub mod pose_displacement;
 pub mod report;
 pub mod root_finding;
 pub mod sheets;
@@ -28,6 +29,7 @@ pub use garment_skinning::{
 };
 pub use normalise::Normalisation;
 pub use offset_smoothing::{OffsetSmoothing, SurfaceSmoother, smooth_body_offsets};
+pub use pose_displacement::{DisplacementLimit, bound_moves};
 pub use root_finding::{Root, RootOptions, find_roots, forward_point, start_bones};
 pub use sheets::{SheetOptions, open_inner_walls};
 pub use shell::{ShellOptions, shell_samples};

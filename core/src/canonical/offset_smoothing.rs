@@ -8,6 +8,7 @@
 //! rebuilt from it, so the bumps go and the limbs keep the body's curvature. Loose cloth (a
 //! skirt, tails) keeps its own shape; the smoothing fades out with the distance to the body.
 
+use super::pose_displacement::{DisplacementLimit, bound_moves};
 use crate::mesh::TriMesh;
 use crate::mesh::signed_distance::SignedDistance;
 use crate::mesh::smooth::{Neighbours, vertex_neighbours};
@@ -50,6 +51,10 @@ pub fn smooth_body_offsets(mesh: &mut TriMesh, body: &SignedDistance, options: &
 /// along the normal, so its offsets are read from these anchors at every pose without another
 /// nearest-point search.
 pub struct SurfaceSmoother {
+    /// The mesh's own vertices: a pose's projection moves each at most `limit` away from them.
+    reference: Vec<Vec3>,
+    reference_normals: Vec<Vec3>,
+    limit: DisplacementLimit,
     anchors: Vec<Option<(Vec3, Vec3)>>,
     neighbours: Neighbours,
     options: OffsetSmoothing,
@@ -65,6 +70,9 @@ impl SurfaceSmoother {
             .map(|&x| body.smooth_offset(x).map(|(d, n)| (x - d * n, n)))
             .collect();
         SurfaceSmoother {
+            reference: mesh.positions.clone(),
+            reference_normals: mesh.vertex_normals(),
+            limit: DisplacementLimit::default(),
             anchors,
             neighbours: vertex_neighbours(mesh),
             options,
@@ -87,11 +95,20 @@ impl SurfaceSmoother {
         self
     }
 
-    /// Smooth `positions` (the mesh's vertices, here or moved a little) in place.
+    /// Smooth `positions` (the mesh's vertices, here or moved by a pose's projection) in
+    /// place: the moves bounded and averaged (`pose_displacement`), then the offsets from the
+    /// body smoothed.
     pub fn smooth(&self, positions: &mut [Vec3]) {
         if positions.len() != self.anchors.len() {
             return;
         }
+        bound_moves(
+            &self.reference,
+            &self.reference_normals,
+            positions,
+            &self.neighbours,
+            &self.limit,
+        );
         self.smooth_offsets(positions);
         for &(v, x) in &self.pinned {
             positions[v] = x;
@@ -251,7 +268,16 @@ mod tests {
         for (i, p) in pose.positions.iter_mut().enumerate() {
             *p += p.normalize() * 0.003 * ((i % 7) as f32 / 6.0);
         }
+        // The smoother first bounds and averages the moves (`pose_displacement`); then its
+        // offsets are those of the moved surface measured anew.
         let mut anew = pose.clone();
+        bound_moves(
+            &reference.positions,
+            &reference.vertex_normals(),
+            &mut anew.positions,
+            &vertex_neighbours(&reference),
+            &DisplacementLimit::default(),
+        );
         smooth_body_offsets(&mut anew, &body, &options);
         smoother.smooth(&mut pose.positions);
         let worst = pose

@@ -1,13 +1,14 @@
 //! `import depth`: a folder of 16-bit depth PNGs plus per-frame SMPL fittings (an AMASS-style
 //! npz, or a folder of JSON pose files, one per frame) becomes a capture folder. The frames are
-//! checked by opening them in place first, so every problem is reported with
-//! `Capture::open`'s message naming the input file; then the images are copied and
+//! checked by reading them in place first (a chunk at a time: memory stays flat in the
+//! video's length), so every problem is reported with `Capture::open`'s message naming the
+//! input file; then the images are copied and
 //! `capture.json` is written. See docs/capture-format.md.
 
 use super::amass::{AmassSequence, read_amass, z_up_to_y_up};
 use super::depth_png::read_depth_png;
 use super::manifest::{CaptureManifest, FrameRecord, Intrinsics};
-use super::open::{Capture, FrameError};
+use super::open::{CaptureOptions, CaptureSource, FrameError};
 use crate::body::{BodyModel, BodyParams};
 use crate::error::{Error, Result};
 use glam::{Mat4, Quat};
@@ -209,6 +210,10 @@ pub fn check_output_dir(out: &Path, inputs: &[&Path]) -> Result<()> {
     Ok(())
 }
 
+/// Frames read at once while an import checks them (a chunk's points are dropped before the
+/// next is read).
+const IMPORT_CHUNK: usize = 32;
+
 /// Import a depth folder with its fittings into the capture folder `out`.
 pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
     let mut inputs = vec![job.depth_dir.as_path(), job.fittings.as_path()];
@@ -296,9 +301,10 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
     }
     manifest.validate()?;
 
-    // Open the frames where they are (absolute paths) so that problems name the input files.
+    // Read the frames where they are (absolute paths) so that problems name the input files;
+    // a chunk at a time, so that a long depth video is never held whole.
     let staging = staging_dir(out);
-    let opened = (|| {
+    let checked = (|| {
         let abs: Vec<PathBuf> = images
             .iter()
             .map(|p| std::fs::canonicalize(p).map_err(|e| Error::io(p, e)))
@@ -309,16 +315,24 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
         }
         std::fs::create_dir_all(&staging).map_err(|e| Error::io(&staging, e))?;
         probe.save(&staging)?;
-        Capture::open(&staging)
+        let source = CaptureSource::open(&staging, &CaptureOptions::default())?;
+        let (usable, warnings) = source.scan(IMPORT_CHUNK)?;
+        let diagnosis = super::units::diagnose(
+            &source.dir,
+            &source.manifest,
+            &source.body,
+            &warnings,
+            source.len(),
+        );
+        Ok((usable, warnings, diagnosis))
     })();
     let _ = std::fs::remove_dir_all(&staging);
-    let capture = opened.map_err(|e| match e {
+    let (usable, warnings, diagnosis) = checked.map_err(|e| match e {
         Error::InvalidFile { path, message } if path.starts_with(&staging) => {
             Error::file(&job.depth_dir, message)
         }
         other => other,
     })?;
-    let diagnosis = capture.diagnose();
 
     // Copy the images and write the manifest.
     for (i, (rec, image)) in manifest.frames.iter_mut().zip(&images).enumerate() {
@@ -327,12 +341,7 @@ pub fn import_depth(job: &DepthImport, out: &Path) -> Result<ImportReport> {
         crate::io::write_bytes_atomic(out.join(&rec.depth), &bytes)?;
     }
     manifest.save(out)?;
-    Ok(ImportReport {
-        frames: manifest.frames.len(),
-        usable: capture.frames.len(),
-        warnings: capture.warnings,
-        diagnosis,
-    })
+    Ok(ImportReport { frames: manifest.frames.len(), usable, warnings, diagnosis })
 }
 
 /// A hidden sibling of `out` for checking the frames before anything is written there.

@@ -87,12 +87,28 @@ impl fmt::Debug for Capture {
     }
 }
 
-impl Capture {
-    pub fn open(dir: impl AsRef<Path>) -> Result<Capture> {
-        Self::open_with(dir, &CaptureOptions::default())
-    }
+/// Opening every frame of a capture at once may hold at most this much: each frame's points,
+/// normals and pixel indices, counted as if every pixel were a point (28 bytes a pixel). A
+/// longer capture is refused before any depth is read, naming the limit; `fit` chooses its
+/// frames from it ([`super::frame_choice`]) and reads only those.
+pub const MAX_OPEN_BYTES: u64 = 4 << 30;
+/// Bytes a frame's points may take per pixel of its depth image: a point, a normal (12 bytes
+/// each) and a pixel index (4).
+const BYTES_PER_PIXEL: u64 = 28;
 
-    pub fn open_with(dir: impl AsRef<Path>, options: &CaptureOptions) -> Result<Capture> {
+/// A capture folder whose manifest and body model are read and checked; its frames are read
+/// on demand (a long depth video is never held whole).
+pub struct CaptureSource {
+    pub dir: PathBuf,
+    pub manifest: CaptureManifest,
+    pub body: Arc<BodyModel>,
+    pub body_file: Option<PathBuf>,
+    options: CaptureOptions,
+}
+
+impl CaptureSource {
+    /// Read and check `capture.json` and the body model; no depth image is read.
+    pub fn open(dir: impl AsRef<Path>, options: &CaptureOptions) -> Result<CaptureSource> {
         let dir = dir.as_ref();
         let dir = if dir.is_file() { dir.parent().unwrap_or(Path::new(".")) } else { dir };
         let manifest = CaptureManifest::load(dir)?;
@@ -106,52 +122,183 @@ impl Capture {
         let body_file = body_ref.resolve(dir);
         let body = load_body_model(body_file.as_deref(), &named_by)?;
         check_shape_coefficients(dir, &manifest, &body, body_file.is_some())?;
-        let selected: Vec<usize> = match &options.frames {
-            Some(list) => {
-                if let Some(&bad) = list.iter().find(|&&i| i >= manifest.frames.len()) {
-                    return Err(Error::invalid(format!(
-                        "{}: frame {bad} requested but the capture has {} frames",
-                        dir.display(),
-                        manifest.frames.len()
-                    )));
+        Ok(CaptureSource {
+            dir: dir.to_path_buf(),
+            manifest,
+            body,
+            body_file,
+            options: options.clone(),
+        })
+    }
+
+    /// Frames in the manifest.
+    pub fn len(&self) -> usize {
+        self.manifest.frames.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.manifest.frames.is_empty()
+    }
+
+    /// Refuse holding `frames` frames at once when they could take more than
+    /// [`MAX_OPEN_BYTES`]; checked before any depth is read.
+    pub fn check_memory(&self, frames: usize) -> Result<()> {
+        let intr = &self.manifest.intrinsics;
+        let per_frame = intr.width as u64 * intr.height as u64 * BYTES_PER_PIXEL;
+        let bytes = per_frame.saturating_mul(frames as u64);
+        if bytes <= MAX_OPEN_BYTES {
+            return Ok(());
+        }
+        let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+        Err(Error::file(
+            self.dir.join(MANIFEST_FILE),
+            format!(
+                "too large to open whole: {frames} frames of {}x{} could hold {:.1} GiB of points, over the limit of {:.0} GiB ({} frames at this size); `fit` chooses its frames from the whole capture and reads only those (fit --frames N)",
+                intr.width,
+                intr.height,
+                gib(bytes),
+                gib(MAX_OPEN_BYTES),
+                MAX_OPEN_BYTES / per_frame.max(1)
+            ),
+        ))
+    }
+
+    /// Read the frames `indices` (manifest indices, in that order; in parallel): each one
+    /// checked, back-projected, oriented and cropped, or the reason it cannot be used.
+    pub fn load(
+        &self,
+        indices: &[usize],
+    ) -> Result<Vec<std::result::Result<CaptureFrame, FrameError>>> {
+        load_frames(&self.dir, &self.manifest, &self.body, indices, &self.options)
+    }
+
+    /// Read every frame, a chunk at a time, keeping only what could not be used: how many
+    /// frames are usable, and the others' reasons. Memory stays that of one chunk whatever the
+    /// capture's length (`import depth`). No usable frame at all is an error.
+    pub fn scan(&self, chunk: usize) -> Result<(usize, Vec<FrameError>)> {
+        let all: Vec<usize> = (0..self.len()).collect();
+        let (mut usable, mut warnings) = (0, Vec::new());
+        for part in all.chunks(chunk.max(1)) {
+            for r in self.load(part)? {
+                match r {
+                    Ok(_) => usable += 1,
+                    Err(e) => warnings.push(e),
                 }
-                list.clone()
             }
-            None => (0..manifest.frames.len()).collect(),
+        }
+        if usable == 0 {
+            return Err(self.no_usable_frame(&warnings));
+        }
+        Ok((usable, warnings))
+    }
+
+    /// The error of a capture none of whose frames can be used, with the likely reason.
+    pub fn no_usable_frame(&self, warnings: &[FrameError]) -> Error {
+        no_usable_frame(&self.dir, &self.manifest, &self.body, warnings)
+    }
+
+    /// The capture of the frames read, with the reasons of those that could not be.
+    pub fn into_capture(self, frames: Vec<CaptureFrame>, warnings: Vec<FrameError>) -> Capture {
+        Capture {
+            dir: self.dir,
+            manifest: self.manifest,
+            body: self.body,
+            body_file: self.body_file,
+            frames,
+            warnings,
+        }
+    }
+}
+
+impl Capture {
+    pub fn open(dir: impl AsRef<Path>) -> Result<Capture> {
+        Self::open_with(dir, &CaptureOptions::default())
+    }
+
+    /// Every frame (or `options.frames`) read at once; refused before any depth is read when
+    /// they could hold more than [`MAX_OPEN_BYTES`].
+    pub fn open_with(dir: impl AsRef<Path>, options: &CaptureOptions) -> Result<Capture> {
+        let source = CaptureSource::open(dir, options)?;
+        let selected: Vec<usize> = match &options.frames {
+            Some(list) => list.clone(),
+            None => (0..source.len()).collect(),
         };
-        let results: Vec<std::result::Result<CaptureFrame, FrameError>> = selected
-            .par_iter()
-            .map(|&i| load_frame(dir, &manifest, &manifest.frames[i], i, &body, options))
-            .collect();
+        source.check_memory(selected.len())?;
         let mut frames = Vec::new();
         let mut warnings = Vec::new();
-        for r in results {
+        for r in source.load(&selected)? {
             match r {
                 Ok(f) => frames.push(f),
                 Err(e) => warnings.push(e),
             }
         }
         if frames.is_empty() {
-            let reasons: Vec<String> = warnings.iter().take(5).map(|w| w.to_string()).collect();
-            let why = super::units::diagnose(dir, &manifest, &body, &warnings, warnings.len())
-                .map(|d| format!(": {d}"))
-                .unwrap_or_default();
-            return Err(Error::file(
-                dir.join(super::manifest::MANIFEST_FILE),
-                format!(
-                    "no usable frame in the capture ({} skipped){why}. Frames: {}",
-                    warnings.len(),
-                    reasons.join("; ")
-                ),
-            ));
+            return Err(source.no_usable_frame(&warnings));
         }
-        Ok(Capture { dir: dir.to_path_buf(), manifest, body, body_file, frames, warnings })
+        Ok(source.into_capture(frames, warnings))
+    }
+
+    /// Read the frames `indices` too (manifest indices, in parallel), each one added to the
+    /// frames or, with its reason, to the warnings.
+    pub fn read_frames(&mut self, indices: &[usize], options: &CaptureOptions) -> Result<()> {
+        for r in load_frames(&self.dir, &self.manifest, &self.body, indices, options)? {
+            match r {
+                Ok(f) => self.frames.push(f),
+                Err(e) => self.warnings.push(e),
+            }
+        }
+        Ok(())
+    }
+
+    /// The error of a capture none of whose frames read so far can be used.
+    pub fn no_usable_frame(&self) -> Error {
+        no_usable_frame(&self.dir, &self.manifest, &self.body, &self.warnings)
     }
 
     /// All frames' points (world space), concatenated.
     pub fn total_points(&self) -> usize {
         self.frames.iter().map(|f| f.points.len()).sum()
     }
+}
+
+fn load_frames(
+    dir: &Path,
+    manifest: &CaptureManifest,
+    body: &BodyModel,
+    indices: &[usize],
+    options: &CaptureOptions,
+) -> Result<Vec<std::result::Result<CaptureFrame, FrameError>>> {
+    if let Some(&bad) = indices.iter().find(|&&i| i >= manifest.frames.len()) {
+        return Err(Error::invalid(format!(
+            "{}: frame {bad} requested but the capture has {} frames",
+            dir.display(),
+            manifest.frames.len()
+        )));
+    }
+    Ok(indices
+        .par_iter()
+        .map(|&i| load_frame(dir, manifest, &manifest.frames[i], i, body, options))
+        .collect())
+}
+
+fn no_usable_frame(
+    dir: &Path,
+    manifest: &CaptureManifest,
+    body: &BodyModel,
+    warnings: &[FrameError],
+) -> Error {
+    let reasons: Vec<String> = warnings.iter().take(5).map(|w| w.to_string()).collect();
+    let why = super::units::diagnose(dir, manifest, body, warnings, warnings.len())
+        .map(|d| format!(": {d}"))
+        .unwrap_or_default();
+    Error::file(
+        dir.join(MANIFEST_FILE),
+        format!(
+            "no usable frame in the capture ({} skipped){why}. Frames: {}",
+            warnings.len(),
+            reasons.join("; ")
+        ),
+    )
 }
 
 /// No file: the embedded open body; else the user's SMPL npz (`named_by` says where the path

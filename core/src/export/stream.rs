@@ -68,8 +68,7 @@ pub struct FrameMaker<'a> {
 impl<'a> FrameMaker<'a> {
     pub fn new(source: &'a dyn AvatarSource, steps: usize) -> Result<Self> {
         let betas = source.betas().to_vec();
-        let reference = BodyParams { betas: betas.clone(), ..Default::default() };
-        let rest = source.canonical_mesh(&reference)?;
+        let rest = source.canonical_mesh(&source.reference_params())?;
         if rest.positions.is_empty() || rest.faces.is_empty() {
             return Err(Error::invalid("the avatar's canonical mesh is empty"));
         }

@@ -25,7 +25,7 @@ pub(crate) fn progress_only(progress: crate::fit::Progress<'_>) -> impl FnMut(Fi
 
 /// One-chunk fits of either kind with a progress callback (tests, examples and benches).
 impl MetaAvatar {
-    /// Fine-tune on the first `frames` usable frames of a capture.
+    /// Fine-tune on `frames` usable frames of a capture (chosen over all of it).
     pub fn fit_capture(
         dir: &Path,
         frames: usize,
@@ -52,7 +52,7 @@ impl MetaAvatar {
 }
 
 impl StaticAvatar {
-    /// Fit to the first `frames` usable frames of a capture, from SIREN's random
+    /// Fit to `frames` usable frames of a capture (chosen over all of it), from SIREN's random
     /// initialisation (`init` None) or from given weights (the static meta-SDF).
     pub fn fit_capture(
         dir: &Path,

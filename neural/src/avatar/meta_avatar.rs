@@ -5,6 +5,8 @@
 //! `canonical::body_wrap`) -> forward skinning (the body's own weights on
 //! the wrapped body).
 
+mod source;
+
 use crate::avatar::body::{self as avatar_body, BodySection};
 use crate::avatar::header::{
     AVATAR_FORMAT, PartialFit, avatar_field, check_avatar_header, check_subject,
@@ -18,7 +20,7 @@ use crate::model_file::MetaModel;
 use crate::pose_refine::PoseRefiner;
 use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
-use avatar_core::avatar::AvatarSource;
+use avatar_core::avatar::{AvatarSource, PROJECTION_STEPS, PoseTemplate};
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, Weights};
 use avatar_core::canonical::{
     BodyWrap, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice, field_weights,
@@ -94,6 +96,15 @@ pub struct MetaAvatarHeader {
     /// Each training frame's given and refined fitting (absent without pose refinement).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refined_poses: Option<Vec<RefinedPose>>,
+    /// The training frame's pose (refined where the poses were) nearest the zero pose: the
+    /// avatar's surface is taken there (`AvatarSource::reference_params`), at a pose its SDF
+    /// saw. Absent in older files: the zero pose.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_pose: Option<BodyParams>,
+    /// The capture's frames the avatar was fitted on (manifest indices, in the take's order;
+    /// absent in avatars made before the frames were chosen over the whole capture).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_indices: Option<Vec<usize>>,
 }
 
 /// The bone encoder's Adam rate when fine-tuning from scratch (the reference's).
@@ -106,6 +117,13 @@ pub const SCRATCH_ENCODER_RATE: f64 = 1e-4;
 /// 0.841 cm / 10.7 % spurious, 128 cells 0.765 / 9.0 %, NC 0.830 -> 0.827; 96 cells loses NC
 /// (0.800 on subject 1004). Tight clothing (the wrapped body) does not depend on it.
 pub const LOOSE_RESOLUTION: usize = 128;
+
+/// How far out (in cells) the loose pieces are extracted before they are projected back onto
+/// the surface (`MetaAvatar::loose_surface`). One fitted dress at rest (docs/decisions.md):
+/// at the zero level 14.4 m of open border and 7 non-manifold edges; 0.35 cells 11.0 m, 0.7
+/// cells 9.8 m (none non-manifold, Chamfer-L2 0.773 -> 0.807 cm, NC 0.876 -> 0.895), 1.2
+/// cells merges the skirt with the legs (29 m).
+pub const LOOSE_DILATION_CELLS: f32 = 0.7;
 
 pub struct MetaAvatar {
     pub header: MetaAvatarHeader,
@@ -123,6 +141,9 @@ pub struct MetaAvatar {
     pub surface: SurfaceChoice,
     wrap: Arc<BodyWrap>,
     decided: OnceLock<SurfaceChoice>,
+    /// The reference surface every posed mesh is made from (`posed_mesh`), made at the first
+    /// pose.
+    template: OnceLock<PoseTemplate>,
 }
 
 impl MetaAvatar {
@@ -136,6 +157,11 @@ impl MetaAvatar {
         model: &HyperNet,
         refiner: Option<&PoseRefiner>,
     ) -> MetaAvatar {
+        let refined: Option<Vec<BodyParams>> = refiner.map(|r| r.refined());
+        let training =
+            refined.unwrap_or_else(|| capture.frames.iter().map(|f| f.params.clone()).collect());
+        let reference_pose = BodyParams::least_bent(&training)
+            .map(|p| BodyParams { betas: capture.betas.clone(), ..p.clone() });
         let refined_poses = refiner.map(|r| {
             capture
                 .frames
@@ -160,6 +186,8 @@ impl MetaAvatar {
             partial: PartialFit::of(done, requested),
             body: section,
             refined_poses,
+            reference_pose,
+            frame_indices: Some(capture.frames.iter().map(|f| f.index).collect()),
         };
         let wrap = Arc::new(BodyWrap::new(&body, &capture.betas));
         MetaAvatar {
@@ -172,6 +200,7 @@ impl MetaAvatar {
             device: crate::cpu_device(),
             resolution: super::header::OUTPUT_RESOLUTION,
             surface: SurfaceChoice::default(),
+            template: OnceLock::new(),
             wrap,
             decided: OnceLock::new(),
         }
@@ -204,6 +233,15 @@ impl MetaAvatar {
                 if let Some(poses) = &h.refined_poses {
                     refined_poses::check(poses, h.frames)?;
                 }
+                if let Some(list) = &h.frame_indices
+                    && (list.len() != h.frames || list.windows(2).any(|w| w[0] >= w[1]))
+                {
+                    return Err(Error::invalid(format!(
+                        "\"frame_indices\" holds {} frames, not {} ascending ones",
+                        list.len(),
+                        h.frames
+                    )));
+                }
                 Ok(h.config.num_params() + h.body.as_ref().map_or(0, BodySection::len))
             })?;
         let (weights, body) = avatar_body::split(
@@ -231,6 +269,7 @@ impl MetaAvatar {
             device,
             resolution: super::header::OUTPUT_RESOLUTION,
             surface: SurfaceChoice::default(),
+            template: OnceLock::new(),
             wrap,
             decided: OnceLock::new(),
         })
@@ -297,7 +336,7 @@ impl MetaAvatar {
         match self.surface_kind() {
             SurfaceChoice::WrappedBody => Ok(self.wrapped_surface(&sdf, self.wrap.options.outside)),
             SurfaceChoice::WrappedWithLoose => {
-                let extracted = self.extracted_surface(&sdf, resolution.min(LOOSE_RESOLUTION))?;
+                let extracted = self.loose_surface(&sdf, resolution.min(LOOSE_RESOLUTION))?;
                 Ok(self.wrap.with_loose_pieces(
                     &self.wrapped_surface(&sdf, self.wrap.options.tight_outside),
                     &extracted,
@@ -317,6 +356,19 @@ impl MetaAvatar {
         ))
     }
 
+    /// The loose pieces' surface: a thin slab of cloth thinner than a cell tears when it is
+    /// extracted at its zero level, so the level `LOOSE_DILATION_CELLS` out is extracted (a
+    /// slab at least that much thicker, whole) and its vertices projected back onto the zero
+    /// level.
+    fn loose_surface(&self, sdf: &MetricSdf, resolution: usize) -> Result<TriMesh> {
+        let mut options = super::header::extract_options(&self.header.normalisation, resolution);
+        options.level =
+            LOOSE_DILATION_CELLS * (options.max - options.min).max_element() / resolution as f32;
+        let mut mesh = extract(|p: &[Vec3]| sdf.sdf(p), &options)?.mesh;
+        mesh.positions = sdf.project(&mesh.positions, PROJECTION_STEPS);
+        Ok(self.skinner.finish_surface(mesh))
+    }
+
     fn wrapped_surface(&self, sdf: &MetricSdf, outside: f32) -> TriMesh {
         let mut mesh = self.wrap.wrap_within(|p| sdf.sdf(p), outside).mesh;
         self.skinner.smooth_surface(&mut mesh);
@@ -324,8 +376,8 @@ impl MetaAvatar {
     }
 
     /// Which mesh stands for the surface: `surface`, or under `Auto` the wrapped body alone
-    /// where it covers the rest pose's extracted surface (tight clothing), else the wrapped body
-    /// with the loose pieces. Decided once per avatar, so every pose and every exported frame
+    /// where it covers the reference pose's extracted surface (tight clothing), else the wrapped
+    /// body with the loose pieces. Decided once per avatar, so every pose and every exported frame
     /// is made the same way.
     pub fn surface_kind(&self) -> SurfaceChoice {
         if self.surface != SurfaceChoice::Auto {
@@ -333,11 +385,13 @@ impl MetaAvatar {
         }
         // Decided under the lock: poses meshed in parallel wait for one decision. An error here
         // leaves the extracted mesh, whose own extraction then reports it.
-        *self.decided.get_or_init(|| self.rest_surface_kind().unwrap_or(SurfaceChoice::Extracted))
+        *self
+            .decided
+            .get_or_init(|| self.reference_surface_kind().unwrap_or(SurfaceChoice::Extracted))
     }
 
-    fn rest_surface_kind(&self) -> Result<SurfaceChoice> {
-        let sdf = self.sdf_at(&self.rest_params());
+    fn reference_surface_kind(&self) -> Result<SurfaceChoice> {
+        let sdf = self.sdf_at(&self.reference_params());
         let extracted = self.extracted_surface(&sdf, self.resolution)?;
         Ok(
             if self.wrap.covers(&self.wrapped_surface(&sdf, self.wrap.options.outside), &extracted)
@@ -349,15 +403,24 @@ impl MetaAvatar {
         )
     }
 
-    /// The zero pose with the avatar's shape: where the surface kind is decided and where the
-    /// studio and the exporter take their reference mesh.
+    /// The zero pose with the avatar's shape (the reference pose of an avatar file without
+    /// one).
     pub fn rest_params(&self) -> BodyParams {
         BodyParams { betas: self.header.betas.clone(), ..BodyParams::default() }
     }
 
-    /// The clothed mesh at a pose in the world (forward skinning of the canonical mesh).
+    /// The clothed mesh at a pose in the world: the reference surface moved onto the pose's
+    /// surface and skinned (`PoseTemplate`, made at the first call with `resolution`), as the exporter
+    /// and the studio pose it.
     pub fn posed_mesh(&self, params: &BodyParams) -> Result<TriMesh> {
-        self.posed_mesh_of_surface_at(params, params)
+        let template = match self.template.get() {
+            Some(t) => t,
+            None => {
+                let made = PoseTemplate::new(self)?;
+                self.template.get_or_init(|| made)
+            }
+        };
+        Ok(template.posed_mesh(self, params)?)
     }
 
     /// Diagnostic: the canonical surface the SDF gives at `surface_pose`, skinned to `params`.
@@ -394,56 +457,5 @@ impl MetaAvatar {
 
     pub fn num_params(&self) -> usize {
         self.model.num_params()
-    }
-}
-
-impl AvatarSource for MetaAvatar {
-    fn body(&self) -> &BodyModel {
-        &self.body
-    }
-    fn betas(&self) -> &[f32] {
-        &self.header.betas
-    }
-    fn canonical_mesh(&self, params: &BodyParams) -> avatar_core::Result<TriMesh> {
-        Ok(self.canonical_mesh_at(params, self.resolution)?)
-    }
-    fn sdf(&self, params: &BodyParams, points: &[Vec3]) -> avatar_core::Result<Vec<f32>> {
-        Ok(self.sdf_at(params).sdf(points))
-    }
-    /// Newton steps with the analytic gradient (reverse mode, `siren_eval`).
-    fn project(
-        &self,
-        params: &BodyParams,
-        points: &[Vec3],
-        steps: usize,
-    ) -> avatar_core::Result<Vec<Vec3>> {
-        Ok(self.sdf_at(params).project(points, steps))
-    }
-    fn skinning_weights(&self, points: &[Vec3]) -> Vec<Weights> {
-        points.iter().map(|&p| self.field.weights_at(p)).collect()
-    }
-    fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
-        self.mesh_weights(mesh)
-    }
-    /// A wrapped body's reference (the rest pose's, as the studio and the exporter take it)
-    /// keeps the body vertices its surface swallowed where they are at every pose.
-    fn surface_smoother(
-        &self,
-        reference: &TriMesh,
-    ) -> Option<avatar_core::canonical::SurfaceSmoother> {
-        let smoother = self.skinner.surface_smoother(reference);
-        let outside = match self.surface_kind() {
-            SurfaceChoice::WrappedBody => self.wrap.options.outside,
-            SurfaceChoice::WrappedWithLoose => self.wrap.options.tight_outside,
-            _ => return Some(smoother),
-        };
-        if reference.positions.len() < self.wrap.vertex_count() {
-            return Some(smoother);
-        }
-        let sdf = self.sdf_at(&self.rest_params());
-        let mut swallowed: Vec<bool> =
-            self.wrap.wrap_within(|p| sdf.sdf(p), outside).found.iter().map(|f| !f).collect();
-        swallowed.resize(reference.positions.len(), false);
-        Some(smoother.pin(reference, &swallowed))
     }
 }

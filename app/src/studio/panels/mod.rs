@@ -65,11 +65,21 @@ fn draw_panels(app: &mut StudioApp, ui: &mut egui::Ui) -> Vec<Command> {
             out.push(Command::AskPath(PathPurpose::OpenMotion));
         }
         if let Some((done, n)) = app.bakes.progress {
-            ui.add(
-                egui::ProgressBar::new(done as f32 / n.max(1) as f32)
-                    .text(format!("Baking the clip for playback: {done} / {n} frames"))
-                    .desired_height(14.0),
-            );
+            ui.horizontal(|ui| {
+                let stop = ui.button("Stop").on_hover_text(
+                    "Stop baking: the frames baked so far play, the rest are posed live",
+                );
+                if stop.clicked() {
+                    out.push(Command::StopBake);
+                }
+                ui.add(
+                    egui::ProgressBar::new(done as f32 / n.max(1) as f32)
+                        .text(format!(
+                            "Baking the clip for playback: {done} / {n} frames (baked frames play)"
+                        ))
+                        .desired_height(14.0),
+                );
+            });
         }
         ui.add_space(1.0);
     });
