@@ -56,8 +56,8 @@ impl PoseSurface {
 /// its smoother. Every pose is this surface moved onto the pose's surface
 /// ([`PoseSurface::project`]: the moves bounded and smoothed, `canonical::pose_displacement`)
 /// and skinned, so a surface that is whole at rest is whole at every pose (FITE's explicit
-/// template). The evaluation's posed meshes of the neural avatars; the exporter and the
-/// studio's poser pose the same way.
+/// template): how the exporter and the studio's poser pose (`export::stream::FrameMaker`), here
+/// for one mesh at a time (`examples/posed_errors`).
 pub struct PoseTemplate {
     pub rest: TriMesh,
     pub weights: Vec<Weights>,

@@ -10,10 +10,9 @@
 //! An evaluation's avatars and captures: `avatar-studio eval ... --save-avatars DIR
 //! --keep-captures CAPS` writes DIR/NAME.avatar beside CAPS/NAME. AT_REST=1 poses
 //! the rest pose's canonical surface at every pose (what the pose-conditioned SDF adds).
-//! RESOLUTION=N meshes the avatar on N cells. EXTRACT=1 extracts each pose's own surface
-//! instead of moving the reference surface (`MetaAvatar::posed_mesh`); TEMPLATE_POSE=K takes
-//! the reference surface at capture frame K's pose; ZERO_REFERENCE=1 at the zero pose (an
-//! avatar file without a reference pose otherwise gets its least bent training pose).
+//! RESOLUTION=N meshes the avatar on N cells. TEMPLATE=1 poses as the exporter does (the rest
+//! surface moved to each pose: `PoseTemplate`), TEMPLATE_POSE=K the same from capture frame
+//! K's surface.
 //! LOOPS=1 prints each frame's border loops; LOOSE_SHEET=PREFIX draws every piece but the
 //! largest close up.
 use avatar_core::capture::Capture;
@@ -45,14 +44,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // `LOOSE_RESOLUTION`).
     if let Ok(r) = std::env::var("RESOLUTION") {
         avatar.resolution = r.parse()?;
-    }
-    // An avatar file older than its reference pose: the least bent training pose.
-    if avatar.header.reference_pose.is_none()
-        && std::env::var("ZERO_REFERENCE").is_err()
-        && let Some(poses) = &avatar.header.refined_poses
-    {
-        let refined: Vec<_> = poses.iter().map(|p| p.refined.clone()).collect();
-        avatar.header.reference_pose = avatar_core::body::BodyParams::least_bent(&refined).cloned();
     }
     // AT_REST=1: the rest pose's canonical surface at every pose.
     let at_rest = std::env::var("AT_REST").is_ok();
@@ -134,6 +125,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         Err(_) => None,
     };
+    let exporter = avatar_core::avatar::PoseTemplate::new(&avatar)?;
     let mut all = Vec::new();
     let mut integ = Vec::new();
     // SHEET=OUT.png: the frame with the most spurious surface, truth beside the avatar and its
@@ -159,8 +151,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let truth = ground_truth_mesh(&capture.body, &template, &pose, subject);
             let predicted = if let Some(t) = &seen_template {
                 t.posed_mesh(&avatar, &pose)?
-            } else if std::env::var("EXTRACT").is_ok() {
-                avatar.posed_mesh_of_surface_at(&pose, &pose)?
+            } else if std::env::var("TEMPLATE").is_ok() {
+                exporter.posed_mesh(&avatar, &pose)?
             } else if at_rest {
                 avatar.posed_mesh_of_surface_at(&pose, &avatar.rest_params())?
             } else {

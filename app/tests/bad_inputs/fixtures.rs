@@ -79,7 +79,6 @@ pub fn meta_header() -> MetaAvatarHeader {
         partial: None,
         body: None,
         refined_poses: None,
-        reference_pose: None,
         frame_indices: None,
     }
 }

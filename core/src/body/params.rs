@@ -46,20 +46,6 @@ struct ParamsFile {
 }
 
 impl BodyParams {
-    /// How far the body's joints are bent from the zero pose: the sum of the squared joint
-    /// angles, the global orientation (joint 0) and the translation left out.
-    pub fn bend(&self) -> f32 {
-        self.pose[1..].iter().map(|a| a.length_squared()).sum()
-    }
-
-    /// The least bent of `poses` ([`BodyParams::bend`]; the first of equals).
-    pub fn least_bent<'a>(poses: impl IntoIterator<Item = &'a BodyParams>) -> Option<&'a Self> {
-        poses.into_iter().fold(None, |best: Option<&BodyParams>, p| match best {
-            Some(b) if b.bend() <= p.bend() => Some(b),
-            _ => Some(p),
-        })
-    }
-
     /// Rotation matrix of each joint.
     pub fn rotations(&self) -> [Mat3; NUM_JOINTS] {
         self.pose.map(|aa| Mat3::from_quat(Quat::from_scaled_axis(aa)))
@@ -218,18 +204,5 @@ mod tests {
         assert!(e.contains("radians") && e.contains("left_elbow"), "{e}");
         let e = BodyParams::from_json_str(r#"{"pose": [null]}"#).unwrap_err().to_string();
         assert!(e.contains("null"), "{e}");
-    }
-
-    #[test]
-    fn the_least_bent_pose_ignores_the_turn_and_the_step() {
-        let mut turned = BodyParams { trans: Vec3::new(0.0, 0.0, 2.0), ..Default::default() };
-        turned.pose[0] = Vec3::new(0.0, 3.0, 0.0);
-        turned.pose[18] = Vec3::new(0.0, 0.2, 0.0);
-        let mut knee = BodyParams::default();
-        knee.pose[4] = Vec3::new(0.5, 0.0, 0.0);
-        let poses = [knee.clone(), turned.clone()];
-        assert_eq!(BodyParams::least_bent(&poses), Some(&turned));
-        assert!((turned.bend() - 0.04).abs() < 1e-6);
-        assert_eq!(BodyParams::least_bent(&[] as &[BodyParams]), None);
     }
 }

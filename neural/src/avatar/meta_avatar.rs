@@ -20,7 +20,7 @@ use crate::model_file::MetaModel;
 use crate::pose_refine::PoseRefiner;
 use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
-use avatar_core::avatar::{AvatarSource, PROJECTION_STEPS, PoseTemplate};
+use avatar_core::avatar::PROJECTION_STEPS;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, Weights};
 use avatar_core::canonical::{
     BodyWrap, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice, field_weights,
@@ -96,11 +96,6 @@ pub struct MetaAvatarHeader {
     /// Each training frame's given and refined fitting (absent without pose refinement).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refined_poses: Option<Vec<RefinedPose>>,
-    /// The training frame's pose (refined where the poses were) nearest the zero pose: the
-    /// avatar's surface is taken there (`AvatarSource::reference_params`), at a pose its SDF
-    /// saw. Absent in older files: the zero pose.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub reference_pose: Option<BodyParams>,
     /// The capture's frames the avatar was fitted on (manifest indices, in the take's order;
     /// absent in avatars made before the frames were chosen over the whole capture).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -141,9 +136,6 @@ pub struct MetaAvatar {
     pub surface: SurfaceChoice,
     wrap: Arc<BodyWrap>,
     decided: OnceLock<SurfaceChoice>,
-    /// The reference surface every posed mesh is made from (`posed_mesh`), made at the first
-    /// pose.
-    template: OnceLock<PoseTemplate>,
 }
 
 impl MetaAvatar {
@@ -157,11 +149,6 @@ impl MetaAvatar {
         model: &HyperNet,
         refiner: Option<&PoseRefiner>,
     ) -> MetaAvatar {
-        let refined: Option<Vec<BodyParams>> = refiner.map(|r| r.refined());
-        let training =
-            refined.unwrap_or_else(|| capture.frames.iter().map(|f| f.params.clone()).collect());
-        let reference_pose = BodyParams::least_bent(&training)
-            .map(|p| BodyParams { betas: capture.betas.clone(), ..p.clone() });
         let refined_poses = refiner.map(|r| {
             capture
                 .frames
@@ -186,7 +173,6 @@ impl MetaAvatar {
             partial: PartialFit::of(done, requested),
             body: section,
             refined_poses,
-            reference_pose,
             frame_indices: Some(capture.frames.iter().map(|f| f.index).collect()),
         };
         let wrap = Arc::new(BodyWrap::new(&body, &capture.betas));
@@ -200,7 +186,6 @@ impl MetaAvatar {
             device: crate::cpu_device(),
             resolution: super::header::OUTPUT_RESOLUTION,
             surface: SurfaceChoice::default(),
-            template: OnceLock::new(),
             wrap,
             decided: OnceLock::new(),
         }
@@ -269,7 +254,6 @@ impl MetaAvatar {
             device,
             resolution: super::header::OUTPUT_RESOLUTION,
             surface: SurfaceChoice::default(),
-            template: OnceLock::new(),
             wrap,
             decided: OnceLock::new(),
         })
@@ -376,8 +360,8 @@ impl MetaAvatar {
     }
 
     /// Which mesh stands for the surface: `surface`, or under `Auto` the wrapped body alone
-    /// where it covers the reference pose's extracted surface (tight clothing), else the wrapped
-    /// body with the loose pieces. Decided once per avatar, so every pose and every exported frame
+    /// where it covers the rest pose's extracted surface (tight clothing), else the wrapped body
+    /// with the loose pieces. Decided once per avatar, so every pose and every exported frame
     /// is made the same way.
     pub fn surface_kind(&self) -> SurfaceChoice {
         if self.surface != SurfaceChoice::Auto {
@@ -385,13 +369,11 @@ impl MetaAvatar {
         }
         // Decided under the lock: poses meshed in parallel wait for one decision. An error here
         // leaves the extracted mesh, whose own extraction then reports it.
-        *self
-            .decided
-            .get_or_init(|| self.reference_surface_kind().unwrap_or(SurfaceChoice::Extracted))
+        *self.decided.get_or_init(|| self.rest_surface_kind().unwrap_or(SurfaceChoice::Extracted))
     }
 
-    fn reference_surface_kind(&self) -> Result<SurfaceChoice> {
-        let sdf = self.sdf_at(&self.reference_params());
+    fn rest_surface_kind(&self) -> Result<SurfaceChoice> {
+        let sdf = self.sdf_at(&self.rest_params());
         let extracted = self.extracted_surface(&sdf, self.resolution)?;
         Ok(
             if self.wrap.covers(&self.wrapped_surface(&sdf, self.wrap.options.outside), &extracted)
@@ -403,24 +385,18 @@ impl MetaAvatar {
         )
     }
 
-    /// The zero pose with the avatar's shape (the reference pose of an avatar file without
-    /// one).
+    /// The zero pose with the avatar's shape: where the surface kind is decided and where the
+    /// studio and the exporter take their reference mesh.
     pub fn rest_params(&self) -> BodyParams {
         BodyParams { betas: self.header.betas.clone(), ..BodyParams::default() }
     }
 
-    /// The clothed mesh at a pose in the world: the reference surface moved onto the pose's
-    /// surface and skinned (`PoseTemplate`, made at the first call with `resolution`), as the exporter
-    /// and the studio pose it.
+    /// The clothed mesh at a pose in the world: the pose's own canonical surface, skinned. Not
+    /// the reference surface moved to the pose (`PoseTemplate`, the exporter's recipe): on the
+    /// quick preset that kept every pose whole but sent loose cloth after the legs (simulated
+    /// skirt Chamfer-L2 1.74 -> 2.29 cm, spurious 11 -> 44 %; docs/integrity.md).
     pub fn posed_mesh(&self, params: &BodyParams) -> Result<TriMesh> {
-        let template = match self.template.get() {
-            Some(t) => t,
-            None => {
-                let made = PoseTemplate::new(self)?;
-                self.template.get_or_init(|| made)
-            }
-        };
-        Ok(template.posed_mesh(self, params)?)
+        self.posed_mesh_of_surface_at(params, params)
     }
 
     /// Diagnostic: the canonical surface the SDF gives at `surface_pose`, skinned to `params`.

@@ -14,12 +14,6 @@ impl AvatarSource for MetaAvatar {
     fn betas(&self) -> &[f32] {
         &self.header.betas
     }
-    fn reference_params(&self) -> BodyParams {
-        match &self.header.reference_pose {
-            Some(p) => BodyParams { betas: self.header.betas.clone(), ..p.clone() },
-            None => self.rest_params(),
-        }
-    }
     fn canonical_mesh(&self, params: &BodyParams) -> avatar_core::Result<TriMesh> {
         Ok(self.canonical_mesh_at(params, self.resolution)?)
     }
@@ -41,7 +35,7 @@ impl AvatarSource for MetaAvatar {
     fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
         self.mesh_weights(mesh)
     }
-    /// A wrapped body's reference (the reference pose's, as the studio and the exporter take it)
+    /// A wrapped body's reference (the rest pose's, as the studio and the exporter take it)
     /// keeps the body vertices its surface swallowed where they are at every pose.
     fn surface_smoother(
         &self,
@@ -56,7 +50,7 @@ impl AvatarSource for MetaAvatar {
         if reference.positions.len() < self.wrap.vertex_count() {
             return Some(smoother);
         }
-        let sdf = self.sdf_at(&self.reference_params());
+        let sdf = self.sdf_at(&self.rest_params());
         let mut swallowed: Vec<bool> =
             self.wrap.wrap_within(|p| sdf.sdf(p), outside).found.iter().map(|f| !f).collect();
         swallowed.resize(reference.positions.len(), false);
