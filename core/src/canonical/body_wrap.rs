@@ -25,7 +25,9 @@ use crate::mesh::TriMesh;
 use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
 use crate::mesh::holes::close_short_holes;
-use crate::mesh::topology::{compact, drop_small_pieces, edge_use, face_components};
+use crate::mesh::topology::{
+    compact, drop_non_manifold_faces, drop_small_pieces, edge_use, face_components,
+};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -244,7 +246,9 @@ impl BodyWrap {
         let mut merged = wrapped.clone();
         merged.positions.extend(pieces.positions);
         merged.faces.extend(pieces.faces.iter().map(|f| f.map(|v| v + base)));
-        merged
+        // A seam vertex put onto the body can land on a body vertex: the two make one, and an
+        // edge there may gain a third face.
+        drop_non_manifold_faces(&merged, wrapped.faces.len()).0
     }
 
     /// The connected pieces (faces sharing a vertex) of `mesh` that can be clothing: not

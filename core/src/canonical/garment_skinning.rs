@@ -13,6 +13,7 @@ use crate::body::{BodyModel, Bones, NUM_JOINTS, Weights, blend_transform};
 use crate::mesh::TriMesh;
 use crate::mesh::signed_distance::SignedDistance;
 use crate::mesh::smooth::vertex_neighbours;
+use crate::mesh::topology::{compact, drop_non_manifold_faces};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -281,7 +282,9 @@ impl GarmentSkinner {
     /// its offset from the body smoothed where it lies close to it
     /// (`canonical::offset_smoothing`).
     pub fn finish_surface(&self, mesh: TriMesh) -> TriMesh {
-        let mut mesh = super::open_inner_walls(mesh, &self.body, &super::SheetOptions::default());
+        let opened = super::open_inner_walls(mesh, &self.body, &super::SheetOptions::default());
+        let (manifold, _) = drop_non_manifold_faces(&opened, 0);
+        let mut mesh = compact(&manifold.positions, &manifold.faces);
         self.smooth_surface(&mut mesh);
         mesh
     }

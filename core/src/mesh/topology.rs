@@ -152,6 +152,62 @@ pub fn drop_small_pieces(mesh: &TriMesh, min_area: f32) -> TriMesh {
     compact(&mesh.positions, &faces)
 }
 
+/// Drop faces until no edge is used by more than two faces (vertices at bit-identical positions
+/// count as one, as the integrity ruler counts them): on each such edge the two largest faces
+/// stay, the first `keep_first` faces before any other (a wrapped body's own faces, which its
+/// skinning finds by position in the list). A fin or a pinch left by hole filling, seam snapping or a marching-cubes ambiguity
+/// becomes a small opening instead of an edge no exporter or modeller accepts. Vertices keep
+/// their indices (callers that need it compact). Returns the mesh and how many faces went.
+pub fn drop_non_manifold_faces(mesh: &TriMesh, keep_first: usize) -> (TriMesh, usize) {
+    use std::collections::HashMap;
+    let mut index_of: HashMap<[u32; 3], u32> = HashMap::with_capacity(mesh.positions.len());
+    let welded: Vec<u32> = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            *index_of.entry(p.to_array().map(|c| (c + 0.0).to_bits())).or_insert(i as u32)
+        })
+        .collect();
+    let mut faces_of: HashMap<(u32, u32), Vec<u32>> =
+        HashMap::with_capacity(mesh.faces.len() * 3 / 2);
+    for (f, face) in mesh.faces.iter().enumerate() {
+        let [a, b, c] = face.map(|v| welded[v as usize]);
+        for (u, v) in [(a, b), (b, c), (c, a)] {
+            if u != v {
+                faces_of.entry((u.min(v), u.max(v))).or_default().push(f as u32);
+            }
+        }
+    }
+    let mut crowded: Vec<(&(u32, u32), &Vec<u32>)> =
+        faces_of.iter().filter(|(_, faces)| faces.len() > 2).collect();
+    if crowded.is_empty() {
+        return (mesh.clone(), 0);
+    }
+    crowded.sort_unstable_by_key(|(edge, _)| **edge);
+    let mut dropped = vec![false; mesh.faces.len()];
+    for (_, faces) in crowded {
+        let mut live: Vec<u32> = faces.iter().copied().filter(|&f| !dropped[f as usize]).collect();
+        if live.len() <= 2 {
+            continue;
+        }
+        let kept_first = |f: u32| (f as usize) < keep_first;
+        live.sort_by(|&f, &g| {
+            kept_first(g)
+                .cmp(&kept_first(f))
+                .then(mesh.triangle_area(g as usize).total_cmp(&mesh.triangle_area(f as usize)))
+                .then(f.cmp(&g))
+        });
+        for &f in &live[2..] {
+            dropped[f as usize] = true;
+        }
+    }
+    let faces: Vec<[u32; 3]> =
+        mesh.faces.iter().zip(&dropped).filter(|(_, d)| !**d).map(|(f, _)| *f).collect();
+    let removed = mesh.faces.len() - faces.len();
+    (TriMesh::new(mesh.positions.clone(), faces), removed)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -190,5 +246,39 @@ mod tests {
         let kept = drop_small_pieces(&mesh, 0.01);
         assert_eq!((kept.faces.len(), kept.positions.len()), (2, 4));
         assert_eq!(drop_small_pieces(&mesh, 1e-6), mesh);
+    }
+
+    #[test]
+    fn a_fin_loses_its_smallest_face_and_split_vertices_count_as_one() {
+        use crate::mesh::integrity::integrity;
+        // Two faces of a 1 m square share the edge 1-2; a fin (a 1 cm triangle, then a large one
+        // standing up) on the same edge makes it an edge of three or four faces.
+        let positions = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.5, 0.5, 0.01),
+            // The edge 1-2 again, as split vertices (bit-identical copies).
+            Vec3::X,
+            Vec3::Y,
+            Vec3::new(0.5, 0.5, 2.0),
+        ];
+        let faces = vec![[0, 1, 2], [1, 3, 2], [1, 2, 4], [5, 6, 7]];
+        let mesh = TriMesh::new(positions, faces);
+        assert_eq!(integrity(&mesh).non_manifold_edges, 1);
+        let (clean, removed) = drop_non_manifold_faces(&mesh, 0);
+        assert_eq!(removed, 2);
+        // The two largest stay: the upright 2 m fin and one of the square's halves (0.5 m^2
+        // each; the tie goes to the lower index).
+        assert_eq!(clean.faces, vec![[0, 1, 2], [5, 6, 7]]);
+        assert_eq!(integrity(&clean).non_manifold_edges, 0);
+        assert_eq!(clean.positions, mesh.positions);
+        // A manifold mesh is returned as it is.
+        let square = TriMesh::new(mesh.positions[..4].to_vec(), vec![[0, 1, 2], [1, 3, 2]]);
+        assert_eq!(drop_non_manifold_faces(&square, 0), (square.clone(), 0));
+        // Faces kept first stay whatever their size: the square, and the fin goes.
+        let (kept, _) = drop_non_manifold_faces(&mesh, 2);
+        assert_eq!(kept.faces, vec![[0, 1, 2], [1, 3, 2]]);
     }
 }
