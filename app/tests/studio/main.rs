@@ -321,5 +321,6 @@ fn private_demo() -> tempfile::TempDir {
 }
 
 mod dialogs_and_scans;
+mod face;
 mod jobs_and_playback;
 mod long_take;

@@ -60,6 +60,9 @@ pub struct SurfaceSmoother {
     options: OffsetSmoothing,
     /// Vertices held where the reference has them (`pin`).
     pinned: Vec<(usize, Vec3)>,
+    /// Where the reference pose's own projection moves each vertex (`relative_to`): empty, or
+    /// one move a vertex.
+    reference_moves: Vec<Vec3>,
 }
 
 impl SurfaceSmoother {
@@ -77,6 +80,7 @@ impl SurfaceSmoother {
             neighbours: vertex_neighbours(mesh),
             options,
             pinned: Vec::new(),
+            reference_moves: Vec::new(),
         }
     }
 
@@ -95,12 +99,32 @@ impl SurfaceSmoother {
         self
     }
 
+    /// Measure each pose's moves from where the projection puts the reference's vertices at
+    /// the reference's own pose (`projected`), not from the reference itself: the reference is
+    /// the surface finished at that pose (folds guarded, wrapped within a margin), and a
+    /// projection moves it off that finish everywhere the zero level disagrees with it (the
+    /// eyes, the nostrils, the ears), the same at every pose. So the reference pose gives the
+    /// reference back exactly, and another pose moves it only by what the pose changes.
+    pub fn relative_to(mut self, projected: &[Vec3]) -> SurfaceSmoother {
+        if projected.len() == self.reference.len() {
+            self.reference_moves = projected
+                .iter()
+                .zip(&self.reference)
+                .map(|(p, r)| if p.is_finite() { *p - *r } else { Vec3::ZERO })
+                .collect();
+        }
+        self
+    }
+
     /// Smooth `positions` (the mesh's vertices, here or moved by a pose's projection) in
-    /// place: the moves bounded and averaged (`pose_displacement`), then the offsets from the
-    /// body smoothed.
+    /// place: the moves taken relative to the reference pose's projection (`relative_to`),
+    /// bounded and averaged (`pose_displacement`), then the offsets from the body smoothed.
     pub fn smooth(&self, positions: &mut [Vec3]) {
         if positions.len() != self.anchors.len() {
             return;
+        }
+        if self.reference_moves.len() == positions.len() {
+            positions.par_iter_mut().zip(&self.reference_moves).for_each(|(x, m)| *x -= *m);
         }
         bound_moves(
             &self.reference,
@@ -125,6 +149,18 @@ impl SurfaceSmoother {
             .zip(&self.anchors)
             .map(|(&x, anchor)| anchor.map(|(p, n)| (x - p).dot(n)))
             .collect();
+        // Relative to a reference pose (`relative_to`), the reference is already a smoothed
+        // surface: only each offset's change from the reference's is smoothed, so the reference
+        // pose gives the reference back.
+        let from: Vec<f32> = if self.reference_moves.is_empty() {
+            vec![0.0; positions.len()]
+        } else {
+            self.reference
+                .par_iter()
+                .zip(&self.anchors)
+                .map(|(&x, anchor)| anchor.map_or(0.0, |(p, n)| (x - p).dot(n)))
+                .collect()
+        };
         // How much of the smoothing each vertex takes: 1 within `a` of the body, 0 from `b` on.
         let share: Vec<f32> = offsets
             .iter()
@@ -140,7 +176,8 @@ impl SurfaceSmoother {
         let n = &self.neighbours;
         // Each sweep: a vertex's offset becomes the mean of its own and its neighbours' among the
         // vertices that take part (loose cloth neither gives nor takes).
-        let mut smoothed: Vec<f32> = offsets.iter().map(|d| d.unwrap_or(0.0)).collect();
+        let mut smoothed: Vec<f32> =
+            offsets.iter().zip(&from).map(|(d, f)| d.map_or(0.0, |d| d - f)).collect();
         let mut next = smoothed.clone();
         for _ in 0..self.options.sweeps {
             next.par_iter_mut().enumerate().for_each(|(v, out)| {
@@ -160,7 +197,7 @@ impl SurfaceSmoother {
         }
         positions.par_iter_mut().enumerate().for_each(|(v, x)| {
             if let (Some(d), Some((_, normal))) = (offsets[v], self.anchors[v]) {
-                *x += share[v] * (smoothed[v] - d) * normal;
+                *x += share[v] * (smoothed[v] - (d - from[v])) * normal;
             }
         });
     }
@@ -311,6 +348,35 @@ mod tests {
             } else {
                 assert!((p.length() - 0.115).abs() < 1e-3, "{} m", p.length());
             }
+        }
+    }
+
+    #[test]
+    fn relative_to_its_pose_the_reference_comes_back_and_a_pose_moves_it_by_the_change() {
+        // A bumpy reference (the surface finished at its pose) whose projection at that same
+        // pose lands 2-6 mm off it, differently at each vertex (the zero level disagreeing
+        // with the finish: eyes, nostrils).
+        let body = SignedDistance::new(&mesh_sphere(0.1, 48, 96));
+        let mut reference = mesh_sphere(0.108, 64, 128);
+        for p in reference.positions.iter_mut() {
+            *p *= 1.0 + 0.01 * (p.x * 40.0).sin();
+        }
+        let off = |i: usize, p: Vec3| p.normalize() * (0.002 + 0.004 * ((i % 5) as f32 / 4.0));
+        let projected: Vec<Vec3> =
+            reference.positions.iter().enumerate().map(|(i, &p)| p + off(i, p)).collect();
+        let options = OffsetSmoothing { tight: (0.02, 0.035), sweeps: 40 };
+        let smoother = SurfaceSmoother::new(&body, &reference, options).relative_to(&projected);
+        let mut same = projected.clone();
+        smoother.smooth(&mut same);
+        let worst =
+            same.iter().zip(&reference.positions).map(|(a, b)| a.distance(*b)).fold(0f32, f32::max);
+        assert!(worst < 1e-5, "the reference pose moved the reference by {worst} m");
+        // Another pose's projection: the same disagreement plus 3 mm out everywhere.
+        let mut pose: Vec<Vec3> = projected.iter().map(|&p| p + p.normalize() * 0.003).collect();
+        smoother.smooth(&mut pose);
+        for (p, r) in pose.iter().zip(&reference.positions) {
+            let moved = p.length() - r.length();
+            assert!((moved - 0.003).abs() < 3e-4, "moved {moved} m instead of 3 mm");
         }
     }
 }

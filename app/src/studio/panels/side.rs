@@ -217,11 +217,20 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
     });
     let jv = &app.job_view;
     if running || !jv.losses.is_empty() {
-        let left =
-            jv.seconds_left().map(|s| format!(" · {} left", human_seconds(s))).unwrap_or_default();
+        // A finished fit's bar says so, not its last phase and a time left.
+        let text = if running {
+            let left = jv
+                .seconds_left()
+                .map(|s| format!(" · {} left", human_seconds(s)))
+                .unwrap_or_default();
+            format!("{}step {} / {}{left}", phase_prefix(jv.phase), jv.step, jv.steps)
+        } else {
+            let end = if jv.step >= jv.steps { "finished" } else { "stopped" };
+            format!("{end} · step {} / {}", jv.step, jv.steps)
+        };
         ui.add(
             egui::ProgressBar::new(jv.fraction())
-                .text(format!("{}step {} / {}{left}", phase_prefix(jv.phase), jv.step, jv.steps))
+                .text(text)
                 .fill(egui::Color32::from_rgb(48, 98, 170)),
         );
         ui.label(

@@ -1,7 +1,7 @@
 //! How posing, export and the studio see a meta-learned avatar (`AvatarSource`).
 
 use super::MetaAvatar;
-use avatar_core::avatar::AvatarSource;
+use avatar_core::avatar::{AvatarSource, PROJECTION_STEPS};
 use avatar_core::body::{BodyModel, BodyParams, Weights};
 use avatar_core::canonical::SurfaceChoice;
 use avatar_core::mesh::TriMesh;
@@ -35,13 +35,18 @@ impl AvatarSource for MetaAvatar {
     fn mesh_skinning_weights(&self, mesh: &TriMesh) -> Vec<Weights> {
         self.mesh_weights(mesh)
     }
-    /// A wrapped body's reference (the rest pose's, as the studio and the exporter take it)
-    /// keeps the body vertices its surface swallowed where they are at every pose.
+    /// The reference (the rest pose's, as the studio and the exporter take it) is moved by
+    /// what each pose changes in the projection (`SurfaceSmoother::relative_to`); a wrapped
+    /// body's keeps the body vertices its surface swallowed where they are at every pose.
     fn surface_smoother(
         &self,
         reference: &TriMesh,
     ) -> Option<avatar_core::canonical::SurfaceSmoother> {
-        let smoother = self.skinner.surface_smoother(reference);
+        let rest = self.sdf_at(&self.rest_params());
+        let smoother = self
+            .skinner
+            .surface_smoother(reference)
+            .relative_to(&rest.project(&reference.positions, PROJECTION_STEPS));
         let outside = match self.surface_kind() {
             SurfaceChoice::WrappedBody => self.wrap.options.outside,
             SurfaceChoice::WrappedWithLoose => self.wrap.options.tight_outside,
@@ -50,9 +55,8 @@ impl AvatarSource for MetaAvatar {
         if reference.positions.len() < self.wrap.vertex_count() {
             return Some(smoother);
         }
-        let sdf = self.sdf_at(&self.rest_params());
         let mut swallowed: Vec<bool> =
-            self.wrap.wrap_within(|p| sdf.sdf(p), outside).found.iter().map(|f| !f).collect();
+            self.wrap.wrap_within(|p| rest.sdf(p), outside).found.iter().map(|f| !f).collect();
         swallowed.resize(reference.positions.len(), false);
         Some(smoother.pin(reference, &swallowed))
     }
