@@ -1,4 +1,4 @@
-//! The AVX-512 product kernel of `gemm` (x86-64, checked at run time): reads both operands in
+//! The AVX-512 product kernel of `gemm` (x86-64, checked at run time: `super::resolve`): reads both operands in
 //! place (no packing: the training step's products are too skinny for packing to pay) and
 //! finishes each tile in registers with the product's epilogue, so a sine layer's
 //! pre-activation, or the adjoint it feeds, never goes to memory.
@@ -6,27 +6,8 @@
 //! A tile is 12 rows x 32 columns of the result in 24 registers: per step along k, two loads
 //! of the right operand and twelve broadcasts of the left one feed 24 fused multiply-adds.
 
+use super::Raw;
 use std::arch::x86_64::*;
-use std::sync::OnceLock;
-
-/// Whether the AVX-512 kernels run: the CPU has them and the caller did not choose
-/// [`super::KernelPath::Portable`].
-pub fn available() -> bool {
-    static DETECTED: OnceLock<bool> = OnceLock::new();
-    *DETECTED.get_or_init(|| std::arch::is_x86_feature_detected!("avx512f"))
-        && super::kernel_path() == super::KernelPath::Fastest
-}
-
-/// An epilogue over raw pointers: every pointer addresses a buffer laid out like the result
-/// (`bias` is one row). See `gemm::Epilogue` for the meaning of each.
-#[derive(Clone, Copy)]
-pub enum Raw {
-    Store { beta: f32 },
-    Sine { w0: f32, bias: *const f32, deriv: *mut f32 },
-    AlsoTimes { factor: *const f32, times: *mut f32 },
-    GradChain { scale: f32, v: *mut f32, h: *const f32, c: *const f32 },
-    AddTimes { factor: *const f32 },
-}
 
 const MR: usize = 12;
 const NR: usize = 32;
