@@ -31,26 +31,29 @@ pub unsafe fn gemm(
     out: *mut f32,
     ep: Raw,
 ) {
-    let mut i0 = 0;
-    while i0 < m {
+    // Row tiles outside, column tiles inside: consecutive tiles' epilogues touch consecutive
+    // memory (the activations of a block of the paper's SIREN live in L3, and the prefetcher
+    // follows rows). When m is at most two tiles (the heads' products: 8 poses times a
+    // 65,792-wide output), column panels outside instead, so b is read from memory once.
+    let (row_tiles, col_tiles) = (m.div_ceil(MR), n / NR);
+    let wide = m <= 2 * MR;
+    for t in 0..row_tiles * col_tiles {
+        let (ti, tj) =
+            if wide { (t % row_tiles, t / row_tiles) } else { (t / col_tiles, t % col_tiles) };
+        let (i0, j0) = (ti * MR, tj * NR);
         let rows = MR.min(m - i0);
-        let mut j0 = 0;
-        while j0 < n {
-            // SAFETY: the tile lies inside the m x n result and reads rows i0..i0+rows of a and
-            // columns j0..j0+16 of b (the caller's contract).
-            unsafe {
-                match rows {
-                    6 => tile::<6>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    5 => tile::<5>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    4 => tile::<4>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    3 => tile::<3>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    2 => tile::<2>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    _ => tile::<1>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                }
+        // SAFETY: the tile lies inside the m x n result and reads rows i0..i0+rows of a and
+        // columns j0..j0+16 of b (the caller's contract).
+        unsafe {
+            match rows {
+                6 => tile::<6>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                5 => tile::<5>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                4 => tile::<4>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                3 => tile::<3>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                2 => tile::<2>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                _ => tile::<1>(k, n, a, rsa, csa, b, out, ep, i0, j0),
             }
-            j0 += NR;
         }
-        i0 += MR;
     }
 }
 
@@ -287,4 +290,98 @@ fn sum(v: __m256) -> f32 {
     let s = _mm_add_ps(s, _mm_movehl_ps(s, s));
     let s = _mm_add_ss(s, _mm_shuffle_ps::<0b01>(s, s));
     _mm_cvtss_f32(s)
+}
+
+/// Elements of k per pass of [`dots_wide`]: a chunk of a's rows (8 KB each) stays in cache
+/// while every row of `rows` streams its chunk once.
+const KC: usize = 2048;
+
+/// [`dots`] for a long k (the heads' d_out W^T: a few poses times 65,792 outputs against
+/// hundreds of rows): k in chunks of [`KC`], every row of `rows` read once from memory (the
+/// row-by-row loop reads it once per row of a), four rows of a at a time against it.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; a holds m x k, rows r x k, out m x r.
+#[target_feature(enable = "avx2,fma")]
+pub unsafe fn dots_wide(
+    m: usize,
+    k: usize,
+    r: usize,
+    a: *const f32,
+    rows: *const f32,
+    beta: f32,
+    out: *mut f32,
+) {
+    // SAFETY (whole body): every offset stays inside a (m x k), rows (r x k) and out (m x r).
+    unsafe {
+        if beta == 0.0 {
+            std::ptr::write_bytes(out, 0, m * r);
+        }
+        let mut c0 = 0;
+        while c0 < k {
+            let len = KC.min(k - c0);
+            for j in 0..r {
+                let bj = rows.add(j * k + c0);
+                let mut i = 0;
+                while i < m {
+                    let at = |d: usize| a.add((i + d) * k + c0);
+                    let o = out.add(i * r + j);
+                    match m - i {
+                        1 => dots_block::<1>(len, [at(0)], bj, o, r),
+                        2 => dots_block::<2>(len, [at(0), at(1)], bj, o, r),
+                        3 => dots_block::<3>(len, [at(0), at(1), at(2)], bj, o, r),
+                        _ => dots_block::<4>(len, [at(0), at(1), at(2), at(3)], bj, o, r),
+                    }
+                    i += 4;
+                }
+            }
+            c0 += len;
+        }
+    }
+}
+
+/// out[d * r] += a_d . b over `len` elements for R rows a_d (a [`dots_wide`] block).
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn dots_block<const R: usize>(
+    len: usize,
+    a: [*const f32; R],
+    b: *const f32,
+    out: *mut f32,
+    r: usize,
+) {
+    let tail = (len % 8) as i32;
+    let mask =
+        _mm256_cmpgt_epi32(_mm256_set1_epi32(tail), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+    let full = len - len % 8;
+    // SAFETY (whole body): a_d and b hold len elements, out[d * r] lies in the result.
+    unsafe {
+        let mut acc = [[_mm256_setzero_ps(); 2]; R];
+        let mut p = 0;
+        while p + 16 <= full {
+            let (b0, b1) = (load(b.add(p)), load(b.add(p + 8)));
+            for d in 0..R {
+                acc[d][0] = _mm256_fmadd_ps(load(a[d].add(p)), b0, acc[d][0]);
+                acc[d][1] = _mm256_fmadd_ps(load(a[d].add(p + 8)), b1, acc[d][1]);
+            }
+            p += 16;
+        }
+        if p < full {
+            let b0 = load(b.add(p));
+            for d in 0..R {
+                acc[d][0] = _mm256_fmadd_ps(load(a[d].add(p)), b0, acc[d][0]);
+            }
+        }
+        if tail > 0 {
+            let x = b.add(full);
+            let b1 = _mm256_maskload_ps(x, mask);
+            for d in 0..R {
+                let x = a[d].add(full);
+                acc[d][1] = _mm256_fmadd_ps(_mm256_maskload_ps(x, mask), b1, acc[d][1]);
+            }
+        }
+        for (d, acc) in acc.iter().enumerate() {
+            *out.add(d * r) += sum(_mm256_add_ps(acc[0], acc[1]));
+        }
+    }
 }

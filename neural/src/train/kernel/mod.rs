@@ -123,10 +123,15 @@ pub unsafe fn dots(
     beta: f32,
     out: *mut f32,
 ) {
+    // From this k on, a's rows no longer fit in L1 and `rows` is read once per row of a
+    // by the row-by-row loop: the chunked one reads it once.
+    const WIDE: usize = 4096;
     // SAFETY: the caller's contract, passed on.
     unsafe {
         match isa {
+            Isa::Avx512 if k >= WIDE => avx512::dots_wide(m, k, r, a, rows, beta, out),
             Isa::Avx512 => avx512::dots(m, k, r, a, rows, beta, out),
+            Isa::Avx2 if k >= WIDE => avx2::dots_wide(m, k, r, a, rows, beta, out),
             Isa::Avx2 => avx2::dots(m, k, r, a, rows, beta, out),
         }
     }
