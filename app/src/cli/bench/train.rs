@@ -11,8 +11,8 @@ use avatar_neural::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use avatar_neural::meta_training::MetaOptions;
 use avatar_neural::pose_sample::PoseSample;
 use avatar_neural::train::{KernelPath, kernel_name, kernel_name_of, kernel_path, set_kernel_path};
-use avatar_studio::studio::measure::cpu_seconds;
 use avatar_neural::{FitOptions, HyperConfig, HyperNet, Init, MetaAvatar, MetaModel, fit_sdf};
+use avatar_studio::studio::measure::cpu_seconds;
 use std::time::Instant;
 
 /// A step's time (ms): the median wall time and the mean CPU time (all threads).
@@ -62,12 +62,20 @@ fn hyper_step_ms(
 }
 
 /// The PyTorch side of one preset at a workload (poses, surface and off-surface points a
-/// pose): its report line, or why there is none.
-fn torch_line(preset: &str, (poses, surface, off): (usize, usize, usize)) -> String {
+/// pose): its report line, or why there is none. `avx2`: PyTorch limited to AVX2 as well
+/// (ATen's kernels, oneDNN and MKL, through their own environment variables, set for the
+/// child only), to stand for a CPU without AVX-512 next to our AVX2 kernels.
+fn torch_line(preset: &str, (poses, surface, off): (usize, usize, usize), avx2: bool) -> String {
     // The script is embedded and read from standard input: the bench runs from the installed
     // package.
     const SCRIPT: &str = include_str!("../../../../benches/train_step_torch.py");
-    let child = std::process::Command::new("python3")
+    let mut command = std::process::Command::new("python3");
+    if avx2 {
+        command.env("ATEN_CPU_CAPABILITY", "avx2");
+        command.env("ONEDNN_MAX_CPU_ISA", "AVX2");
+        command.env("MKL_ENABLE_INSTRUCTIONS", "AVX2");
+    }
+    let child = command
         .arg("-")
         .args(["--preset", preset, "--threads", &threads().to_string()])
         .args(["--steps", if preset == "paper" { "5" } else { "30" }])
@@ -156,9 +164,16 @@ pub fn bench_report() -> String {
     for (preset, model, samples, ours_steps, burn_steps) in
         [("compact", &compact, &samples, 30, 6), ("paper", &paper, &paper_samples, 6, 3)]
     {
-        let torch = torch_line(preset, work);
+        let torch = torch_line(preset, work, false);
+        let mut torch_avx2 = None;
         for (i, path) in paths.iter().enumerate() {
             set_kernel_path(*path);
+            let torch = if kernel_name() == "AVX2" && kernel_name_of(KernelPath::Fastest) != "AVX2"
+            {
+                torch_avx2.get_or_insert_with(|| torch_line(preset, work, true)).as_str()
+            } else {
+                torch.as_str()
+            };
             let ours_opts = HyperFitOptions { steps: ours_steps, ..fit.clone() };
             let o = (0..2)
                 .map(|_| hyper_step_ms(model, samples, &ours_opts, &capture, Compute::Cpu))
@@ -171,7 +186,7 @@ pub fn bench_report() -> String {
             } else {
                 String::new()
             };
-            let (t, t_cpu, ratio, cpu_ratio) = match torch_ms(&torch) {
+            let (t, t_cpu, ratio, cpu_ratio) = match torch_ms(torch) {
                 Some(t) => (
                     format!("{:.1} ms", t.wall),
                     format!("{:.1} ms", t.cpu),
@@ -189,7 +204,12 @@ pub fn bench_report() -> String {
                 o.cpu,
             );
         }
-        out += &format!("\nPyTorch, {preset}: {torch}\n\n");
+        out += &format!("\nPyTorch, {preset}: {torch}\n");
+        if let Some(line) = torch_avx2 {
+            out +=
+                &format!("\nPyTorch limited to AVX2 (next to our AVX2 line), {preset}: {line}\n");
+        }
+        out += "\n";
     }
     set_kernel_path(chosen);
     drop(paper);
