@@ -93,15 +93,23 @@ unsafe fn tile<const R: usize>(
             a_step = a_step.wrapping_add(csa);
             bp = bp.wrapping_add(n);
         }
-        epilogue(&acc, n, out, ep, i0, j0);
+        epilogue::<R>(&acc, n, out, ep, i0, j0);
     }
 }
 
 /// A tile's epilogue over its accumulators (rows i0.., columns j0..j0 + 16), out of line (its
-/// constants would otherwise take registers from the products' inner loop).
+/// constants would otherwise take registers from the products' inner loop), one per tile
+/// height so its loops unroll.
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
-unsafe fn epilogue(acc: &[[__m256; 2]], n: usize, out: *mut f32, ep: Raw, i0: usize, j0: usize) {
+unsafe fn epilogue<const R: usize>(
+    acc: &[[__m256; 2]; R],
+    n: usize,
+    out: *mut f32,
+    ep: Raw,
+    i0: usize,
+    j0: usize,
+) {
     let set = _mm256_set1_ps;
     let tile_at =
         |d: usize, v: usize| (i0 + d).wrapping_mul(n).wrapping_add(j0).wrapping_add(8 * v);
