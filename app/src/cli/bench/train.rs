@@ -65,7 +65,12 @@ fn hyper_step_ms(
 /// pose): its report line, or why there is none. `avx2`: PyTorch limited to AVX2 as well
 /// (ATen's kernels, oneDNN and MKL, through their own environment variables, set for the
 /// child only), to stand for a CPU without AVX-512 next to our AVX2 kernels.
-fn torch_line(preset: &str, (poses, surface, off): (usize, usize, usize), avx2: bool) -> String {
+fn torch_line(
+    preset: &str,
+    (poses, surface, off): (usize, usize, usize),
+    avx2: bool,
+    threads: usize,
+) -> String {
     // The script is embedded and read from standard input: the bench runs from the installed
     // package.
     const SCRIPT: &str = include_str!("../../../../benches/train_step_torch.py");
@@ -77,7 +82,7 @@ fn torch_line(preset: &str, (poses, surface, off): (usize, usize, usize), avx2: 
     }
     let child = command
         .arg("-")
-        .args(["--preset", preset, "--threads", &threads().to_string()])
+        .args(["--preset", preset, "--threads", &threads.to_string()])
         .args(["--steps", if preset == "paper" { "5" } else { "30" }])
         .args(["--poses", &poses.to_string(), "--surface", &surface.to_string()])
         .args(["--off", &off.to_string()])
@@ -147,7 +152,10 @@ pub fn bench_report() -> String {
         cpu_model(),
         threads()
     );
-    out += "| preset | workload | kernels | ours | ours a point | ours CPU | burn autodiff | PyTorch | PyTorch CPU | ours / PyTorch | by CPU |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    out += &format!(
+        "| preset | workload | kernels | ours | ours a point | ours CPU | burn autodiff | PyTorch, {} threads | PyTorch CPU, 1 thread | ours / PyTorch | by CPU |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        threads()
+    );
     // Every kernel path this CPU has (AVX-512, AVX2 + FMA, portable), each once.
     let mut paths: Vec<KernelPath> = Vec::new();
     for path in [KernelPath::Fastest, KernelPath::Avx2, KernelPath::Portable] {
@@ -164,15 +172,20 @@ pub fn bench_report() -> String {
     for (preset, model, samples, ours_steps, burn_steps) in
         [("compact", &compact, &samples, 30, 6), ("paper", &paper, &paper_samples, 6, 3)]
     {
-        let torch = torch_line(preset, work, false);
+        // PyTorch on all threads (wall time) and on one (CPU time: its OpenMP threads spin at
+        // every barrier, which on a busy machine inflates both its wall and its CPU time).
+        let torch =
+            [torch_line(preset, work, false, threads()), torch_line(preset, work, false, 1)];
         let mut torch_avx2 = None;
         for (i, path) in paths.iter().enumerate() {
             set_kernel_path(*path);
-            let torch = if kernel_name() == "AVX2" && kernel_name_of(KernelPath::Fastest) != "AVX2"
-            {
-                torch_avx2.get_or_insert_with(|| torch_line(preset, work, true)).as_str()
+            let avx2 = kernel_name() == "AVX2" && kernel_name_of(KernelPath::Fastest) != "AVX2";
+            let torch = if avx2 {
+                &*torch_avx2.get_or_insert_with(|| {
+                    [torch_line(preset, work, true, threads()), torch_line(preset, work, true, 1)]
+                })
             } else {
-                torch.as_str()
+                &torch
             };
             let ours_opts = HyperFitOptions { steps: ours_steps, ..fit.clone() };
             let o = (0..2)
@@ -186,14 +199,14 @@ pub fn bench_report() -> String {
             } else {
                 String::new()
             };
-            let (t, t_cpu, ratio, cpu_ratio) = match torch_ms(torch) {
-                Some(t) => (
+            let (t, t_cpu, ratio, cpu_ratio) = match (torch_ms(&torch[0]), torch_ms(&torch[1])) {
+                (Some(t), Some(one)) => (
                     format!("{:.1} ms", t.wall),
-                    format!("{:.1} ms", t.cpu),
+                    format!("{:.1} ms", one.cpu),
                     format!("{:.2}x", o.wall / t.wall),
-                    format!("{:.2}x", o.cpu / t.cpu),
+                    format!("{:.2}x", o.cpu / one.cpu),
                 ),
-                None => ("-".into(), "-".into(), "-".into(), "-".into()),
+                _ => ("-".into(), "-".into(), "-".into(), "-".into()),
             };
             out += &format!(
                 "| {preset} ({:.1} M parameters) | {label} | {} | {:.1} ms | {:.2} us | {:.1} ms | {burn} | {t} | {t_cpu} | {ratio} | {cpu_ratio} |\n",
@@ -204,10 +217,11 @@ pub fn bench_report() -> String {
                 o.cpu,
             );
         }
-        out += &format!("\nPyTorch, {preset}: {torch}\n");
-        if let Some(line) = torch_avx2 {
-            out +=
-                &format!("\nPyTorch limited to AVX2 (next to our AVX2 line), {preset}: {line}\n");
+        out += &format!("\nPyTorch, {preset}: {}\n\n{}\n", torch[0], torch[1]);
+        if let Some([all, one]) = torch_avx2 {
+            out += &format!(
+                "\nPyTorch limited to AVX2 (next to our AVX2 line), {preset}: {all}\n\n{one}\n"
+            );
         }
         out += "\n";
     }

@@ -13,6 +13,7 @@ pub mod avx512;
 
 /// An instruction set with a kernel of its own.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub enum Isa {
     Avx512,
     Avx2,
@@ -69,6 +70,7 @@ pub enum Raw {
 
 /// The columns of the result a kernel's tile spans: `gemm` runs on `isa` when n is a
 /// multiple of it.
+#[cfg(target_arch = "x86_64")]
 pub fn tile_columns(isa: Isa) -> usize {
     match isa {
         Isa::Avx512 => 32,
