@@ -370,8 +370,13 @@ mod tests {
             gemm_then_with(path, am, bm, &mut h, Epilogue::Sine { w0, bias: &bias, deriv: &mut c });
             for i in 0..m * n {
                 let z = w0 * (p[i] + bias[i % n]);
-                close(h[i], z.sin(), "sine");
-                close(c[i] / w0, z.cos(), "cosine");
+                // The same z on every path (no fused operation in w0 (p + bias)), so only the
+                // sine's polynomial differs from the library's: a few ulps.
+                let tight = |x: f32, y: f32, what: &str| {
+                    assert!((x - y).abs() <= 2e-6, "{path:?} {what} {m}x{k}x{n}: {x} vs {y}")
+                };
+                tight(h[i], z.sin(), "sine");
+                tight(c[i] / w0, z.cos(), "cosine");
             }
             let (mut out, mut times) = (vec![0f32; m * n], vec![0f32; m * n]);
             gemm_then_with(
@@ -413,7 +418,7 @@ mod tests {
             (5, 17, 1),
             (3, 8, 2),
             (8, 1031, 5),
-            (9, 5000, 6),
+            (9, 5003, 6),
             (5, 8200, 3),
             (2, 23, 3),
         ];
