@@ -1,7 +1,8 @@
 //! Wall and CPU time of training steps on the training path, for profiling: after
 //! `cargo build --workspace --locked --all-targets`, `$CARGO_TARGET_DIR/debug/examples/train_step
-//! compact 40` (or `paper 5`; `RAYON_NUM_THREADS=1` for one core). CPU time (all threads) is
-//! steadier than wall time on a shared machine.
+//! compact 40` (or `paper 5`; `RAYON_NUM_THREADS=1` for one core; a third argument `avx2` or
+//! `portable` chooses those kernels). CPU time (all threads) is steadier than wall time on a
+//! shared machine.
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use avatar_neural::{HyperConfig, MetaModel};
@@ -19,6 +20,12 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let preset = args.get(1).map_or("compact", |s| s.as_str());
     let steps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(40);
+    use avatar_neural::train::{KernelPath, kernel_name, set_kernel_path};
+    match args.get(3).map(|s| s.as_str()) {
+        Some("avx2") => set_kernel_path(KernelPath::Avx2),
+        Some("portable") => set_kernel_path(KernelPath::Portable),
+        _ => {}
+    }
     let demo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
     let capture = CapturePoints::open(&demo, 8).expect("the demo capture opens");
     let device = avatar_neural::cpu_training_device();
@@ -48,7 +55,8 @@ fn main() {
     let (w0, c0) = stamps[0];
     let (w1, c1) = stamps[stamps.len() - 1];
     println!(
-        "{preset}: {:.1} ms wall, {:.1} ms CPU a step ({} steps after the first; total {:.1} s wall, {:.1} s CPU)",
+        "{preset} ({}): {:.1} ms wall, {:.1} ms CPU a step ({} steps after the first; total {:.1} s wall, {:.1} s CPU)",
+        kernel_name(),
         (w1 - w0) * 1e3 / n,
         (c1 - c0) * 1e3 / n,
         n,

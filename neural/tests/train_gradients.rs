@@ -3,7 +3,9 @@
 //! on the compact and paper presets, with and without the normal term, the off-surface prior
 //! and the residual regulariser, for one and several poses; the static SIREN step likewise.
 //! The networks are perturbed away from their initialisation so that every residual, head and
-//! base is non-zero.
+//! base is non-zero. Each check computes burn's reference once and holds every kernel path
+//! to it (AVX-512, AVX2 + FMA and the portable loops, those this CPU has), each chosen
+//! explicitly with `set_kernel_path`: no environment switch.
 
 use avatar_core::body::{BodyParams, NUM_JOINTS};
 use avatar_core::canonical::Normalisation;
@@ -11,7 +13,10 @@ use avatar_neural::flat_params::{flat_gradients, flatten, load_flat};
 use avatar_neural::hyper_fit::{SampledBatch, batch_loss_of, sample_batch};
 use avatar_neural::loss::{IgrWeights, igr_loss, scalar};
 use avatar_neural::siren::W0;
-use avatar_neural::train::{HyperGradient, IgrPoints, SirenGradient, SirenShape};
+use avatar_neural::train::{
+    HyperGradient, IgrPoints, KernelPath, SirenGradient, SirenShape, kernel_name_of,
+    set_kernel_path,
+};
 use avatar_neural::*;
 use burn::module::Module;
 use burn::optim::GradientsParams;
@@ -20,11 +25,29 @@ use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// The kernels under test: `AVATAR_NO_AVX512=1` (a test-only switch, docs/architecture.md)
-/// holds the portable loops to burn's gradients on a CPU with AVX-512.
-fn choose_kernels() {
-    if std::env::var_os("AVATAR_NO_AVX512").is_some() {
-        avatar_neural::train::set_kernel_path(avatar_neural::train::KernelPath::Portable);
+/// The kernel paths process-wide: one test at a time sets one and computes on it (the burn
+/// references run outside the lock, in parallel).
+static KERNELS: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Run `f` on every kernel path this CPU has (AVX-512, AVX2 + FMA, the portable loops; a path
+/// the CPU lacks falls back to one already run and is skipped), each set for the process
+/// while `f` runs; `f` gets the kernels' name for its messages.
+fn on_every_path(mut f: impl FnMut(&str)) {
+    let mut done = Vec::new();
+    for path in [KernelPath::Fastest, KernelPath::Avx2, KernelPath::Portable] {
+        let name = kernel_name_of(path);
+        if done.contains(&name) {
+            continue;
+        }
+        done.push(name);
+        let _only = KERNELS.lock().unwrap_or_else(|e| e.into_inner());
+        set_kernel_path(path);
+        f(name);
+        set_kernel_path(KernelPath::Fastest);
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        assert!(done.contains(&"AVX2"), "the AVX2 kernels did not run: {done:?}");
     }
 }
 
@@ -172,15 +195,19 @@ fn check_hyper(
 
     let (points, normals) = drawn.arrays();
     let batch = drawn.flat_batch(&points, &normals, signs.as_deref(), options);
-    let mut gradient = HyperGradient::new(&config);
-    let mut ours = vec![0f32; config.num_params()];
-    let l = gradient.compute(&flatten(&net), &batch, train_encoder, &mut ours);
-    assert!(
-        ((l.total - burn_loss) / burn_loss).abs() < 1e-4,
-        "{what}: loss {} vs burn {burn_loss}",
-        l.total
-    );
-    assert_tensors_agree(&net, &ours, &burn_grad, what, train_encoder);
+    let flat = flatten(&net);
+    on_every_path(|kernels| {
+        let what = format!("{what} ({kernels} kernels)");
+        let mut gradient = HyperGradient::new(&config);
+        let mut ours = vec![0f32; config.num_params()];
+        let l = gradient.compute(&flat, &batch, train_encoder, &mut ours);
+        assert!(
+            ((l.total - burn_loss) / burn_loss).abs() < 1e-4,
+            "{what}: loss {} vs burn {burn_loss}",
+            l.total
+        );
+        assert_tensors_agree(&net, &ours, &burn_grad, &what, train_encoder);
+    });
 }
 
 fn small_step(poses: usize) -> HyperFitOptions {
@@ -194,7 +221,6 @@ fn small_step(poses: usize) -> HyperFitOptions {
 
 #[test]
 fn compact_step_gradients_match_burn_in_every_variant() {
-    choose_kernels();
     let config = HyperConfig::compact();
     let with_normals = HyperFitOptions { weights: IgrWeights::default(), ..small_step(3) };
     let no_residual = HyperFitOptions { residual_weight: 0.0, ..small_step(3) };
@@ -220,7 +246,6 @@ fn compact_step_gradients_match_burn_in_every_variant() {
 
 #[test]
 fn other_shapes_match_burn_quaternion_encoding_and_full_residuals() {
-    choose_kernels();
     let quaternion = HyperConfig { encoding: PoseEncoding::Quaternion, ..HyperConfig::compact() };
     check_hyper(quaternion, 2, &small_step(2), true, true, "quaternion encoding");
     let full = HyperConfig {
@@ -235,7 +260,6 @@ fn other_shapes_match_burn_quaternion_encoding_and_full_residuals() {
 
 #[test]
 fn paper_step_gradients_match_burn() {
-    choose_kernels();
     // 85.6 M parameters: few points keep burn's reference step affordable in the test.
     let options = HyperFitOptions {
         poses_per_step: 2,
@@ -271,7 +295,6 @@ fn paper_step_gradients_match_burn() {
 
 #[test]
 fn static_siren_step_gradients_match_burn() {
-    choose_kernels();
     let device = cpu_training_device();
     for (config, normal_weight, prior) in [
         (SirenConfig::compact(), 0.0, true),
@@ -331,27 +354,27 @@ fn static_siren_step_gradients_match_burn() {
             normals: &normals,
             signs: signs.as_deref(),
         };
-        let mut ours = vec![0f32; config.num_params()];
-        let l = SirenGradient::new(SirenShape::of(&config)).compute(
-            &flatten(&siren),
-            &pts,
-            &points,
-            &mut ours,
-        );
-        assert!(
-            ((l.total - burn_loss) / burn_loss).abs() < 1e-4,
-            "{config:?}: loss {} vs burn {burn_loss}",
-            l.total
-        );
-        let shape = SirenShape::of(&config);
-        for k in 0..shape.layers() {
-            for r in [shape.w_range(k), shape.b_range(k)] {
-                let rel = relative(&ours[r.clone()], &burn_grad[r.clone()]);
-                assert!(
-                    rel < 1e-4,
-                    "{config:?} normal {normal_weight} prior {prior}: layer {k} {r:?} differs by {rel:e}"
-                );
+        let flat = flatten(&siren);
+        on_every_path(|kernels| {
+            let mut ours = vec![0f32; config.num_params()];
+            let l = SirenGradient::new(SirenShape::of(&config))
+                .compute(&flat, &pts, &points, &mut ours);
+            assert!(
+                ((l.total - burn_loss) / burn_loss).abs() < 1e-4,
+                "{config:?} ({kernels} kernels): loss {} vs burn {burn_loss}",
+                l.total
+            );
+            let shape = SirenShape::of(&config);
+            for k in 0..shape.layers() {
+                for r in [shape.w_range(k), shape.b_range(k)] {
+                    let rel = relative(&ours[r.clone()], &burn_grad[r.clone()]);
+                    assert!(
+                        rel < 1e-4,
+                        "{config:?} normal {normal_weight} prior {prior} ({kernels} kernels): \
+                         layer {k} {r:?} differs by {rel:e}"
+                    );
+                }
             }
-        }
+        });
     }
 }

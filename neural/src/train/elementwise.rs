@@ -1,8 +1,10 @@
 //! The element-wise passes of `siren_grad` that do not ride on a product's epilogue (the
-//! layer of width 1 at the top), and Adam's update. Plain loops, compiled a second time with AVX-512 enabled
-//! when the CPU has it, so they vectorise to 16 lanes.
+//! layer of width 1 at the top), and Adam's update. Plain loops, compiled twice more, with
+//! AVX-512 and with AVX2 + FMA enabled, run on what the CPU has (`kernel::current`), so they
+//! vectorise to 16 or 8 lanes. No contraction into fused multiply-adds: Rust keeps every
+//! operation as written, so each version computes the plain loop's values bit for bit.
 
-macro_rules! with_avx512 {
+macro_rules! with_simd {
     ($(#[$doc:meta])* pub fn $name:ident($($arg:ident: $ty:ty),*) $body:block) => {
         $(#[$doc])*
         pub fn $name($($arg: $ty),*) {
@@ -16,17 +18,25 @@ macro_rules! with_avx512 {
                 body($($arg),*)
             }
             #[cfg(target_arch = "x86_64")]
-            if super::kernel::available() {
-                // SAFETY: the CPU has AVX-512F (checked).
-                unsafe { fast($($arg),*) };
-                return;
+            #[target_feature(enable = "avx2,fma")]
+            #[allow(clippy::too_many_arguments)]
+            fn fast256($($arg: $ty),*) {
+                body($($arg),*)
             }
-            body($($arg),*)
+            match super::kernel::current() {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: the CPU has AVX-512F (`kernel::resolve` checked it).
+                Some(super::kernel::Isa::Avx512) => unsafe { fast($($arg),*) },
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: the CPU has AVX2 and FMA (`kernel::resolve` checked them).
+                Some(super::kernel::Isa::Avx2) => unsafe { fast256($($arg),*) },
+                _ => body($($arg),*),
+            }
         }
     };
 }
 
-with_avx512! {
+with_simd! {
     /// v[i, j] = w[j] and q[i, j] = w[j] c[i, j] (rows of `w.len()`).
     pub fn broadcast_times(w: &[f32], c: &[f32], v: &mut [f32], q: &mut [f32]) {
         for ((c, v), q) in c.chunks_exact(w.len()).zip(v.chunks_exact_mut(w.len())).zip(q.chunks_exact_mut(w.len())) {
@@ -38,7 +48,7 @@ with_avx512! {
     }
 }
 
-with_avx512! {
+with_simd! {
     /// grad[j] += the sum over rows i of adj[i, j] + d_f[i] h[i, j] (rows of `grad.len()`).
     pub fn last_layer_grad(adj: &[f32], h: &[f32], d_f: &[f32], grad: &mut [f32]) {
         let width = grad.len();
@@ -50,7 +60,7 @@ with_avx512! {
     }
 }
 
-with_avx512! {
+with_simd! {
     /// v[i, j] += d_f[i] w[j] c[i, j] (rows of `w.len()`).
     pub fn add_outer_times(d_f: &[f32], w: &[f32], c: &[f32], v: &mut [f32]) {
         for ((c, v), d) in c.chunks_exact(w.len()).zip(v.chunks_exact_mut(w.len())).zip(d_f) {
@@ -61,7 +71,7 @@ with_avx512! {
     }
 }
 
-with_avx512! {
+with_simd! {
     /// Adam's update of parameters `p` from gradients `g` and moments `m`, `v` with decay
     /// rates `betas` (`first`: the moments start from this gradient, as burn's do). The same
     /// operations in the same order on every lane, so the update is the scalar one bit for bit.

@@ -17,48 +17,61 @@ pub mod gemm;
 pub mod heads;
 pub mod hyper_step;
 pub mod igr;
-#[cfg(target_arch = "x86_64")]
 mod kernel;
 pub mod layout;
 pub mod siren_grad;
 
-/// Which kernels the training path's products and element-wise passes run. A test-only
-/// choice: both give the same gradients to float rounding (`tests/train_gradients.rs` holds
-/// either to burn's); `Portable` covers the plain loops on a CPU with AVX-512.
+/// Which kernels the training path's products and element-wise passes run. A test and
+/// benchmark choice, never read from the environment: every path gives the same gradients to
+/// float rounding (`tests/train_gradients*.rs` hold each to burn's on the CPU at hand).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum KernelPath {
-    /// AVX-512 where the CPU has it (checked at run time), else the plain loops.
+    /// AVX-512 where the CPU has it, else AVX2 + FMA, else the plain loops (checked at run
+    /// time).
     #[default]
     Fastest,
-    /// The plain loops everywhere.
+    /// AVX2 + FMA where the CPU has them (even with AVX-512), else the plain loops: what a
+    /// CPU without AVX-512 runs.
+    Avx2,
+    /// The plain loops (and matrixmultiply, which picks its own SIMD) everywhere.
     Portable,
 }
 
-static PORTABLE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+static PATH: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(0);
 
-/// Choose the kernels for the whole process (`tests/train_gradients.rs` under the test-only
-/// `AVATAR_NO_AVX512` switch, `avatar-studio bench --portable-kernels`; docs/architecture.md).
+/// Choose the kernels for the whole process (the `train_gradients*` tests,
+/// `avatar-studio bench --only train`, `--portable-kernels`; docs/architecture.md).
 pub fn set_kernel_path(path: KernelPath) {
-    PORTABLE.store(path == KernelPath::Portable, std::sync::atomic::Ordering::Relaxed);
+    let code = match path {
+        KernelPath::Fastest => 0,
+        KernelPath::Avx2 => 1,
+        KernelPath::Portable => 2,
+    };
+    PATH.store(code, std::sync::atomic::Ordering::Relaxed);
 }
 
 /// The kernels chosen by [`set_kernel_path`] ([`KernelPath::Fastest`] unless set).
 pub fn kernel_path() -> KernelPath {
-    if PORTABLE.load(std::sync::atomic::Ordering::Relaxed) {
-        KernelPath::Portable
-    } else {
-        KernelPath::Fastest
+    match PATH.load(std::sync::atomic::Ordering::Relaxed) {
+        1 => KernelPath::Avx2,
+        2 => KernelPath::Portable,
+        _ => KernelPath::Fastest,
     }
 }
 
-/// The kernels the training path runs now: "AVX-512" or "portable" (plain loops and
+/// The kernels `path` runs on this CPU: "AVX-512", "AVX2" or "portable" (plain loops and
 /// matrixmultiply, which picks its own SIMD at run time).
-pub fn kernel_name() -> &'static str {
-    #[cfg(target_arch = "x86_64")]
-    if kernel::available() {
-        return "AVX-512";
+pub fn kernel_name_of(path: KernelPath) -> &'static str {
+    match kernel::resolve(path) {
+        Some(kernel::Isa::Avx512) => "AVX-512",
+        Some(kernel::Isa::Avx2) => "AVX2",
+        None => "portable",
     }
-    "portable"
+}
+
+/// The kernels the training path runs now ([`kernel_name_of`] the chosen path).
+pub fn kernel_name() -> &'static str {
+    kernel_name_of(kernel_path())
 }
 
 pub use adam::Adam;

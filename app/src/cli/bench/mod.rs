@@ -15,7 +15,7 @@ use std::time::Instant;
 #[derive(clap::Args)]
 pub struct Args {
     /// Only run sections whose name contains this text, or one of several separated by commas (body, capture, canonical, eval, export,
-    /// neural, train, studio).
+    /// neural, train-step, train-meta, studio; `train` runs both of the training sections).
     #[arg(long)]
     only: Option<String>,
     /// Also write the report to this Markdown file.
@@ -140,7 +140,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ("eval", eval::bench_report),
         ("export", export::bench_report),
         ("neural", neural_section),
-        ("train", train::bench_report),
+        ("train-step", train::bench_report),
+        ("train-meta", train::meta_report),
         ("studio", avatar_studio::studio::bench::bench_report),
     ];
     let mut report = format!(

@@ -1,4 +1,4 @@
-//! The AVX-512 product kernel of `gemm` (x86-64, checked at run time): reads both operands in
+//! The AVX-512 product kernel of `gemm` (x86-64, checked at run time: `super::resolve`): reads both operands in
 //! place (no packing: the training step's products are too skinny for packing to pay) and
 //! finishes each tile in registers with the product's epilogue, so a sine layer's
 //! pre-activation, or the adjoint it feeds, never goes to memory.
@@ -6,27 +6,8 @@
 //! A tile is 12 rows x 32 columns of the result in 24 registers: per step along k, two loads
 //! of the right operand and twelve broadcasts of the left one feed 24 fused multiply-adds.
 
+use super::Raw;
 use std::arch::x86_64::*;
-use std::sync::OnceLock;
-
-/// Whether the AVX-512 kernels run: the CPU has them and the caller did not choose
-/// [`super::KernelPath::Portable`].
-pub fn available() -> bool {
-    static DETECTED: OnceLock<bool> = OnceLock::new();
-    *DETECTED.get_or_init(|| std::arch::is_x86_feature_detected!("avx512f"))
-        && super::kernel_path() == super::KernelPath::Fastest
-}
-
-/// An epilogue over raw pointers: every pointer addresses a buffer laid out like the result
-/// (`bias` is one row). See `gemm::Epilogue` for the meaning of each.
-#[derive(Clone, Copy)]
-pub enum Raw {
-    Store { beta: f32 },
-    Sine { w0: f32, bias: *const f32, deriv: *mut f32 },
-    AlsoTimes { factor: *const f32, times: *mut f32 },
-    GradChain { scale: f32, v: *mut f32, h: *const f32, c: *const f32 },
-    AddTimes { factor: *const f32 },
-}
 
 const MR: usize = 12;
 const NR: usize = 32;
@@ -268,6 +249,99 @@ pub unsafe fn dots(
                 let s = _mm512_reduce_add_ps(acc);
                 *o = if beta == 0.0 { s } else { *o + s };
             }
+        }
+    }
+}
+
+/// Elements of k per pass of [`dots_wide`]: a chunk of a's rows (8 KB each) stays in cache
+/// while every row of `rows` streams its chunk once.
+const KC: usize = 2048;
+
+/// [`dots`] for a long k (the heads' d_out W^T: a few poses times 65,792 outputs against
+/// hundreds of rows): k in chunks of [`KC`], every row of `rows` read once from memory (the
+/// row-by-row loop reads it once per row of a), four rows of a at a time against it.
+///
+/// # Safety
+/// The CPU has AVX-512F; a holds m x k, rows r x k, out m x r.
+#[target_feature(enable = "avx512f")]
+pub unsafe fn dots_wide(
+    m: usize,
+    k: usize,
+    r: usize,
+    a: *const f32,
+    rows: *const f32,
+    beta: f32,
+    out: *mut f32,
+) {
+    // SAFETY (whole body): every offset stays inside a (m x k), rows (r x k) and out (m x r).
+    unsafe {
+        if beta == 0.0 {
+            std::ptr::write_bytes(out, 0, m * r);
+        }
+        let mut c0 = 0;
+        while c0 < k {
+            let len = KC.min(k - c0);
+            for j in 0..r {
+                let bj = rows.add(j * k + c0);
+                let mut i = 0;
+                while i < m {
+                    let at = |d: usize| a.add((i + d) * k + c0);
+                    let o = out.add(i * r + j);
+                    match m - i {
+                        1 => dots_block::<1>(len, [at(0)], bj, o, r),
+                        2 => dots_block::<2>(len, [at(0), at(1)], bj, o, r),
+                        3 => dots_block::<3>(len, [at(0), at(1), at(2)], bj, o, r),
+                        _ => dots_block::<4>(len, [at(0), at(1), at(2), at(3)], bj, o, r),
+                    }
+                    i += 4;
+                }
+            }
+            c0 += len;
+        }
+    }
+}
+
+/// out[d * r] += a_d . b over `len` elements for R rows a_d (a [`dots_wide`] block).
+#[target_feature(enable = "avx512f")]
+#[inline(never)]
+unsafe fn dots_block<const R: usize>(
+    len: usize,
+    a: [*const f32; R],
+    b: *const f32,
+    out: *mut f32,
+    r: usize,
+) {
+    let tail = (len % 16) as u32;
+    let mask: __mmask16 = ((1u32 << tail) - 1) as u16;
+    let full = len - len % 16;
+    // SAFETY (whole body): a_d and b hold len elements, out[d * r] lies in the result.
+    unsafe {
+        let mut acc = [[_mm512_setzero_ps(); 2]; R];
+        let mut p = 0;
+        while p + 32 <= full {
+            let (b0, b1) = (load(b.add(p)), load(b.add(p + 16)));
+            for d in 0..R {
+                acc[d][0] = _mm512_fmadd_ps(load(a[d].add(p)), b0, acc[d][0]);
+                acc[d][1] = _mm512_fmadd_ps(load(a[d].add(p + 16)), b1, acc[d][1]);
+            }
+            p += 32;
+        }
+        if p < full {
+            let b0 = load(b.add(p));
+            for d in 0..R {
+                acc[d][0] = _mm512_fmadd_ps(load(a[d].add(p)), b0, acc[d][0]);
+            }
+        }
+        if tail > 0 {
+            let x = b.add(full);
+            let b1 = _mm512_maskz_loadu_ps(mask, x);
+            for d in 0..R {
+                let x = a[d].add(full);
+                acc[d][1] = _mm512_fmadd_ps(_mm512_maskz_loadu_ps(mask, x), b1, acc[d][1]);
+            }
+        }
+        for (d, acc) in acc.iter().enumerate() {
+            *out.add(d * r) += _mm512_reduce_add_ps(_mm512_add_ps(acc[0], acc[1]));
         }
     }
 }

@@ -1,0 +1,78 @@
+//! GFLOP/s of the training path's products on one thread, per kernel path, at the shapes a
+//! step runs (a block of 128 points through a 128- or 256-wide layer): `cargo run --release
+//! -p avatar-neural --example kernel_rate [reps]`. Each line times every path back to back,
+//! timed by the thread's own CPU time (/proc/thread-self/schedstat), so other jobs on the
+//! machine slow it less than they slow the wall clock.
+use avatar_neural::train::gemm::{Epilogue, Mat, gemm_then_with};
+use avatar_neural::train::{KernelPath, kernel_name_of};
+
+/// This thread's time on a CPU in seconds (Linux; the wall clock elsewhere).
+fn thread_seconds() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or_else(
+            || {
+                static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+                START.get_or_init(std::time::Instant::now).elapsed().as_secs_f64()
+            },
+            |ns| ns * 1e-9,
+        )
+}
+
+fn data(len: usize, seed: usize) -> Vec<f32> {
+    (0..len).map(|i| (((i * 37 + seed * 11) % 101) as f32 - 50.0) * 0.001).collect()
+}
+
+fn main() {
+    let reps: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(200);
+    let paths = [KernelPath::Fastest, KernelPath::Avx2, KernelPath::Portable];
+    println!("| product (m x k x n) | {} |", paths.map(kernel_name_of).join(" | "));
+    println!("|---|---|---|---|");
+    for (rows, width) in [(128, 128), (128, 256)] {
+        let (m, k, n) = (rows, width, width);
+        let a = data(m * k, 1);
+        let w = data(k * n, 2);
+        let f = data(m * n, 3);
+        let bias = data(n, 4);
+        let (mut out, mut aux) = (vec![0f32; m * n], vec![0f32; m * n]);
+        let mut grad = vec![0f32; k * n];
+        let names = ["sine layer h W", "chain q W^T (AlsoTimes)", "weight grad h^T v"];
+        for (case, name) in names.iter().enumerate() {
+            let mut line = format!("| {name} ({m} x {k} x {n}) |");
+            for path in paths {
+                let mut run = || match case {
+                    0 => gemm_then_with(
+                        path,
+                        Mat::new(&a, m, k),
+                        Mat::new(&w, k, n),
+                        &mut out,
+                        Epilogue::Sine { w0: 30.0, bias: &bias, deriv: &mut aux },
+                    ),
+                    1 => gemm_then_with(
+                        path,
+                        Mat::new(&a, m, k),
+                        Mat::new(&w, k, n),
+                        &mut out,
+                        Epilogue::AlsoTimes { factor: &f, times: &mut aux },
+                    ),
+                    _ => gemm_then_with(
+                        path,
+                        Mat::new(&a, m, k).t(),
+                        Mat::new(&f, m, n),
+                        &mut grad,
+                        Epilogue::Store { beta: 1.0 },
+                    ),
+                };
+                run();
+                let t = thread_seconds();
+                for _ in 0..reps {
+                    run();
+                }
+                let s = (thread_seconds() - t) / reps as f64;
+                line += &format!(" {:.1} GFLOP/s |", 2.0 * (m * k * n) as f64 / s / 1e9);
+            }
+            println!("{line}");
+        }
+    }
+}
