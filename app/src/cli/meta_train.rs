@@ -28,8 +28,8 @@ pub struct Args {
     #[arg(long, default_value_t = 12)]
     frames_per_capture: usize,
     /// Output folder: checkpoint.bin, loss.csv, meta-model.bin.
-    #[arg(long)]
-    out: PathBuf,
+    #[arg(long, required_unless_present = "dry_run")]
+    out: Option<PathBuf>,
     /// Network preset: compact or paper.
     #[arg(long, default_value = "compact")]
     preset: String,
@@ -98,9 +98,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .file(args.data.join("samples.bin"))
     }
     .maybe_file(args.sdf_from.as_ref());
-    inputs.check_folder(&args.out)?;
-    for (name, ext) in [("checkpoint.bin", "bin"), ("meta-model.bin", "bin"), ("loss.csv", "csv")] {
-        inputs.check_file(&args.out.join(name), &[ext])?;
+    if let Some(out) = &args.out {
+        inputs.check_folder(out)?;
+        for (name, ext) in
+            [("checkpoint.bin", "bin"), ("meta-model.bin", "bin"), ("loss.csv", "csv")]
+        {
+            inputs.check_file(&out.join(name), &[ext])?;
+        }
     }
     let data = if own {
         let found = discover(&args.data)?;
@@ -147,6 +151,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         };
         MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?
     };
+    let Some(out) = args.out.as_deref() else {
+        bail!("--out is needed to train (only --dry-run goes without it)");
+    };
     let mut options = MetaOptions {
         config,
         sdf_iterations: args.sdf_iterations,
@@ -165,7 +172,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     outer.sdf = args.hyper_outer_lr_sdf.unwrap_or(outer.sdf);
     if let Some(from) = &args.sdf_from {
         let model = MetaModel::load(from)?;
-        start_from_static(&args.out, &options, &model, from)?;
+        start_from_static(out, &options, &model, from)?;
         eprintln!("meta-train: Alg. 1 skipped, static meta-SDF from {}", from.display());
     }
     eprintln!(
@@ -175,9 +182,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         data.len(),
         options.sdf_iterations,
         options.hyper_iterations,
-        args.out.display()
+        out.display()
     );
-    let path = meta_train(&data, &options, &args.out, None, &mut |p| {
+    let path = meta_train(&data, &options, out, None, &mut |p| {
         let done = p.iteration as f64 / p.iterations.max(1) as f64;
         eprint!(
             "\rmeta-train: {} {:>5}/{} loss {:>9.3} {:>7.0} s",
