@@ -90,6 +90,19 @@ fn own_data_is_listed_trained_on_and_fitted_from() {
     ]));
     assert!(err.contains("5 items used (7 samples in 2 groups), 3 skipped"), "{err}");
     assert!(out.contains("meta-model.bin"), "{out}");
+    // Run again (a resume): the prepared samples are reused while the items are unchanged.
+    let (_, err) = ok(&studio(&[
+        &"meta-train",
+        &"--data",
+        &data,
+        &"--out",
+        &run,
+        &"--sdf-iterations",
+        &"2",
+        &"--hyper-iterations",
+        &"2",
+    ]));
+    assert!(err.contains("7 samples in 2 groups; the items are unchanged"), "{err}");
 
     let model = run.join("meta-model.bin");
     let avatar = dir.path().join("a.avatar");

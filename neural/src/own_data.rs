@@ -78,13 +78,13 @@ pub fn prepare(
     for (g, group) in found.groups.iter().enumerate() {
         let mut shape: Option<(Normalisation, Vec<[f32; 3]>, Vec<f32>)> = None;
         let first_sample = poses.len();
+        log(&format!(
+            "canonicalizing {} / {} ({} items)",
+            group.subject,
+            group.outfit,
+            group.items.len()
+        ));
         for (k, item) in group.items.iter().enumerate() {
-            log(&format!(
-                "own data: {} / {}: {}",
-                group.subject,
-                group.outfit,
-                item.path.display()
-            ));
             let samples = match item_samples(item, options) {
                 Ok(s) => s,
                 Err(e) => {
@@ -172,12 +172,50 @@ pub fn prepare(
         config,
         groups,
         source: Some(format!(
-            "own data in {} ({items_used} items, {} skipped)",
+            "own data in {} ({items_used} items, {} skipped), fingerprint {}",
             found.root.display(),
-            skipped.len()
+            skipped.len(),
+            fingerprint(found, options)
         )),
     };
     Ok(OwnData { data: MetaData { manifest, poses, points, normals }, items_used, skipped })
+}
+
+/// What the samples are made from: every item's files (path, size, modification time), the
+/// refused ones too, and the options, as a SHA-256. Prepared samples saved with it are reused
+/// while it is unchanged (a resumed run skips the canonicalization).
+pub fn fingerprint(found: &Discovery, options: &OwnDataOptions) -> String {
+    let mut text = format!(
+        "{} {} {} {}\n",
+        crate::meta_data::DATA_VERSION,
+        options.points_per_pose,
+        options.frames_per_capture,
+        options.seed
+    );
+    let mut stamp = |p: &std::path::Path| {
+        let m = std::fs::metadata(p).ok();
+        let time = m
+            .as_ref()
+            .and_then(|m| m.modified().ok())
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok().map(|d| d.as_nanos()));
+        text += &format!("{}\t{:?}\t{time:?}\n", p.display(), m.map(|m| m.len()));
+    };
+    for item in found.groups.iter().flat_map(|g| &g.items) {
+        match &item.kind {
+            ItemKind::Capture { .. } => stamp(&item.path.join(avatar_core::capture::MANIFEST_FILE)),
+            ItemKind::Scan { fitting, .. } => {
+                stamp(&item.path);
+                stamp(fitting);
+            }
+        }
+        if let Some(b) = &item.body_file {
+            stamp(b);
+        }
+    }
+    for r in &found.refused {
+        stamp(&r.path);
+    }
+    crate::model_file::sha256_hex(text.as_bytes())
 }
 
 /// `n` of the points (without replacement when there are enough, else with), or `None` when

@@ -9,7 +9,7 @@ use avatar_neural::HyperConfig;
 use avatar_neural::MetaModel;
 use avatar_neural::meta_data::{MetaData, MetaDataConfig};
 use avatar_neural::meta_training::{MetaOptions, meta_train, start_from_static};
-use avatar_neural::own_data::{OwnDataOptions, prepare};
+use avatar_neural::own_data::{OwnDataOptions, fingerprint, prepare};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -100,9 +100,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     .maybe_file(args.sdf_from.as_ref());
     if let Some(out) = &args.out {
         inputs.check_folder(out)?;
-        for (name, ext) in
-            [("checkpoint.bin", "bin"), ("meta-model.bin", "bin"), ("loss.csv", "csv")]
-        {
+        for (name, ext) in [
+            ("checkpoint.bin", "bin"),
+            ("meta-model.bin", "bin"),
+            ("loss.csv", "csv"),
+            ("own-data/meta-data.json", "json"),
+            ("own-data/samples.bin", "bin"),
+        ] {
             inputs.check_file(&out.join(name), &[ext])?;
         }
     }
@@ -126,21 +130,42 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             seed: args.seed,
             ..OwnDataOptions::default()
         };
-        let own = prepare(&found, &options, &mut |m| eprintln!("meta-train: {m}"))?;
-        let newly: Vec<_> = own.skipped.iter().skip(found.refused.len()).collect();
-        for r in &newly {
-            eprintln!("meta-train: skipped {r}");
+        // The samples are kept in OUT/own-data and reused while the items are unchanged.
+        let out = args.out.as_deref().context("--out is needed to train")?;
+        let cache = out.join("own-data");
+        let print = fingerprint(&found, &options);
+        let cached = MetaData::load(&cache).ok().filter(|d| {
+            d.manifest
+                .source
+                .as_deref()
+                .is_some_and(|s| s.ends_with(&format!("fingerprint {print}")))
+        });
+        if let Some(data) = cached {
+            eprintln!(
+                "meta-train: the samples prepared in {} ({} samples in {} groups; the items are unchanged)",
+                cache.display(),
+                data.len(),
+                data.manifest.groups.len()
+            );
+            data
+        } else {
+            let own = prepare(&found, &options, &mut |m| eprintln!("meta-train: {m}"))?;
+            let newly: Vec<_> = own.skipped.iter().skip(found.refused.len()).collect();
+            for r in &newly {
+                eprintln!("meta-train: skipped {r}");
+            }
+            eprintln!(
+                "meta-train: {} items used ({} samples in {} groups), {} skipped ({} refused by the checks, {} while canonicalizing)",
+                own.items_used,
+                own.data.len(),
+                own.data.manifest.groups.len(),
+                own.skipped.len(),
+                found.refused.len(),
+                newly.len()
+            );
+            own.data.save(&cache)?;
+            own.data
         }
-        eprintln!(
-            "meta-train: {} items used ({} samples in {} groups), {} skipped ({} refused by the checks, {} while canonicalizing)",
-            own.items_used,
-            own.data.len(),
-            own.data.manifest.groups.len(),
-            own.skipped.len(),
-            found.refused.len(),
-            newly.len()
-        );
-        own.data
     } else {
         let body = avatar_core::body::open_body_ref();
         let data_config = MetaDataConfig {
