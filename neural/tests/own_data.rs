@@ -131,6 +131,10 @@ fn own_data_is_discovered_refused_by_name_prepared_and_meta_trained_into_a_prior
     assert!(summary.contains("s1 / tshirt_shorts: 1 captures (3 frames), 2 scans"), "{summary}");
     assert!(summary.contains("smpl_fit.obj"), "the dry run names the refused items");
 
+    // A capture folder given as the data folder is named as such.
+    let e = discover(&root.join("s1/tshirt_shorts/take1")).unwrap_err().to_string();
+    assert!(e.contains("take1") && e.contains("one capture folder"), "{e}");
+
     // ---- Samples: 2 scans + 2 frames of the capture + 1 scan, each 300 canonical points.
     let options = OwnDataOptions { points_per_pose: 300, frames_per_capture: 2, seed: 0 };
     let own = prepare(&found, &options, &mut |_| {}).unwrap();

@@ -160,6 +160,12 @@ struct SubjectFile {
 /// Walk `root` (see the module's documentation). Errors only when `root` cannot be read or
 /// holds no subject folder; every bad item is a [`Refused`] entry.
 pub fn discover(root: &Path) -> Result<Discovery> {
+    if root.join(crate::capture::MANIFEST_FILE).is_file() {
+        return Err(Error::file(
+            root,
+            "this is one capture folder; own data is a folder of subjects: DIR/<subject>/<outfit>/<capture> (docs/own-data.md)",
+        ));
+    }
     let subjects: Vec<PathBuf> = sorted_entries(root)?.into_iter().filter(|p| p.is_dir()).collect();
     if subjects.is_empty() {
         return Err(Error::file(
