@@ -15,6 +15,7 @@ pub mod export;
 pub mod io;
 pub mod mesh;
 pub mod motion;
+pub mod own_data;
 pub mod synth;
 
 pub use error::{Error, Result};

@@ -19,6 +19,7 @@ pub mod meta_data;
 pub mod meta_training;
 pub mod model_file;
 pub mod off_surface;
+pub mod own_data;
 pub mod pose_refine;
 pub mod pose_sample;
 pub mod pose_trace;
@@ -35,7 +36,7 @@ pub use fit::{FitOptions, fit_sdf, sdf_values};
 pub use hyper::{HyperConfig, HyperNet};
 pub use hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 pub use loss::{IgrWeights, igr_loss};
-pub use model_file::MetaModel;
+pub use model_file::{MetaModel, PriorRef};
 pub use pose_sample::PoseSample;
 pub use siren::{Siren, SirenConfig, batched_sdf_and_gradient, sdf_and_gradient};
 

@@ -59,6 +59,9 @@ pub struct Group {
     pub rest_joints: Vec<[f32; 3]>,
     pub first_sample: usize,
     pub samples: usize,
+    /// Own data (`own_data`): the subject's folder name (`subject` is then its index).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -67,6 +70,9 @@ pub struct Manifest {
     pub version: u32,
     pub config: MetaDataConfig,
     pub groups: Vec<Group>,
+    /// Own data (`own_data`): where it came from; absent for the synthetic generator's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
 }
 
 /// Largest data set read: samples x floats per sample (4 GB of float32 would not fit in memory).
@@ -195,6 +201,7 @@ impl MetaData {
                     rest_joints: rest_joints.iter().map(|j| j.to_array()).collect(),
                     first_sample: g * config.poses_per_group,
                     samples: config.poses_per_group,
+                    name: None,
                 };
                 Ok((group, poses, pts, nrm))
             })
@@ -205,6 +212,7 @@ impl MetaData {
                 version: DATA_VERSION,
                 config: config.clone(),
                 groups: Vec::new(),
+                source: None,
             },
             poses: Vec::new(),
             points: Vec::new(),

@@ -33,6 +33,58 @@ pub struct MetaModel {
     pub header: ModelHeader,
     pub hyper: Vec<f32>,
     pub static_sdf: Vec<f32>,
+    /// The file it was read from (`None`: made in memory, not read from a file).
+    pub origin: Option<PriorRef>,
+}
+
+/// Which meta-model (prior) an avatar was fine-tuned from: recorded in the avatar's header and
+/// shown by `fit`, `check` and the studio.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PriorRef {
+    /// [`SHIPPED_PRIOR`] for the model embedded in the binary, else the model file's path
+    /// (absolute).
+    pub name: String,
+    /// SHA-256 of the model file's bytes, lowercase hex (what `sha256sum` prints).
+    pub sha256: String,
+    /// The model's own provenance line (command, seed, iterations, time).
+    pub provenance: String,
+}
+
+/// The name of the prior embedded in the binary.
+pub const SHIPPED_PRIOR: &str = "shipped";
+
+impl PriorRef {
+    /// Bounded strings and a SHA-256 of 64 hex digits (an avatar header's check).
+    pub fn check(&self) -> Result<()> {
+        if self.name.is_empty() || self.name.len() > 4096 || self.provenance.len() > 4096 {
+            return Err(Error::invalid(
+                "\"prior\": its name must be 1 to 4096 bytes and its provenance at most 4096",
+            ));
+        }
+        if self.sha256.len() != 64 || !self.sha256.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(Error::invalid("\"prior\": \"sha256\" must be 64 hex digits"));
+        }
+        Ok(())
+    }
+
+    /// "shipped (sha256 0123abcd...)" or "/path/meta-model.bin (sha256 ...)".
+    pub fn label(&self) -> String {
+        format!("{} (sha256 {})", self.name, &self.sha256[..self.sha256.len().min(12)])
+    }
+}
+
+/// SHA-256 of bytes, lowercase hex.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+fn sha256_of_file(path: &Path) -> Result<String> {
+    use sha2::Digest;
+    let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut hasher = sha2::Sha256::new();
+    std::io::copy(&mut file, &mut hasher).map_err(|e| Error::io(path, e))?;
+    Ok(hasher.finalize().iter().map(|b| format!("{b:02x}")).collect())
 }
 
 /// The shipped compact model (meta-trained on synthetic training subjects; docs/neural.md).
@@ -41,8 +93,17 @@ const SHIPPED: &[u8] = include_bytes!("../../assets/model/meta-compact.bin");
 impl MetaModel {
     /// The compact model embedded in the binary.
     pub fn shipped() -> MetaModel {
-        Self::parse(SHIPPED, Path::new("assets/model/meta-compact.bin"))
-            .expect("the shipped meta-model is valid (checked by a test)")
+        let mut model = Self::parse(SHIPPED, Path::new("assets/model/meta-compact.bin"))
+            .expect("the shipped meta-model is valid (checked by a test)");
+        if let Some(origin) = &mut model.origin {
+            origin.name = SHIPPED_PRIOR.into();
+        }
+        model
+    }
+
+    /// What an avatar fine-tuned from this model records (`None` for a model made in memory).
+    pub fn prior(&self) -> Option<PriorRef> {
+        self.origin.clone()
     }
 
     /// A model file, or the shipped one for None.
@@ -73,6 +134,7 @@ impl MetaModel {
             },
             hyper,
             static_sdf,
+            origin: None,
         }
     }
 
@@ -85,8 +147,26 @@ impl MetaModel {
     /// Read a model file: the header is checked (format, kind, sizes) and the file's size
     /// compared with it before the weights are read.
     pub fn load(path: &Path) -> Result<MetaModel> {
+        // Another kind of file (an avatar, a checkpoint) is named as such before its header is
+        // read as a model's.
+        let weights_file::Identity { format, kind, .. } = weights_file::identity(path)?;
+        if format != MODEL_FORMAT || kind != MODEL_KIND {
+            return Err(Error::file(
+                path,
+                format!(
+                    "a {format:?} file of kind {kind:?}, not a meta-model ({MODEL_FORMAT:?}): give the meta-model.bin that meta-train wrote"
+                ),
+            ));
+        }
         let (header, weights) = weights_file::read_expecting(path, Self::check_header)?;
-        Ok(Self::split(header, weights))
+        let mut model = Self::split(header, weights);
+        let name = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+        model.origin = Some(PriorRef {
+            name: name.display().to_string(),
+            sha256: sha256_of_file(path)?,
+            provenance: model.header.provenance.clone(),
+        });
+        Ok(model)
     }
 
     pub fn parse(bytes: &[u8], origin: &Path) -> Result<MetaModel> {
@@ -98,7 +178,13 @@ impl MetaModel {
                 format!("truncated model file: {} weights, expected {expected}", weights.len()),
             ));
         }
-        Ok(Self::split(header, weights))
+        let mut model = Self::split(header, weights);
+        model.origin = Some(PriorRef {
+            name: origin.display().to_string(),
+            sha256: sha256_hex(bytes),
+            provenance: model.header.provenance.clone(),
+        });
+        Ok(model)
     }
 
     /// Format, version, kind and sizes of a header; the number of weights it needs.
@@ -128,7 +214,7 @@ impl MetaModel {
 
     fn split(header: ModelHeader, weights: Vec<f32>) -> MetaModel {
         let (hyper, static_sdf) = weights.split_at(header.hyper_params);
-        MetaModel { hyper: hyper.to_vec(), static_sdf: static_sdf.to_vec(), header }
+        MetaModel { hyper: hyper.to_vec(), static_sdf: static_sdf.to_vec(), header, origin: None }
     }
 
     /// The trainable hypernetwork.

@@ -48,6 +48,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         mesh.positions.len(),
         mesh.faces.len()
     );
+    if let avatar_neural::avatar::AnyAvatar::Meta(a) = &avatar
+        && let Some(prior) = &a.header.prior
+    {
+        println!("  fine-tuned from the prior {}: {}", prior.label(), prior.provenance);
+    }
     println!(
         "  open border {:.2} m ({} edges), non-manifold edges {}, pieces {} ({} under 1 % of the \
          area), self-intersecting faces {:.2} %",

@@ -140,8 +140,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
                 None => String::new(),
             };
+            let prior = match &a.header.prior {
+                Some(p) => format!(" from the prior {}", p.label()),
+                None => String::new(),
+            };
             format!(
-                "pose-dependent avatar ({}, {} parameters{refined})",
+                "pose-dependent avatar ({}{prior}, {} parameters{refined})",
                 init.label(),
                 a.num_params()
             )

@@ -1,22 +1,35 @@
 //! `avatar-studio meta-train`: MetaAvatar's meta-learning (Alg. 1 then Alg. 2) on synthetic
-//! training subjects. Resumable: run the same command again after a kill.
+//! training subjects, or on a folder of the studio's own captures and scans
+//! (`avatar_core::own_data`, docs/own-data.md; `--dry-run` lists it). Resumable: run the same
+//! command again after a kill.
 
 use anyhow::{Context, bail};
+use avatar_core::own_data::{discover, looks_like_own_data};
 use avatar_neural::HyperConfig;
 use avatar_neural::MetaModel;
 use avatar_neural::meta_data::{MetaData, MetaDataConfig};
 use avatar_neural::meta_training::{MetaOptions, meta_train, start_from_static};
+use avatar_neural::own_data::{OwnDataOptions, fingerprint, prepare};
 use std::io::Write;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Meta-training data folder (generated there on the first run).
+    /// Meta-training data folder: synthetic data (generated there on the first run when the
+    /// folder is missing or empty), or a folder of your own captures and scans laid out as
+    /// DIR/<subject>/<outfit>/ (docs/own-data.md).
     #[arg(long)]
     data: PathBuf,
-    /// Output folder: checkpoint.bin, loss.csv, meta-model.bin.
+    /// Own data: list what was found per subject and outfit and every refused item with its
+    /// reason, then stop (nothing is trained or written).
     #[arg(long)]
-    out: PathBuf,
+    dry_run: bool,
+    /// Own data: the most frames taken from one capture (chosen over the take).
+    #[arg(long, default_value_t = 12)]
+    frames_per_capture: usize,
+    /// Output folder: checkpoint.bin, loss.csv, meta-model.bin.
+    #[arg(long, required_unless_present = "dry_run")]
+    out: Option<PathBuf>,
     /// Network preset: compact or paper.
     #[arg(long, default_value = "compact")]
     preset: String,
@@ -65,23 +78,107 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.subjects == 0 || args.poses == 0 {
         bail!("--subjects and --poses must be at least 1");
     }
-    // The data folder's files and --sdf-from are inputs; the run writes these three files.
-    let inputs = avatar_core::io::Inputs::new()
-        .file(args.data.join("meta-data.json"))
-        .file(args.data.join("samples.bin"))
-        .maybe_file(args.sdf_from.as_ref());
-    inputs.check_folder(&args.out)?;
-    for (name, ext) in [("checkpoint.bin", "bin"), ("meta-model.bin", "bin"), ("loss.csv", "csv")] {
-        inputs.check_file(&args.out.join(name), &[ext])?;
+    let own = looks_like_own_data(&args.data);
+    if args.dry_run && !own {
+        bail!(
+            "--dry-run lists a folder of your own data (DIR/<subject>/<outfit>/...); {} is not one (docs/own-data.md)",
+            args.data.display()
+        );
     }
-    let body = avatar_core::body::open_body_ref();
-    let data_config = MetaDataConfig {
-        subjects: args.subjects,
-        poses_per_group: args.poses,
-        seed: args.seed,
-        ..MetaDataConfig::default()
+    if args.frames_per_capture == 0 {
+        bail!("--frames-per-capture must be at least 1");
+    }
+    // The data folder (all of it, for own data) and --sdf-from are inputs; the run writes
+    // these three files.
+    let inputs = if own {
+        avatar_core::io::Inputs::new().capture(&args.data)
+    } else {
+        avatar_core::io::Inputs::new()
+            .file(args.data.join("meta-data.json"))
+            .file(args.data.join("samples.bin"))
+    }
+    .maybe_file(args.sdf_from.as_ref());
+    if let Some(out) = &args.out {
+        inputs.check_folder(out)?;
+        for (name, ext) in [
+            ("checkpoint.bin", "bin"),
+            ("meta-model.bin", "bin"),
+            ("loss.csv", "csv"),
+            ("own-data/meta-data.json", "json"),
+            ("own-data/samples.bin", "bin"),
+        ] {
+            inputs.check_file(&out.join(name), &[ext])?;
+        }
+    }
+    let data = if own {
+        let found = discover(&args.data)?;
+        eprint!("meta-train: own data in {}", found.summary());
+        if args.dry_run {
+            if found.groups.is_empty() {
+                bail!("no usable item in {}: {} refused", args.data.display(), found.refused.len());
+            }
+            println!(
+                "dry run: {} items in {} subject-outfit groups would be used, {} refused",
+                found.items(),
+                found.groups.len(),
+                found.refused.len()
+            );
+            return Ok(());
+        }
+        let options = OwnDataOptions {
+            frames_per_capture: args.frames_per_capture,
+            seed: args.seed,
+            ..OwnDataOptions::default()
+        };
+        // The samples are kept in OUT/own-data and reused while the items are unchanged.
+        let out = args.out.as_deref().context("--out is needed to train")?;
+        let cache = out.join("own-data");
+        let print = fingerprint(&found, &options);
+        let cached = MetaData::load(&cache).ok().filter(|d| {
+            d.manifest
+                .source
+                .as_deref()
+                .is_some_and(|s| s.ends_with(&format!("fingerprint {print}")))
+        });
+        if let Some(data) = cached {
+            eprintln!(
+                "meta-train: the samples prepared in {} ({} samples in {} groups; the items are unchanged)",
+                cache.display(),
+                data.len(),
+                data.manifest.groups.len()
+            );
+            data
+        } else {
+            let own = prepare(&found, &options, &mut |m| eprintln!("meta-train: {m}"))?;
+            let newly: Vec<_> = own.skipped.iter().skip(found.refused.len()).collect();
+            for r in &newly {
+                eprintln!("meta-train: skipped {r}");
+            }
+            eprintln!(
+                "meta-train: {} items used ({} samples in {} groups), {} skipped ({} refused by the checks, {} while canonicalizing)",
+                own.items_used,
+                own.data.len(),
+                own.data.manifest.groups.len(),
+                own.skipped.len(),
+                found.refused.len(),
+                newly.len()
+            );
+            own.data.save(&cache)?;
+            own.data
+        }
+    } else {
+        let body = avatar_core::body::open_body_ref();
+        let data_config = MetaDataConfig {
+            subjects: args.subjects,
+            poses_per_group: args.poses,
+            seed: args.seed,
+            ..MetaDataConfig::default()
+        };
+        MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?
     };
-    let data = MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?;
+    let Some(out) = args.out.as_deref() else {
+        bail!("--out is needed to train (only --dry-run goes without it)");
+    };
     let mut options = MetaOptions {
         config,
         sdf_iterations: args.sdf_iterations,
@@ -100,7 +197,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     outer.sdf = args.hyper_outer_lr_sdf.unwrap_or(outer.sdf);
     if let Some(from) = &args.sdf_from {
         let model = MetaModel::load(from)?;
-        start_from_static(&args.out, &options, &model, from)?;
+        start_from_static(out, &options, &model, from)?;
         eprintln!("meta-train: Alg. 1 skipped, static meta-SDF from {}", from.display());
     }
     eprintln!(
@@ -110,9 +207,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         data.len(),
         options.sdf_iterations,
         options.hyper_iterations,
-        args.out.display()
+        out.display()
     );
-    let path = meta_train(&data, &options, &args.out, None, &mut |p| {
+    let path = meta_train(&data, &options, out, None, &mut |p| {
         let done = p.iteration as f64 / p.iterations.max(1) as f64;
         eprint!(
             "\rmeta-train: {} {:>5}/{} loss {:>9.3} {:>7.0} s",

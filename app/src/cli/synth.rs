@@ -5,7 +5,7 @@ use avatar_core::body::open_body_ref;
 use avatar_core::motion::{MotionClip, clip_file, open_clip};
 use avatar_core::synth::{
     ALL_OUTFITS, DepthNoise, Outfit, SynthJob, contact_sheet::write_contact_sheet,
-    generate_capture, subject_betas,
+    generate_capture, save_scans, subject_betas,
 };
 use std::path::PathBuf;
 
@@ -42,6 +42,11 @@ pub struct Args {
     /// Also write a contact sheet PNG of every outfit at three poses.
     #[arg(long)]
     contact_sheet: Option<PathBuf>,
+    /// Write the layout of own meta-training data (`meta-train --data OUT`, docs/own-data.md):
+    /// OUT/sSEED/OUTFIT/CLIP/ capture folders, or OUT/sSEED/OUTFIT/CLIP_FFFF.obj + .json scans
+    /// (each frame's clothed surface and its fitting).
+    #[arg(long, value_parser = ["captures", "scans"])]
+    own_data: Option<String>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -75,13 +80,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.subjects == 0 {
         bail!("--subjects must be at least 1");
     }
-    let single = args.subjects == 1 && outfits.len() == 1 && clips.len() == 1;
+    let single =
+        args.own_data.is_none() && args.subjects == 1 && outfits.len() == 1 && clips.len() == 1;
     let mut total = 0;
     for s in 0..args.subjects {
         for &outfit in &outfits {
             for clip in &clips {
+                let own_dir = args.out.join(format!("s{:04}", args.seed + s)).join(outfit.name());
                 let dir = if single {
                     args.out.clone()
+                } else if args.own_data.is_some() {
+                    own_dir.join(&clip.name)
                 } else {
                     args.out.join(format!("s{s:02}_{}_{}", outfit.name(), clip.name))
                 };
@@ -91,6 +100,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 job.noise = noise;
                 job.noise_seed = args.seed.wrapping_mul(1_000_003).wrapping_add(s);
                 job.write_ground_truth = !args.no_ground_truth;
+                if args.own_data.as_deref() == Some("scans") {
+                    let n = save_scans(&own_dir, body, &job, &clip.name)?;
+                    total += n;
+                    eprintln!(
+                        "{}: subject {} in {} doing {}: {n} scans",
+                        own_dir.display(),
+                        args.seed + s,
+                        outfit.name(),
+                        clip.name
+                    );
+                    continue;
+                }
                 let report = generate_capture(&dir, body, &job)?;
                 total += report.frames;
                 eprintln!(
@@ -111,7 +132,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         write_contact_sheet(path, body, &subject_betas(body, args.seed), &ALL_OUTFITS, &poses)?;
         eprintln!("contact sheet: {}", path.display());
     }
-    println!("wrote {total} frames");
+    let what = if args.own_data.as_deref() == Some("scans") { "scans" } else { "frames" };
+    println!("wrote {total} {what}");
     Ok(())
 }
 

@@ -49,7 +49,19 @@ impl StudioAvatar for StaticAvatar {
 impl StudioAvatar for MetaAvatar {
     fn describe(&self) -> String {
         let partial = self.header.partial.map(|p| format!(", {p}")).unwrap_or_default();
-        format!("MetaAvatar ({}, {} frames{partial})", self.header.init, self.header.frames)
+        // The shipped prior is the default and goes unsaid; another one is named by its file.
+        let prior = match &self.header.prior {
+            Some(p) if p.name != avatar_neural::model_file::SHIPPED_PRIOR => {
+                let name = Path::new(&p.name);
+                let short = match (name.parent().and_then(Path::file_name), name.file_name()) {
+                    (Some(dir), Some(file)) => Path::new(dir).join(file).display().to_string(),
+                    _ => p.name.clone(),
+                };
+                format!(", prior {short}")
+            }
+            _ => String::new(),
+        };
+        format!("MetaAvatar ({}{prior}, {} frames{partial})", self.header.init, self.header.frames)
     }
     fn source(&self) -> &dyn AvatarSource {
         self

@@ -4,7 +4,6 @@
 use crate::studio::avatar::{CanonicalMesh, StudioAvatar, studio_avatar};
 use crate::studio::fit_config::FitConfig;
 use crate::studio::tasks::Task;
-use avatar_neural::MetaModel;
 use avatar_neural::avatar::{AvatarFit, FitEvent, TimeLeft, fit_avatar};
 use avatar_neural::capture_points::{CapturePoints, FrameCount};
 use crossbeam_channel::Receiver;
@@ -131,9 +130,10 @@ pub fn run_fit(
         ));
     }
     let t = Instant::now();
+    // The prior first: a bad model file is refused before the capture is canonicalized.
+    let model = cfg.prior()?;
     let capture = CapturePoints::open_with(dir, FrameCount::up_to(cfg.frames), None)?;
     send(JobEvent::Started { points: capture.num_points(), frames: capture.frames.len() });
-    let model = MetaModel::shipped();
     let fit = AvatarFit {
         kind: cfg.fit_kind(&model),
         options: cfg.fit_options(),

@@ -45,6 +45,9 @@ pub struct FitConfig {
     /// Marching-cubes resolution of previews and of the final mesh.
     pub preview_resolution: usize,
     pub final_resolution: usize,
+    /// The MetaAvatar's prior: a meta-model file `meta-train` wrote; empty for the shipped one.
+    #[serde(default)]
+    pub model: String,
 }
 
 impl Default for FitConfig {
@@ -64,6 +67,7 @@ impl Default for FitConfig {
             preview_every: 50,
             preview_resolution: 64,
             final_resolution: 128,
+            model: String::new(),
         }
     }
 }
@@ -85,6 +89,7 @@ impl FitConfig {
             preview_every: 100,
             preview_resolution: 48,
             final_resolution: 96,
+            model: String::new(),
         }
     }
 
@@ -125,6 +130,23 @@ impl FitConfig {
             preview_resolution: 40,
             final_resolution: 64,
             ..FitConfig::static_sdf()
+        }
+    }
+
+    /// The same settings with another budget (`preset`), keeping the chosen prior.
+    pub fn keeping_prior(&self, preset: FitConfig) -> FitConfig {
+        FitConfig { model: self.model.clone(), ..preset }
+    }
+
+    /// The MetaAvatar's prior: the model file typed in the panel, else the shipped model. A
+    /// broken file or one of another kind is refused with its name.
+    pub fn prior(&self) -> avatar_neural::Result<MetaModel> {
+        let path = self.model.trim();
+        match self.kind {
+            AvatarKind::MetaAvatar if !path.is_empty() => {
+                MetaModel::load(std::path::Path::new(path))
+            }
+            _ => Ok(MetaModel::shipped()),
         }
     }
 

@@ -247,6 +247,9 @@ impl<'a> Corpus<'a> {
                     ("refined-poses-count", "refined_poses", Some(json!([{"given": {"pose": vec![[0.0; 3]; 24]}, "refined": {"pose": vec![[0.0; 3]; 24]}}]))),
                     ("refined-poses-degrees", "refined_poses", Some(json!([{"given": {"pose": vec![[0.0; 3]; 24]}, "refined": {"pose": vec![[90.0, 0.0, 0.0]; 24]}}, {"given": {"pose": vec![[0.0; 3]; 24]}, "refined": {"pose": vec![[0.0; 3]; 24]}}]))),
                     ("refined-poses-not-a-list", "refined_poses", Some(json!("all good"))),
+                    // The prior the fit started from: a hash that is not SHA-256, not an object.
+                    ("prior-sha-short", "prior", Some(json!({"name": "shipped", "sha256": "abc", "provenance": ""}))),
+                    ("prior-not-an-object", "prior", Some(json!("shipped"))),
                 ]);
             }
             for (n, path, value) in edits {

@@ -80,6 +80,7 @@ pub fn meta_header() -> MetaAvatarHeader {
         body: None,
         refined_poses: None,
         frame_indices: None,
+        prior: None,
     }
 }
 
@@ -232,7 +233,9 @@ pub fn meta_manifest() -> Manifest {
             rest_joints: body.regress_joints(&rest).iter().map(|j| j.to_array()).collect(),
             first_sample: 0,
             samples: 2,
+            name: None,
         }],
+        source: None,
     }
 }
 

@@ -210,3 +210,34 @@ fn playback_after_baking() {
     h.state_mut().status = None; // it names the bake's time
     snap(&mut h, "playback_baked", &tolerant(200));
 }
+
+/// The fit panel's *Prior*: a file that is not a meta-model stops the fit before the capture is
+/// canonicalized, naming the file in the job's event and on the status bar; no avatar is made.
+#[test]
+fn a_bad_prior_stops_the_fit_naming_the_file() {
+    use avatar_studio::studio::avatar_job::{FitJob, JobEvent};
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("not-a-prior.bin");
+    std::fs::write(&bad, b"not a meta-model").unwrap();
+    let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
+    let cfg = FitConfig { model: bad.display().to_string(), ..FitConfig::tiny() };
+    let job = FitJob::start(demo.clone(), cfg.clone(), || {});
+    loop {
+        match job.events.recv_timeout(Duration::from_secs(60)).expect("the job reports") {
+            JobEvent::Failed(e) => {
+                assert!(e.contains("not-a-prior.bin"), "{e}");
+                break;
+            }
+            JobEvent::Progress { .. } | JobEvent::Finished { .. } => panic!("the fit ran"),
+            _ => {}
+        }
+    }
+    let mut h = harness(StudioOptions { capture: Some(demo), ..Default::default() });
+    settle(&mut h, "opening the demo");
+    h.state_mut().settings.fit = cfg.clone();
+    h.state_mut().apply(Command::StartFit(cfg));
+    settle(&mut h, "the refused fit");
+    let err = h.state().error.clone().expect("an error is shown");
+    assert!(err.contains("not-a-prior.bin"), "{err}");
+    assert!(h.state().avatar.is_none(), "no avatar from a refused prior");
+}

@@ -83,15 +83,26 @@ impl<'a> Canonicalizer<'a> {
 
     /// Canonicalize one capture frame's points and normals.
     pub fn frame(&self, frame: &CaptureFrame) -> CanonicalFrame {
-        let posed = self.body.pose(&frame.params);
+        self.posed_points(&frame.params, &frame.points, &frame.normals)
+    }
+
+    /// Canonicalize oriented points posed by `params` (world space, metres): a capture
+    /// frame's, or points sampled on a clothed scan fitted with `params`.
+    pub fn posed_points(
+        &self,
+        params: &crate::body::BodyParams,
+        points: &[Vec3],
+        normals: &[Vec3],
+    ) -> CanonicalFrame {
+        let posed = self.body.pose(params);
         let chooser = |roots: &[Root]| self.nearest_to_body(roots);
         canonicalize_points(
             &self.field,
             &posed.bones,
             &posed.vertices,
             &self.body.weights,
-            &frame.points,
-            &frame.normals,
+            points,
+            normals,
             &self.options,
             Some(&chooser),
         )

@@ -178,7 +178,7 @@ pub fn import_scan(
 }
 
 /// Most of the scan must lie within 30 cm of the fitted body; otherwise say why.
-fn check_scan_on_body(
+pub(crate) fn check_scan_on_body(
     path: &Path,
     scan: &TriMesh,
     body: &BodyModel,

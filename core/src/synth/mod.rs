@@ -10,6 +10,7 @@ pub mod ground_truth;
 pub mod noise;
 pub mod outfit;
 pub mod raster;
+pub mod scans;
 pub mod smpl_stand_in;
 
 pub use camera::{PinholeCamera, look_at, orbit};
@@ -19,4 +20,5 @@ pub use ground_truth::{GroundTruth, GtFrame};
 pub use noise::DepthNoise;
 pub use outfit::{ALL_OUTFITS, ClothedTemplate, Outfit, SIM_OUTFITS};
 pub use raster::{DepthRender, NO_TRIANGLE, render_depth};
+pub use scans::save_scans;
 pub use smpl_stand_in::{generate_smpl_capture, smpl_stand_in};

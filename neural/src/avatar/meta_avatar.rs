@@ -100,6 +100,9 @@ pub struct MetaAvatarHeader {
     /// absent in avatars made before the frames were chosen over the whole capture).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame_indices: Option<Vec<usize>>,
+    /// The meta-model the fit started from (absent from scratch and in older avatars).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior: Option<crate::model_file::PriorRef>,
 }
 
 /// The bone encoder's Adam rate when fine-tuning from scratch (the reference's).
@@ -174,6 +177,10 @@ impl MetaAvatar {
             body: section,
             refined_poses,
             frame_indices: Some(capture.frames.iter().map(|f| f.index).collect()),
+            prior: match init {
+                Init::MetaLearned(m) => m.prior(),
+                Init::Scratch { .. } => None,
+            },
         };
         let wrap = Arc::new(BodyWrap::new(&body, &capture.betas));
         MetaAvatar {
@@ -217,6 +224,9 @@ impl MetaAvatar {
                 }
                 if let Some(poses) = &h.refined_poses {
                     refined_poses::check(poses, h.frames)?;
+                }
+                if let Some(prior) = &h.prior {
+                    prior.check()?;
                 }
                 if let Some(list) = &h.frame_indices
                     && (list.len() != h.frames || list.windows(2).any(|w| w[0] >= w[1]))

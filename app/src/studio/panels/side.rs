@@ -152,13 +152,20 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
                 .show_ui(ui, |ui| {
                     for kind in [AvatarKind::MetaAvatar, AvatarKind::StaticSdf] {
                         if ui.selectable_label(cfg.kind == kind, kind.label()).clicked() && cfg.kind != kind {
-                            *cfg = FitConfig::for_kind(kind);
+                            *cfg = cfg.keeping_prior(FitConfig::for_kind(kind));
                         }
                     }
                 })
                 .response
                 .labelled_by(l.id);
             ui.end_row();
+            if cfg.kind == AvatarKind::MetaAvatar {
+                let l = ui.label("Prior");
+                ui.add(egui::TextEdit::singleline(&mut cfg.model).hint_text("shipped").desired_width(150.0))
+                    .on_hover_text("The meta-model the fine-tuning starts from: the path of a meta-model.bin that avatar-studio meta-train wrote (docs/own-data.md), or empty for the shipped one. The avatar records it.")
+                    .labelled_by(l.id);
+                ui.end_row();
+            }
             let l = ui.label("Frames");
             ui.add(egui::DragValue::new(&mut cfg.frames).range(1..=64))
                 .on_hover_text("The most usable frames the fit takes (refused under 8, or under this number when it is smaller). More frames average down the error the fittings share, which pose refinement cannot correct.")
@@ -189,13 +196,13 @@ fn fit_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
         });
         ui.horizontal(|ui| {
             if ui.small_button("Quick (tiny)").clicked() {
-                *cfg = match cfg.kind {
+                *cfg = cfg.keeping_prior(match cfg.kind {
                     AvatarKind::MetaAvatar => FitConfig::tiny(),
                     AvatarKind::StaticSdf => FitConfig::tiny_static(),
-                };
+                });
             }
             if ui.small_button("Default").clicked() {
-                *cfg = FitConfig::for_kind(cfg.kind);
+                *cfg = cfg.keeping_prior(FitConfig::for_kind(cfg.kind));
             }
         });
     });
