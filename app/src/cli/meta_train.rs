@@ -5,7 +5,7 @@ use anyhow::{Context, bail};
 use avatar_neural::HyperConfig;
 use avatar_neural::MetaModel;
 use avatar_neural::meta_data::{MetaData, MetaDataConfig};
-use avatar_neural::meta_training::{MetaOptions, meta_train, start_from_static};
+use avatar_neural::meta_training::{MetaOptions, meta_train_collective, start_from_static};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -52,6 +52,15 @@ pub struct Args {
     hyper_outer_lr_encoder: Option<f64>,
     #[arg(long)]
     hyper_outer_lr_sdf: Option<f64>,
+    /// Alg. 1 tasks (posed frames) per outer iteration.
+    #[arg(long, default_value_t = 3)]
+    sdf_meta_batch: usize,
+    /// Alg. 2 tasks per outer iteration, their updates averaged (1: the paper's Reptile; give
+    /// a data-parallel run at least one per rank).
+    #[arg(long, default_value_t = 1)]
+    hyper_meta_batch: usize,
+    #[command(flatten)]
+    collective: super::collective::CollectiveArgs,
     #[command(flatten)]
     device: super::DeviceArg,
     #[arg(long, default_value_t = 0)]
@@ -65,6 +74,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.subjects == 0 || args.poses == 0 {
         bail!("--subjects and --poses must be at least 1");
     }
+    if args.hyper_meta_batch == 0 || args.sdf_meta_batch == 0 {
+        bail!("--sdf-meta-batch and --hyper-meta-batch must be at least 1");
+    }
+    args.collective.transport()?;
     // The data folder's files and --sdf-from are inputs; the run writes these three files.
     let inputs = avatar_core::io::Inputs::new()
         .file(args.data.join("meta-data.json"))
@@ -81,12 +94,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seed: args.seed,
         ..MetaDataConfig::default()
     };
+    // Every rank joins first (waiting for the others); rank 0 makes the data folder before the
+    // others read it (a shared disk) or generate their own copy (the same bits).
+    let collective = args.collective.join()?;
+    if !collective.is_root() {
+        collective.barrier()?;
+    }
     let data = MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?;
+    if collective.is_root() {
+        collective.barrier()?;
+    }
     let mut options = MetaOptions {
         config,
         sdf_iterations: args.sdf_iterations,
         hyper_iterations: args.hyper_iterations,
         sdf_outer_lr: args.sdf_outer_lr,
+        sdf_meta_batch: args.sdf_meta_batch,
+        hyper_meta_batch: args.hyper_meta_batch,
         seed: args.seed,
         ..MetaOptions::default()
     };
@@ -98,7 +122,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     outer.heads = args.hyper_outer_lr_heads.unwrap_or(outer.heads);
     outer.encoder = args.hyper_outer_lr_encoder.unwrap_or(outer.encoder);
     outer.sdf = args.hyper_outer_lr_sdf.unwrap_or(outer.sdf);
-    if let Some(from) = &args.sdf_from {
+    if let Some(from) = args.sdf_from.as_ref().filter(|_| collective.is_root()) {
         let model = MetaModel::load(from)?;
         start_from_static(&args.out, &options, &model, from)?;
         eprintln!("meta-train: Alg. 1 skipped, static meta-SDF from {}", from.display());
@@ -112,17 +136,39 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         options.hyper_iterations,
         args.out.display()
     );
-    let path = meta_train(&data, &options, &args.out, None, &mut |p| {
-        let done = p.iteration as f64 / p.iterations.max(1) as f64;
-        eprint!(
-            "\rmeta-train: {} {:>5}/{} loss {:>9.3} {:>7.0} s",
-            p.stage, p.iteration, p.iterations, p.loss, p.seconds
+    if collective.world() > options.sdf_meta_batch.min(options.hyper_meta_batch) {
+        eprintln!(
+            "meta-train: {} ranks for {} Alg. 1 and {} Alg. 2 tasks an iteration: some ranks wait (--hyper-meta-batch)",
+            collective.world(),
+            options.sdf_meta_batch,
+            options.hyper_meta_batch
         );
-        if p.iteration == p.iterations || done >= 1.0 {
-            eprintln!();
-        }
-        let _ = std::io::stderr().flush();
-    })?;
-    println!("wrote {}", path.display());
+    }
+    let root = collective.is_root();
+    let path = meta_train_collective(
+        &data,
+        &options,
+        &args.out,
+        None,
+        &mut |p| {
+            if !root {
+                return;
+            }
+            let done = p.iteration as f64 / p.iterations.max(1) as f64;
+            eprint!(
+                "\rmeta-train: {} {:>5}/{} loss {:>9.3} {:>7.0} s",
+                p.stage, p.iteration, p.iterations, p.loss, p.seconds
+            );
+            if p.iteration == p.iterations || done >= 1.0 {
+                eprintln!();
+            }
+            let _ = std::io::stderr().flush();
+        },
+        &collective,
+    )?;
+    match root {
+        true => println!("wrote {}", path.display()),
+        false => println!("rank {} done; rank 0 wrote {}", collective.rank(), path.display()),
+    }
     Ok(())
 }
