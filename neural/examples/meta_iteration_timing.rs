@@ -42,9 +42,13 @@ fn main() {
         ..MetaOptions::default()
     };
     let out = PathBuf::from(&a[1]);
-    let _ = std::fs::remove_dir_all(&out);
+    if c.is_root() {
+        let _ = std::fs::remove_dir_all(&out);
+    }
     let mut last = 0.0;
+    let mut last_cpu = cpu_seconds();
     let mut times: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    let mut cpu: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     meta_train_collective(
         &data,
         &options,
@@ -54,22 +58,42 @@ fn main() {
             let stage = usize::from(p.stage == "hyper");
             times[stage].push(p.seconds - last);
             last = p.seconds;
+            let now = cpu_seconds();
+            cpu[stage].push(now - last_cpu);
+            last_cpu = now;
         },
         &c,
     )
     .unwrap();
+    // Every rank's CPU seconds an iteration (median), summed over the ranks.
+    let median = |t: &mut Vec<f64>| {
+        t.remove(0);
+        t.sort_by(f64::total_cmp);
+        t[t.len() / 2]
+    };
+    let mut cpu_sum = [median(&mut cpu[0]) as f32, median(&mut cpu[1]) as f32];
+    c.all_reduce_sum(&mut cpu_sum).unwrap();
     if c.is_root() {
-        for (name, mut t) in ["Alg. 1", "Alg. 2"].into_iter().zip(times) {
-            t.remove(0);
-            t.sort_by(f64::total_cmp);
+        for (i, (name, mut t)) in ["Alg. 1", "Alg. 2"].into_iter().zip(times).enumerate() {
+            let m = median(&mut t);
             println!(
-                "{} ranks, {name}: median {:.3} s an iteration (min {:.3}, max {:.3}, {} iterations)",
+                "{} ranks, {name}: median {m:.3} s an iteration (min {:.3}, max {:.3}, {} iterations); CPU {:.3} s an iteration, all ranks",
                 c.world(),
-                t[t.len() / 2],
                 t[0],
                 t[t.len() - 1],
-                t.len()
+                t.len(),
+                cpu_sum[i]
             );
         }
     }
+}
+
+/// This process's CPU time (user + system, all threads), from /proc (Linux; 10 ms ticks).
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let after = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = after.split_whitespace().collect();
+    // Fields 14 and 15 of the file (utime, stime) are the 12th and 13th after the name.
+    let field = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (field(11) + field(12)) / 100.0
 }

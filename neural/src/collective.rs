@@ -119,9 +119,31 @@ impl Collective {
         Ok(v[0] > 0.5)
     }
 
+    /// End every process of the run with `code`: a rank that failed calls it, or the others would
+    /// wait forever in the next all-reduce (the launcher then ends the job). One process:
+    /// returns.
+    pub fn abort_run(&self, code: i32) {
+        #[cfg(feature = "mpi")]
+        if let (true, Some(universe)) = (self.world > 1, &self.mpi) {
+            use mpi::traits::Communicator;
+            universe.world().abort(code);
+        }
+        let _ = code;
+    }
+
     /// Wait until every process has called it.
     pub fn barrier(&self) -> Result<()> {
         self.any(false).map(|_| ())
+    }
+}
+
+impl Drop for Collective {
+    /// A rank that panics ends the run instead of leaving the others waiting (and instead of
+    /// finalizing MPI, which waits for them).
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.abort_run(101);
+        }
     }
 }
 

@@ -27,3 +27,16 @@ impl CollectiveArgs {
         Ok(collective)
     }
 }
+
+/// A rank that failed ends every rank of the run, after saying why (the others would wait in
+/// the next all-reduce, and finalizing MPI would wait for them).
+pub fn or_abort<T>(collective: &Collective, result: avatar_neural::Result<T>) -> anyhow::Result<T> {
+    match result {
+        Err(e) if collective.world() > 1 => {
+            eprintln!("error: rank {}: {e}", collective.rank());
+            collective.abort_run(1);
+            Err(e.into())
+        }
+        r => Ok(r?),
+    }
+}

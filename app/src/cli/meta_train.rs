@@ -1,6 +1,7 @@
 //! `avatar-studio meta-train`: MetaAvatar's meta-learning (Alg. 1 then Alg. 2) on synthetic
 //! training subjects. Resumable: run the same command again after a kill.
 
+use super::collective::or_abort;
 use anyhow::{Context, bail};
 use avatar_neural::HyperConfig;
 use avatar_neural::MetaModel;
@@ -100,7 +101,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !collective.is_root() {
         collective.barrier()?;
     }
-    let data = MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?;
+    let data = MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"));
+    let data = or_abort(&collective, data)?;
     if collective.is_root() {
         collective.barrier()?;
     }
@@ -123,8 +125,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     outer.encoder = args.hyper_outer_lr_encoder.unwrap_or(outer.encoder);
     outer.sdf = args.hyper_outer_lr_sdf.unwrap_or(outer.sdf);
     if let Some(from) = args.sdf_from.as_ref().filter(|_| collective.is_root()) {
-        let model = MetaModel::load(from)?;
-        start_from_static(&args.out, &options, &model, from)?;
+        let model = or_abort(&collective, MetaModel::load(from))?;
+        or_abort(&collective, start_from_static(&args.out, &options, &model, from))?;
         eprintln!("meta-train: Alg. 1 skipped, static meta-SDF from {}", from.display());
     }
     eprintln!(
@@ -145,7 +147,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let root = collective.is_root();
-    let path = meta_train_collective(
+    let result = meta_train_collective(
         &data,
         &options,
         &args.out,
@@ -165,7 +167,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let _ = std::io::stderr().flush();
         },
         &collective,
-    )?;
+    );
+    let path = or_abort(&collective, result)?;
     match root {
         true => println!("wrote {}", path.display()),
         false => println!("rank {} done; rank 0 wrote {}", collective.rank(), path.display()),
