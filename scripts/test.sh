@@ -2,7 +2,8 @@
 # Runs every test of Avatar Studio. Installs what the tests need first (Debian/Ubuntu, as root
 # or with sudo): lavapipe (software Vulkan) for the studio's screenshot tests, Node.js for the
 # Khronos glTF validator, Blender and numpy (its glTF importer needs numpy, which the Debian
-# package does not pull in) for the headless Blender import check (about 40 s, 680 MB). After
+# package does not pull in) for the headless Blender import check (about 40 s, 680 MB), OpenMPI
+# and libclang (the `mpi` feature's bindings) for the 1-vs-2-process meta-training test. After
 # the tests it packages, installs and checks the .deb (packaging/build-deb.sh --binary). The
 # cargo target directory lives outside the checkout so that repeated runs (and CI on the same
 # machine) reuse the build.
@@ -20,6 +21,8 @@ command -v node >/dev/null || missing+=(nodejs)
 command -v npm >/dev/null || missing+=(npm)
 command -v blender >/dev/null || missing+=(blender)
 [ -e /usr/lib/python3/dist-packages/numpy/__init__.py ] || missing+=(python3-numpy)
+command -v mpirun >/dev/null && command -v mpicc >/dev/null || missing+=(openmpi-bin libopenmpi-dev)
+[ -n "$(ls /usr/lib/llvm-*/lib/libclang.so* /usr/lib/x86_64-linux-gnu/libclang*.so* 2>/dev/null)" ] || missing+=(libclang-dev)
 if [ ${#missing[@]} -gt 0 ]; then
   echo "installing system packages: ${missing[*]}"
   SUDO=""; [ "$(id -u)" = 0 ] || SUDO="sudo"
@@ -48,6 +51,13 @@ if ! grep -qx 'import circles: 0' <<<"$circles"; then
 fi
 
 cargo test --workspace --locked "$@"
+
+# Data-parallel meta-training over MPI (neural's `mpi` feature, off in the studio's build): the
+# same seeded run in 1 and 2 processes on loopback (mpirun as root needs its flag; CI is root).
+if [ $# -eq 0 ]; then
+  cargo clippy -p avatar-neural --features mpi --all-targets --locked -- -D warnings
+  cargo test -p avatar-neural --features mpi --locked --test meta_train_collective
+fi
 
 # The .deb (packaging/README.md): the binary the tests just built, packaged from
 # [package.metadata.deb], installed with dpkg -i, run from /usr/bin (--version, a headless

@@ -6,6 +6,7 @@
 pub mod avatar;
 pub mod body_sdf;
 pub mod capture_points;
+pub mod collective;
 pub mod compute;
 pub mod encoder;
 pub mod error;

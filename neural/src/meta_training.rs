@@ -5,10 +5,14 @@
 //! resume where it stopped; every iteration draws its tasks from its own seeded generator, so a
 //! resumed run sees the same tasks as an uninterrupted one (Adam's moments restart at zero).
 
+mod checkpoint;
+mod tasks;
+
+use crate::collective::Collective;
 use crate::error::{Error, Result};
 use crate::fit::{FitOptions, fit_sdf};
 use crate::flat_params::{flatten, load_flat, reptile_gradients};
-use crate::hyper::HyperConfig;
+use crate::hyper::{HyperConfig, HyperNet};
 use crate::hyper_fit::{GroupRates, HyperFitOptions, HyperOptimisers, fit_hyper};
 use crate::loss::IgrWeights;
 use crate::meta_data::MetaData;
@@ -16,9 +20,8 @@ use crate::model_file::MetaModel;
 use crate::pose_sample::PoseSample;
 use crate::weights_file;
 use burn::optim::AdamConfig;
-use rand::seq::index::sample as sample_indices;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use burn::optim::GradientsParams;
+use checkpoint::Checkpoint;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -37,6 +40,10 @@ pub struct MetaOptions {
     /// Alg. 2: outer iterations, the largest task (frames of one group), inner epochs.
     pub hyper_iterations: usize,
     pub hyper_max_task: usize,
+    /// Alg. 2: tasks per outer iteration, their updates averaged (the paper's Reptile: 1; more
+    /// give ranks of a data-parallel run a task each). Older checkpoints lack it: 1.
+    #[serde(default = "one")]
+    pub hyper_meta_batch: usize,
     pub hyper_inner_epochs: usize,
     /// Inner fits (learning rates, points, poses per step) of Alg. 2.
     pub hyper_inner: HyperFitOptions,
@@ -45,6 +52,10 @@ pub struct MetaOptions {
     pub points_per_step: usize,
     pub checkpoint_every: usize,
     pub seed: u64,
+}
+
+fn one() -> usize {
+    1
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -65,6 +76,7 @@ impl Default for MetaOptions {
             sdf_outer_lr: 1e-4,
             hyper_iterations: 400,
             hyper_max_task: 8,
+            hyper_meta_batch: 1,
             hyper_inner_epochs: 4,
             // The inner fit the shipped model was meta-trained with (heads 1e-5, encoder 1e-4, with
             // the normal term: exact surface normals), pinned here so fine-tuning's defaults can
@@ -86,58 +98,6 @@ impl Default for MetaOptions {
             points_per_step: 1000,
             checkpoint_every: 10,
             seed: 0,
-        }
-    }
-}
-
-/// What a checkpoint holds besides the weights.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-struct Checkpoint {
-    format: String,
-    version: u32,
-    kind: String,
-    options: MetaOptions,
-    /// "sdf" (Alg. 1, weights = the SIREN) or "hyper" (Alg. 2, weights = hypernetwork then the
-    /// static meta-SDF of Alg. 1).
-    stage: String,
-    /// Iterations completed in that stage.
-    iteration: usize,
-    seconds: f64,
-}
-
-impl Checkpoint {
-    fn new(options: &MetaOptions, stage: &str, iteration: usize, seconds: f64) -> Checkpoint {
-        Checkpoint {
-            format: "avatar-studio-checkpoint".into(),
-            version: 1,
-            kind: "meta-checkpoint".into(),
-            options: options.clone(),
-            stage: stage.into(),
-            iteration,
-            seconds,
-        }
-    }
-
-    /// Check a checkpoint's header before its weights are read; the number of weights it needs.
-    /// An unknown stage is an error: silently restarting would throw the run away.
-    fn expected_weights(&self) -> Result<usize> {
-        if self.format != "avatar-studio-checkpoint"
-            || self.version != 1
-            || self.kind != "meta-checkpoint"
-        {
-            return Err(Error::invalid(format!(
-                "checkpoint format {:?} version {} kind {:?} is not supported by this build",
-                self.format, self.version, self.kind
-            )));
-        }
-        self.options.config.check()?;
-        let sdf = self.options.config.siren.num_params();
-        match self.stage.as_str() {
-            "sdf" => Ok(sdf),
-            "hyper" => Ok(self.options.config.num_params() + sdf),
-            other => Err(Error::invalid(format!(
-                "unknown checkpoint stage {other:?} (sdf or hyper); refusing to restart over it: move it away to start afresh"
-            ))),
         }
     }
 }
@@ -168,15 +128,9 @@ fn resumes(saved: &MetaOptions, asked: &MetaOptions) -> bool {
     same == *asked
 }
 
-fn iteration_rng(seed: u64, stage: u64, iteration: usize) -> ChaCha8Rng {
-    ChaCha8Rng::seed_from_u64(
-        seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ (stage << 40) ^ iteration as u64,
-    )
-}
-
 /// Meta-train into `out` (checkpoint, loss log, final model). Resumes from `out/checkpoint.bin`
 /// when its options match. Returns the model path; a cancelled run returns an error after
-/// writing its checkpoint.
+/// writing its checkpoint. One process: `meta_train_collective` with `Collective::single()`.
 pub fn meta_train(
     data: &MetaData,
     options: &MetaOptions,
@@ -184,33 +138,57 @@ pub fn meta_train(
     cancel: Option<&AtomicBool>,
     log: &mut dyn FnMut(&MetaProgress),
 ) -> Result<PathBuf> {
-    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    meta_train_collective(data, options, out, cancel, log, &Collective::single())
+}
+
+/// `meta_train` as one rank of a data-parallel run: every rank adapts its share of each outer
+/// iteration's tasks (`tasks::mine`) and the mean adapted weights are all-reduced, so every
+/// rank takes the same outer step, the one a single process would take (up to the order of the
+/// float sums). Rank 0 alone reads and writes `out` (checkpoint, loss log, model); on a restart
+/// it hands the checkpoint to the others. Every rank must run with the same options and data
+/// (checked). Returns the model's path (on rank 0's disk). A rank that fails leaves the
+/// others waiting in the next all-reduce: the launcher (srun, a shell) ends the run.
+pub fn meta_train_collective(
+    data: &MetaData,
+    options: &MetaOptions,
+    out: &Path,
+    cancel: Option<&AtomicBool>,
+    log: &mut dyn FnMut(&MetaProgress),
+    collective: &Collective,
+) -> Result<PathBuf> {
+    let root = collective.is_root();
+    if root {
+        std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    }
     if data.is_empty() {
         return Err(Error::invalid("meta-training data is empty"));
     }
+    if collective.world() > 1 {
+        checkpoint::check_same_run(collective, fingerprint(data, options))?;
+    }
     let train_device = crate::compute::training_device();
     let ckpt_path = out.join(CHECKPOINT);
-    let log_path = out.join("loss.csv");
-    let mut resume: Option<(Checkpoint, Vec<f32>)> = None;
-    if ckpt_path.exists() {
-        let (ck, w): (Checkpoint, Vec<f32>) =
-            weights_file::read_expecting(&ckpt_path, Checkpoint::expected_weights)?;
-        if !resumes(&ck.options, options) {
-            return Err(Error::file(
-                &ckpt_path,
-                "a checkpoint of a run with other options is in the output folder: use another --out or the same options",
-            ));
+    let resume =
+        checkpoint::share(collective, options, || checkpoint::read(&ckpt_path, options, resumes))?;
+    let mut csv = match root {
+        true => {
+            let log_path = out.join("loss.csv");
+            let file = std::fs::OpenOptions::new().create(true).append(true).open(&log_path);
+            Some(file.map_err(|e| Error::io(&log_path, e))?)
         }
-        resume = Some((ck, w));
-    }
-    let mut csv = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&log_path)
-        .map_err(|e| Error::io(&log_path, e))?;
+        false => None,
+    };
     let started = Instant::now();
-    let prior_seconds = resume.as_ref().map_or(0.0, |(c, _)| c.seconds);
+    let prior_seconds = resume.as_ref().map_or(0.0, |r| r.seconds);
     let elapsed = |s: &Instant| prior_seconds + s.elapsed().as_secs_f64();
+    let stop = || -> Result<()> {
+        match collective.any(cancel.is_some_and(|c| c.load(Ordering::Relaxed)))? {
+            true => Err(Error::invalid(
+                "meta-training cancelled (checkpoint kept; run again to resume)",
+            )),
+            false => Ok(()),
+        }
+    };
 
     // ---- Alg. 1: Reptile on the static SDF.
     let sdf_config = options.config.siren;
@@ -218,44 +196,41 @@ pub fn meta_train(
     let mut start = 0;
     let mut hyper_resume: Option<(usize, Vec<f32>)> = None;
     match &resume {
-        Some((ck, w)) if ck.stage == "sdf" => {
-            meta_sdf = load_flat(meta_sdf, w).map_err(|e| e.in_file(&ckpt_path))?;
-            start = ck.iteration;
+        Some(r) if r.stage == "sdf" => {
+            meta_sdf = load_flat(meta_sdf, &r.weights).map_err(|e| e.in_file(&ckpt_path))?;
+            start = r.iteration;
         }
-        Some((ck, w)) if ck.stage == "hyper" => {
+        Some(r) => {
+            let w = &r.weights;
             let n_sdf = sdf_config.num_params();
             meta_sdf =
                 load_flat(meta_sdf, &w[w.len() - n_sdf..]).map_err(|e| e.in_file(&ckpt_path))?;
             start = options.sdf_iterations;
-            hyper_resume = Some((ck.iteration, w[..w.len() - n_sdf].to_vec()));
+            hyper_resume = Some((r.iteration, w[..w.len() - n_sdf].to_vec()));
         }
-        _ => {}
+        None => {}
     }
     let mut outer = AdamConfig::new().init();
+    let n_sdf = sdf_config.num_params();
     for it in start..options.sdf_iterations {
-        if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-            return Err(Error::invalid(
-                "meta-training cancelled (checkpoint kept; run again to resume)",
-            ));
-        }
-        let mut rng = iteration_rng(options.seed, 1, it);
-        let mut mean = vec![0f32; sdf_config.num_params()];
-        let mut loss_sum = 0.0;
-        for _ in 0..options.sdf_meta_batch {
-            let i = rng.random_range(0..data.len());
+        stop()?;
+        let tasks = tasks::sdf_tasks(options, data, it);
+        // The mean adapted SIREN over the iteration's tasks, then the mean loss.
+        let mut mean = vec![0f32; n_sdf + 1];
+        for (_, task) in tasks::mine(&tasks, collective) {
             let inner = FitOptions {
                 steps: options.sdf_inner_steps,
                 learning_rate: options.sdf_inner_lr,
                 batch: options.points_per_step,
                 off_surface: options.points_per_step,
-                seed: rng.random(),
+                seed: task.seed,
                 ..FitOptions::default()
             };
             let mut last = 0.0;
             let adapted = fit_sdf(
                 meta_sdf.clone(),
-                &data.points[i],
-                &data.normals[i],
+                &data.points[task.sample],
+                &data.normals[task.sample],
                 &[],
                 &inner,
                 &train_device,
@@ -263,15 +238,16 @@ pub fn meta_train(
                 None,
                 &mut |_, l, _| last = l,
             );
-            loss_sum += last;
-            for (m, v) in mean.iter_mut().zip(flatten(&adapted)) {
-                *m += v / options.sdf_meta_batch as f32;
-            }
+            tasks::add_mean(&mut mean[..n_sdf], &flatten(&adapted), tasks.len());
+            mean[n_sdf] += last;
         }
-        let grads = reptile_gradients(&meta_sdf, &mean);
+        collective.all_reduce_sum(&mut mean)?;
+        let grads = reptile_gradients(&meta_sdf, &mean[..n_sdf]);
         meta_sdf = outer.step(options.sdf_outer_lr, meta_sdf, grads);
-        let loss = loss_sum / options.sdf_meta_batch as f32;
-        let _ = writeln!(csv, "sdf,{},{loss},{:.1}", it + 1, elapsed(&started));
+        let loss = mean[n_sdf] / tasks.len() as f32;
+        if let Some(csv) = &mut csv {
+            let _ = writeln!(csv, "sdf,{},{loss},{:.1}", it + 1, elapsed(&started));
+        }
         log(&MetaProgress {
             stage: "sdf",
             iteration: it + 1,
@@ -279,7 +255,7 @@ pub fn meta_train(
             loss,
             seconds: elapsed(&started),
         });
-        if (it + 1) % options.checkpoint_every == 0 || it + 1 == options.sdf_iterations {
+        if root && ((it + 1) % options.checkpoint_every == 0 || it + 1 == options.sdf_iterations) {
             let ck = Checkpoint::new(options, "sdf", it + 1, elapsed(&started));
             weights_file::write(&ckpt_path, &ck, &flatten(&meta_sdf))?;
         }
@@ -301,52 +277,51 @@ pub fn meta_train(
         encoder: options.hyper_outer.encoder,
         sdf: options.hyper_outer.sdf,
     };
+    let n = hyper_flat(&model).len();
     for it in start..options.hyper_iterations {
-        if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-            return Err(Error::invalid(
-                "meta-training cancelled (checkpoint kept; run again to resume)",
-            ));
+        stop()?;
+        let tasks = tasks::hyper_tasks(options, data, it);
+        // The mean adapted hypernetwork (`hyper_flat`), then the mean loss.
+        let mut mean = vec![0f32; n + 1];
+        for (_, task) in tasks::mine(&tasks, collective) {
+            let task_samples: Vec<PoseSample> =
+                task.samples.iter().map(|&i| samples[i].clone()).collect();
+            let per_step = options.hyper_inner.poses_per_step.max(1);
+            let inner = HyperFitOptions {
+                steps: options.hyper_inner_epochs * task_samples.len().div_ceil(per_step),
+                seed: task.seed,
+                ..options.hyper_inner.clone()
+            };
+            let mut last = 0.0;
+            let adapted = fit_hyper(
+                model.clone(),
+                &task_samples,
+                &inner,
+                &mut HyperOptimisers::default(),
+                &train_device,
+                None,
+                None,
+                &mut |_, l, _| last = l,
+            );
+            tasks::add_mean(&mut mean[..n], &hyper_flat(&adapted), tasks.len());
+            mean[n] += last;
         }
-        let mut rng = iteration_rng(options.seed, 2, it);
-        let group = &data.manifest.groups[rng.random_range(0..data.manifest.groups.len())];
-        let size = rng.random_range(1..=options.hyper_max_task.min(group.samples).max(1));
-        let task: Vec<PoseSample> = sample_indices(&mut rng, group.samples, size)
-            .into_iter()
-            .map(|k| samples[group.first_sample + k].clone())
-            .collect();
-        let per_step = options.hyper_inner.poses_per_step.max(1);
-        let inner = HyperFitOptions {
-            steps: options.hyper_inner_epochs * size.div_ceil(per_step),
-            seed: rng.random(),
-            ..options.hyper_inner.clone()
-        };
-        let mut last = 0.0;
-        let adapted = fit_hyper(
-            model.clone(),
-            &task,
-            &inner,
-            &mut HyperOptimisers::default(),
-            &train_device,
-            None,
-            None,
-            &mut |_, l, _| last = l,
-        );
-        let grads = [
-            reptile_gradients(&model.encoder, &flatten(&adapted.encoder)),
-            reptile_gradients(&model.heads, &flatten(&adapted.heads)),
-            reptile_gradients(&model.bases, &flatten(&adapted.bases)),
-            reptile_gradients(&model.sdf, &flatten(&adapted.sdf)),
-        ];
+        collective.all_reduce_sum(&mut mean)?;
+        let grads = hyper_reptile_gradients(&model, &mean[..n]);
         model = outer.step_params(model, grads, rates);
-        let _ = writeln!(csv, "hyper,{},{last},{:.1}", it + 1, elapsed(&started));
+        let loss = mean[n] / tasks.len() as f32;
+        if let Some(csv) = &mut csv {
+            let _ = writeln!(csv, "hyper,{},{loss},{:.1}", it + 1, elapsed(&started));
+        }
         log(&MetaProgress {
             stage: "hyper",
             iteration: it + 1,
             iterations: options.hyper_iterations,
-            loss: last,
+            loss,
             seconds: elapsed(&started),
         });
-        if (it + 1) % options.checkpoint_every == 0 || it + 1 == options.hyper_iterations {
+        if root && ((it + 1) % options.checkpoint_every == 0 || it + 1 == options.hyper_iterations)
+        {
             let ck = Checkpoint::new(options, "hyper", it + 1, elapsed(&started));
             let mut w = flatten(&model);
             w.extend_from_slice(&static_flat);
@@ -354,20 +329,63 @@ pub fn meta_train(
         }
     }
     let path = out.join(MODEL_FILE);
-    let meta = MetaModel::from_parts(
-        options.config,
-        &model,
-        &meta_sdf,
-        format!(
-            "meta-train seed {} ({} + {} iterations, {:.0} s)",
-            options.seed,
-            options.sdf_iterations,
-            options.hyper_iterations,
-            elapsed(&started)
-        ),
-    );
-    meta.save(&path)?;
+    if root {
+        let meta = MetaModel::from_parts(
+            options.config,
+            &model,
+            &meta_sdf,
+            format!(
+                "meta-train seed {} ({} + {} iterations, {:.0} s)",
+                options.seed,
+                options.sdf_iterations,
+                options.hyper_iterations,
+                elapsed(&started)
+            ),
+        );
+        meta.save(&path)?;
+    }
     Ok(path)
+}
+
+/// The hypernetwork's weights as Alg. 2 averages them: encoder, heads, bases, SDF.
+fn hyper_flat(model: &HyperNet) -> Vec<f32> {
+    [flatten(&model.encoder), flatten(&model.heads), flatten(&model.bases), flatten(&model.sdf)]
+        .concat()
+}
+
+/// Reptile's outer gradients of each parameter group from the mean adapted model (`hyper_flat`).
+fn hyper_reptile_gradients(model: &HyperNet, adapted: &[f32]) -> [GradientsParams; 4] {
+    let sizes = [
+        flatten(&model.encoder).len(),
+        flatten(&model.heads).len(),
+        flatten(&model.bases).len(),
+        flatten(&model.sdf).len(),
+    ];
+    let mut at = 0;
+    let mut part = |size: usize| {
+        at += size;
+        &adapted[at - size..at]
+    };
+    [
+        reptile_gradients(&model.encoder, part(sizes[0])),
+        reptile_gradients(&model.heads, part(sizes[1])),
+        reptile_gradients(&model.bases, part(sizes[2])),
+        reptile_gradients(&model.sdf, part(sizes[3])),
+    ]
+}
+
+/// What every rank of a run must share: the options and the data, to the bit.
+fn fingerprint(data: &MetaData, options: &MetaOptions) -> u64 {
+    let json = serde_json::to_vec(options).unwrap_or_default();
+    let mut h = checkpoint::fnv1a(checkpoint::FNV_START, &json);
+    for (points, normals) in data.points.iter().zip(&data.normals) {
+        for p in points.iter().chain(normals) {
+            for v in p.to_array() {
+                h = checkpoint::fnv1a(h, &v.to_bits().to_le_bytes());
+            }
+        }
+    }
+    h
 }
 
 /// Start a run at Alg. 2 with the static meta-SDF of an existing model (Alg. 1 skipped): writes

@@ -3,12 +3,13 @@
 //! (`avatar_core::own_data`, docs/own-data.md; `--dry-run` lists it). Resumable: run the same
 //! command again after a kill.
 
+use super::collective::or_abort;
 use anyhow::{Context, bail};
 use avatar_core::own_data::{discover, looks_like_own_data};
 use avatar_neural::HyperConfig;
 use avatar_neural::MetaModel;
 use avatar_neural::meta_data::{MetaData, MetaDataConfig};
-use avatar_neural::meta_training::{MetaOptions, meta_train, start_from_static};
+use avatar_neural::meta_training::{MetaOptions, meta_train_collective, start_from_static};
 use avatar_neural::own_data::{OwnDataOptions, fingerprint, prepare};
 use std::io::Write;
 use std::path::PathBuf;
@@ -65,6 +66,15 @@ pub struct Args {
     hyper_outer_lr_encoder: Option<f64>,
     #[arg(long)]
     hyper_outer_lr_sdf: Option<f64>,
+    /// Alg. 1 tasks (posed frames) per outer iteration.
+    #[arg(long, default_value_t = 3)]
+    sdf_meta_batch: usize,
+    /// Alg. 2 tasks per outer iteration, their updates averaged (1: the paper's Reptile; give
+    /// a data-parallel run at least one per rank).
+    #[arg(long, default_value_t = 1)]
+    hyper_meta_batch: usize,
+    #[command(flatten)]
+    collective: super::collective::CollectiveArgs,
     #[command(flatten)]
     device: super::DeviceArg,
     #[arg(long, default_value_t = 0)]
@@ -85,6 +95,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.data.display()
         );
     }
+    if args.hyper_meta_batch == 0 || args.sdf_meta_batch == 0 {
+        bail!("--sdf-meta-batch and --hyper-meta-batch must be at least 1");
+    }
+    args.collective.transport()?;
     if args.frames_per_capture == 0 {
         bail!("--frames-per-capture must be at least 1");
     }
@@ -110,6 +124,104 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             inputs.check_file(&out.join(name), &[ext])?;
         }
     }
+    if args.dry_run {
+        load_data(&args, own)?;
+        return Ok(());
+    }
+    let Some(out) = args.out.as_deref() else {
+        bail!("--out is needed to train (only --dry-run goes without it)");
+    };
+    // Every rank joins first (waiting for the others); rank 0 makes the data (generates it, or
+    // prepares own data's samples) before the others read it (a shared disk) or make their own
+    // copy (the same bits).
+    let collective = args.collective.join()?;
+    if !collective.is_root() {
+        collective.barrier()?;
+    }
+    let data = match load_data(&args, own) {
+        Err(e) if collective.world() > 1 => {
+            eprintln!("error: rank {}: {e:#}", collective.rank());
+            collective.abort_run(1);
+            return Err(e);
+        }
+        r => r?.context("no data to train on")?,
+    };
+    if collective.is_root() {
+        collective.barrier()?;
+    }
+    let mut options = MetaOptions {
+        config,
+        sdf_iterations: args.sdf_iterations,
+        hyper_iterations: args.hyper_iterations,
+        sdf_outer_lr: args.sdf_outer_lr,
+        sdf_meta_batch: args.sdf_meta_batch,
+        hyper_meta_batch: args.hyper_meta_batch,
+        seed: args.seed,
+        ..MetaOptions::default()
+    };
+    let inner = &mut options.hyper_inner;
+    inner.lr_heads = args.hyper_inner_lr_heads.unwrap_or(inner.lr_heads);
+    inner.lr_encoder = args.hyper_inner_lr_encoder.unwrap_or(inner.lr_encoder);
+    inner.lr_sdf = args.hyper_inner_lr_sdf.unwrap_or(inner.lr_sdf);
+    let outer = &mut options.hyper_outer;
+    outer.heads = args.hyper_outer_lr_heads.unwrap_or(outer.heads);
+    outer.encoder = args.hyper_outer_lr_encoder.unwrap_or(outer.encoder);
+    outer.sdf = args.hyper_outer_lr_sdf.unwrap_or(outer.sdf);
+    if let Some(from) = args.sdf_from.as_ref().filter(|_| collective.is_root()) {
+        let model = or_abort(&collective, MetaModel::load(from))?;
+        or_abort(&collective, start_from_static(out, &options, &model, from))?;
+        eprintln!("meta-train: Alg. 1 skipped, static meta-SDF from {}", from.display());
+    }
+    eprintln!(
+        "meta-train: {} preset ({} hypernetwork parameters), {} samples, {} + {} iterations, output {}",
+        args.preset,
+        config.num_params(),
+        data.len(),
+        options.sdf_iterations,
+        options.hyper_iterations,
+        out.display()
+    );
+    if collective.world() > options.sdf_meta_batch.min(options.hyper_meta_batch) {
+        eprintln!(
+            "meta-train: {} ranks for {} Alg. 1 and {} Alg. 2 tasks an iteration: some ranks wait (--hyper-meta-batch)",
+            collective.world(),
+            options.sdf_meta_batch,
+            options.hyper_meta_batch
+        );
+    }
+    let root = collective.is_root();
+    let result = meta_train_collective(
+        &data,
+        &options,
+        out,
+        None,
+        &mut |p| {
+            if !root {
+                return;
+            }
+            let done = p.iteration as f64 / p.iterations.max(1) as f64;
+            eprint!(
+                "\rmeta-train: {} {:>5}/{} loss {:>9.3} {:>7.0} s",
+                p.stage, p.iteration, p.iterations, p.loss, p.seconds
+            );
+            if p.iteration == p.iterations || done >= 1.0 {
+                eprintln!();
+            }
+            let _ = std::io::stderr().flush();
+        },
+        &collective,
+    );
+    let path = or_abort(&collective, result)?;
+    match root {
+        true => println!("wrote {}", path.display()),
+        false => println!("rank {} done; rank 0 wrote {}", collective.rank(), path.display()),
+    }
+    Ok(())
+}
+
+/// The data to train on: own data (found, checked, its samples prepared or reused from
+/// OUT/own-data) or the synthetic generator's; `None` after a dry run's listing.
+fn load_data(args: &Args, own: bool) -> anyhow::Result<Option<MetaData>> {
     let data = if own {
         let found = discover(&args.data)?;
         eprint!("meta-train: own data in {}", found.summary());
@@ -123,7 +235,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 found.groups.len(),
                 found.refused.len()
             );
-            return Ok(());
+            return Ok(None);
         }
         let options = OwnDataOptions {
             frames_per_capture: args.frames_per_capture,
@@ -176,50 +288,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         };
         MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?
     };
-    let Some(out) = args.out.as_deref() else {
-        bail!("--out is needed to train (only --dry-run goes without it)");
-    };
-    let mut options = MetaOptions {
-        config,
-        sdf_iterations: args.sdf_iterations,
-        hyper_iterations: args.hyper_iterations,
-        sdf_outer_lr: args.sdf_outer_lr,
-        seed: args.seed,
-        ..MetaOptions::default()
-    };
-    let inner = &mut options.hyper_inner;
-    inner.lr_heads = args.hyper_inner_lr_heads.unwrap_or(inner.lr_heads);
-    inner.lr_encoder = args.hyper_inner_lr_encoder.unwrap_or(inner.lr_encoder);
-    inner.lr_sdf = args.hyper_inner_lr_sdf.unwrap_or(inner.lr_sdf);
-    let outer = &mut options.hyper_outer;
-    outer.heads = args.hyper_outer_lr_heads.unwrap_or(outer.heads);
-    outer.encoder = args.hyper_outer_lr_encoder.unwrap_or(outer.encoder);
-    outer.sdf = args.hyper_outer_lr_sdf.unwrap_or(outer.sdf);
-    if let Some(from) = &args.sdf_from {
-        let model = MetaModel::load(from)?;
-        start_from_static(out, &options, &model, from)?;
-        eprintln!("meta-train: Alg. 1 skipped, static meta-SDF from {}", from.display());
-    }
-    eprintln!(
-        "meta-train: {} preset ({} hypernetwork parameters), {} samples, {} + {} iterations, output {}",
-        args.preset,
-        config.num_params(),
-        data.len(),
-        options.sdf_iterations,
-        options.hyper_iterations,
-        out.display()
-    );
-    let path = meta_train(&data, &options, out, None, &mut |p| {
-        let done = p.iteration as f64 / p.iterations.max(1) as f64;
-        eprint!(
-            "\rmeta-train: {} {:>5}/{} loss {:>9.3} {:>7.0} s",
-            p.stage, p.iteration, p.iterations, p.loss, p.seconds
-        );
-        if p.iteration == p.iterations || done >= 1.0 {
-            eprintln!();
-        }
-        let _ = std::io::stderr().flush();
-    })?;
-    println!("wrote {}", path.display());
-    Ok(())
+    Ok(Some(data))
 }

@@ -4,6 +4,7 @@ mod bench;
 mod body;
 mod canonicalize;
 mod check;
+mod collective;
 mod eval;
 mod export;
 mod fit;
