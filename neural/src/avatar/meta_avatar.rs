@@ -20,7 +20,6 @@ use crate::model_file::MetaModel;
 use crate::pose_refine::PoseRefiner;
 use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
-use avatar_core::avatar::PROJECTION_STEPS;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, Weights};
 use avatar_core::canonical::{
     BodyWrap, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice, field_weights,
@@ -115,13 +114,6 @@ pub const SCRATCH_ENCODER_RATE: f64 = 1e-4;
 /// 0.841 cm / 10.7 % spurious, 128 cells 0.765 / 9.0 %, NC 0.830 -> 0.827; 96 cells loses NC
 /// (0.800 on subject 1004). Tight clothing (the wrapped body) does not depend on it.
 pub const LOOSE_RESOLUTION: usize = 128;
-
-/// How far out (in cells) the loose pieces are extracted before they are projected back onto
-/// the surface (`MetaAvatar::loose_surface`). One fitted dress at rest (docs/decisions.md):
-/// at the zero level 14.4 m of open border and 7 non-manifold edges; 0.35 cells 11.0 m, 0.7
-/// cells 9.8 m (none non-manifold, Chamfer-L2 0.773 -> 0.807 cm, NC 0.876 -> 0.895), 1.2
-/// cells merges the skirt with the legs (29 m).
-pub const LOOSE_DILATION_CELLS: f32 = 0.7;
 
 pub struct MetaAvatar {
     pub header: MetaAvatarHeader,
@@ -330,7 +322,10 @@ impl MetaAvatar {
         match self.surface_kind() {
             SurfaceChoice::WrappedBody => Ok(self.wrapped_surface(&sdf, self.wrap.options.outside)),
             SurfaceChoice::WrappedWithLoose => {
-                let extracted = self.loose_surface(&sdf, resolution.min(LOOSE_RESOLUTION))?;
+                // Extracted at the zero level: extracting the level 0.7 cells out and projecting it back
+                // kept one dress whole at rest but on the quick preset cost every loose outfit
+                // (all Chamfer-L2 0.920 -> 1.186 cm, simulated skirt spurious 11 -> 46 %).
+                let extracted = self.extracted_surface(&sdf, resolution.min(LOOSE_RESOLUTION))?;
                 Ok(self.wrap.with_loose_pieces(
                     &self.wrapped_surface(&sdf, self.wrap.options.tight_outside),
                     &extracted,
@@ -348,19 +343,6 @@ impl MetaAvatar {
             )?
             .mesh,
         ))
-    }
-
-    /// The loose pieces' surface: a thin slab of cloth thinner than a cell tears when it is
-    /// extracted at its zero level, so the level `LOOSE_DILATION_CELLS` out is extracted (a
-    /// slab at least that much thicker, whole) and its vertices projected back onto the zero
-    /// level.
-    fn loose_surface(&self, sdf: &MetricSdf, resolution: usize) -> Result<TriMesh> {
-        let mut options = super::header::extract_options(&self.header.normalisation, resolution);
-        options.level =
-            LOOSE_DILATION_CELLS * (options.max - options.min).max_element() / resolution as f32;
-        let mut mesh = extract(|p: &[Vec3]| sdf.sdf(p), &options)?.mesh;
-        mesh.positions = sdf.project(&mesh.positions, PROJECTION_STEPS);
-        Ok(self.skinner.finish_surface(mesh))
     }
 
     fn wrapped_surface(&self, sdf: &MetricSdf, outside: f32) -> TriMesh {
