@@ -63,6 +63,9 @@ pub struct SurfaceSmoother {
     /// Where the reference pose's own projection moves each vertex (`relative_to`): empty, or
     /// one move a vertex.
     reference_moves: Vec<Vec3>,
+    /// With `reference_moves`, the reference's own offsets from the body (measured once; a
+    /// pose smooths only its change from them). Empty otherwise.
+    reference_offsets: Vec<f32>,
 }
 
 impl SurfaceSmoother {
@@ -81,6 +84,7 @@ impl SurfaceSmoother {
             options,
             pinned: Vec::new(),
             reference_moves: Vec::new(),
+            reference_offsets: Vec::new(),
         }
     }
 
@@ -111,6 +115,12 @@ impl SurfaceSmoother {
                 .iter()
                 .zip(&self.reference)
                 .map(|(p, r)| if p.is_finite() { *p - *r } else { Vec3::ZERO })
+                .collect();
+            self.reference_offsets = self
+                .reference
+                .par_iter()
+                .zip(&self.anchors)
+                .map(|(&x, anchor)| anchor.map_or(0.0, |(p, n)| (x - p).dot(n)))
                 .collect();
         }
         self
@@ -152,15 +162,7 @@ impl SurfaceSmoother {
         // Relative to a reference pose (`relative_to`), the reference is already a smoothed
         // surface: only each offset's change from the reference's is smoothed, so the reference
         // pose gives the reference back.
-        let from: Vec<f32> = if self.reference_moves.is_empty() {
-            vec![0.0; positions.len()]
-        } else {
-            self.reference
-                .par_iter()
-                .zip(&self.anchors)
-                .map(|(&x, anchor)| anchor.map_or(0.0, |(p, n)| (x - p).dot(n)))
-                .collect()
-        };
+        let from = |v: usize| self.reference_offsets.get(v).copied().unwrap_or(0.0);
         // How much of the smoothing each vertex takes: 1 within `a` of the body, 0 from `b` on.
         let share: Vec<f32> = offsets
             .iter()
@@ -177,7 +179,7 @@ impl SurfaceSmoother {
         // Each sweep: a vertex's offset becomes the mean of its own and its neighbours' among the
         // vertices that take part (loose cloth neither gives nor takes).
         let mut smoothed: Vec<f32> =
-            offsets.iter().zip(&from).map(|(d, f)| d.map_or(0.0, |d| d - f)).collect();
+            offsets.iter().enumerate().map(|(v, d)| d.map_or(0.0, |d| d - from(v))).collect();
         let mut next = smoothed.clone();
         for _ in 0..self.options.sweeps {
             next.par_iter_mut().enumerate().for_each(|(v, out)| {
@@ -197,7 +199,7 @@ impl SurfaceSmoother {
         }
         positions.par_iter_mut().enumerate().for_each(|(v, x)| {
             if let (Some(d), Some((_, normal))) = (offsets[v], self.anchors[v]) {
-                *x += share[v] * (smoothed[v] - (d - from[v])) * normal;
+                *x += share[v] * (smoothed[v] - (d - from(v))) * normal;
             }
         });
     }

@@ -45,8 +45,7 @@ fn weld(mesh: &TriMesh) -> Welded {
         .positions
         .iter()
         .map(|p| {
-            // +0.0 and -0.0 are the same point.
-            let key = p.to_array().map(|c| (c + 0.0).to_bits());
+            let key = super::topology::position_key(*p);
             *index_of.entry(key).or_insert_with(|| {
                 positions.push(*p);
                 positions.len() as u32 - 1

@@ -152,6 +152,11 @@ pub fn drop_small_pieces(mesh: &TriMesh, min_area: f32) -> TriMesh {
     compact(&mesh.positions, &faces)
 }
 
+/// A position as a hash key: bit-identical points (+0.0 and -0.0 alike) share one.
+pub(crate) fn position_key(p: glam::Vec3) -> [u32; 3] {
+    p.to_array().map(|c| (c + 0.0).to_bits())
+}
+
 /// Drop faces until no edge is used by more than two faces (vertices at bit-identical positions
 /// count as one, as the integrity ruler counts them): on each such edge the two largest faces
 /// stay, the first `keep_first` faces before any other (a wrapped body's own faces, which its
@@ -165,9 +170,7 @@ pub fn drop_non_manifold_faces(mesh: &TriMesh, keep_first: usize) -> (TriMesh, u
         .positions
         .iter()
         .enumerate()
-        .map(|(i, p)| {
-            *index_of.entry(p.to_array().map(|c| (c + 0.0).to_bits())).or_insert(i as u32)
-        })
+        .map(|(i, p)| *index_of.entry(position_key(*p)).or_insert(i as u32))
         .collect();
     let mut faces_of: HashMap<(u32, u32), Vec<u32>> =
         HashMap::with_capacity(mesh.faces.len() * 3 / 2);
