@@ -127,6 +127,28 @@ fn own_data_is_listed_trained_on_and_fitted_from() {
         "{out}"
     );
 
+    // The static SDF started from that prior's static SDF names it too.
+    let fixed = dir.path().join("s.avatar");
+    let (out, _) = ok(&studio(&[
+        &"fit",
+        &outfit.join("walk"),
+        &"--frames",
+        &"3",
+        &"--steps",
+        &"2",
+        &"--static",
+        &"--model",
+        &model,
+        &"--out",
+        &fixed,
+    ]));
+    assert!(out.contains("static SDF") && out.contains("meta-model.bin"), "{out}");
+    let (out, _) = ok(&studio(&[&"check", &fixed]));
+    assert!(
+        out.contains("fine-tuned from the prior") && out.contains("meta-train seed 0"),
+        "{out}"
+    );
+
     // A model file that is not a meta-model is refused by name; nothing is written.
     let again = dir.path().join("b.avatar");
     let o = studio(&[

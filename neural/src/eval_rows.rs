@@ -77,10 +77,9 @@ impl Predictor for NeuralRow {
                 config: self.model.header.config,
                 seed: self.options.seed,
             }),
-            RowKind::StaticMetaSdf => FitKind::Static {
-                siren: self.model.header.config.siren,
-                init: Some(self.model.static_siren()),
-            },
+            RowKind::StaticMetaSdf => {
+                FitKind::Static { siren: self.model.header.config.siren, init: Some(&self.model) }
+            }
         };
         let fit =
             AvatarFit { kind, options: self.options.clone(), chunk: 0, cancel: None, trace: None };

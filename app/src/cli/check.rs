@@ -48,9 +48,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         mesh.positions.len(),
         mesh.faces.len()
     );
-    if let avatar_neural::avatar::AnyAvatar::Meta(a) = &avatar
-        && let Some(prior) = &a.header.prior
-    {
+    let prior = match &avatar {
+        avatar_neural::avatar::AnyAvatar::Meta(a) => a.header.prior.as_ref(),
+        avatar_neural::avatar::AnyAvatar::Static(a) => a.header.prior.as_ref(),
+    };
+    if let Some(prior) = prior {
         println!("  fine-tuned from the prior {}: {}", prior.label(), prior.provenance);
     }
     println!(

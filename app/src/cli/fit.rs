@@ -111,7 +111,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "static SDF (from scratch)".to_string(),
         ),
         (Some(m), true) => (
-            FitKind::Static { siren: m.header.config.siren, init: Some(m.static_siren()) },
+            FitKind::Static { siren: m.header.config.siren, init: Some(m) },
             "static SDF (static meta-SDF)".to_string(),
         ),
     };
@@ -150,6 +150,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 a.num_params()
             )
         }
+        (AnyAvatar::Static(a), _) => match &a.header.prior {
+            Some(p) => format!("{what} from the prior {}", p.label()),
+            None => what,
+        },
         _ => what,
     };
     let partial = avatar.partial();

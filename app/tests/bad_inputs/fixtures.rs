@@ -60,6 +60,7 @@ pub fn static_header() -> AvatarHeader {
         field_cells: 16,
         partial: None,
         body: None,
+        prior: None,
     }
 }
 

@@ -14,6 +14,7 @@ use crate::avatar::{AnyAvatar, PartialFit};
 use crate::capture_points::CapturePoints;
 use crate::fit::{FitOptions, Progress, SdfOptimiser, SignPrior, fit_sdf_resuming};
 use crate::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
+use crate::model_file::MetaModel;
 use crate::pose_refine::{PoseRefiner, refine_round};
 use crate::pose_trace::PoseTrace;
 use crate::siren::{Siren, SirenConfig};
@@ -26,9 +27,10 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 pub enum FitKind<'a> {
     /// The pose-dependent hypernetwork avatar (MetaAvatar or the from-scratch baseline).
     Meta(Init<'a>),
-    /// A static (pose-independent) SIREN SDF over all frames pooled: from `init` (the
-    /// meta-model's static SDF) or, with `None`, from SIREN's random initialisation.
-    Static { siren: SirenConfig, init: Option<Siren> },
+    /// A static (pose-independent) SIREN SDF over all frames pooled: from `init`'s static SDF
+    /// (the meta-model's, recorded in the avatar as its prior) or, with `None`, from SIREN's
+    /// random initialisation.
+    Static { siren: SirenConfig, init: Option<&'a MetaModel> },
 }
 
 /// A fit's configuration.
@@ -96,15 +98,16 @@ pub fn fit_avatar(
             (AnyAvatar::Meta(avatar), report)
         }
         FitKind::Static { siren, init } => {
-            let (avatar, report) = fit_static(
+            let (mut avatar, report) = fit_static(
                 capture,
                 *siren,
-                init.clone(),
+                init.map(MetaModel::static_siren),
                 &fit.options.static_equivalent(),
                 fit.chunk,
                 fit.cancel,
                 on_event,
             );
+            avatar.header.prior = init.and_then(|m| m.prior());
             (AnyAvatar::Static(avatar), report)
         }
     }

@@ -43,6 +43,10 @@ pub struct AvatarHeader {
     /// The frozen body stored after the weights (version 2 files; absent for the open body).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub body: Option<BodySection>,
+    /// The meta-model whose static SDF the fit started from (absent from scratch and in older
+    /// avatars).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior: Option<crate::model_file::PriorRef>,
 }
 
 pub struct StaticAvatar {
@@ -78,6 +82,7 @@ impl StaticAvatar {
             field_cells: capture.field_cells,
             body: section,
             partial: None,
+            prior: None,
         };
         let model = model.valid().to_device(&crate::cpu_device());
         let sdf = MetricSdf::of(&model, header.normalisation);
@@ -118,6 +123,9 @@ impl StaticAvatar {
                 h.siren.check()?;
                 check_subject(&h.normalisation, &h.betas, &h.body_model, h.field_cells, h.partial)?;
                 avatar_body::check_version(h.version, h.body.as_ref())?;
+                if let Some(prior) = &h.prior {
+                    prior.check()?;
+                }
                 Ok(h.siren.num_params() + h.body.as_ref().map_or(0, BodySection::len))
             })?;
         let (weights, body) = avatar_body::split(
