@@ -66,6 +66,12 @@ pub struct WrapOptions {
     /// it is not wrapped: the depth and the SDF's grid cannot resolve it, and the body's own
     /// surface is the better guess than the blob around it.
     pub thin: f32,
+    /// Each offset stays within this share of the room the body leaves on its side
+    /// (`reach_out`, `reach_in`): an offset surface folds over itself once it passes the
+    /// centre of the largest ball that touches the body there, and in the creases of a face
+    /// (eyelids, nostrils, the ear's folds) that ball is millimetres wide, where a depth camera
+    /// sees nothing finer than a centimetre.
+    pub crease_share: f32,
 }
 
 impl Default for WrapOptions {
@@ -85,6 +91,7 @@ impl Default for WrapOptions {
             min_shred_share: 0.005,
             max_hole: 0.3,
             thin: 0.03,
+            crease_share: 0.8,
         }
     }
 }
@@ -115,6 +122,11 @@ pub struct BodyWrap {
     /// The body's thickness at each vertex (metres, along the inward normal; infinite where
     /// the ray leaves no other side within 20 cm).
     thickness: Vec<f32>,
+    /// The radius of the largest ball that touches the body at each vertex from outside, and
+    /// from inside (metres, at most `MAX_REACH`): how far the vertex can move along its normal
+    /// before the moved surface folds over itself.
+    reach_out: Vec<f32>,
+    reach_in: Vec<f32>,
     guard: FoldGuard,
     pub options: WrapOptions,
 }
@@ -141,7 +153,17 @@ impl BodyWrap {
             .zip(&normals)
             .map(|(&x, &n)| thickness_at(&bvh, x, n))
             .collect();
+        let reach = |side: f32| -> Vec<f32> {
+            rest.positions
+                .par_iter()
+                .zip(&normals)
+                .map(|(&x, &n)| touching_ball_radius(&bvh, x, side * n))
+                .collect()
+        };
+        let (reach_out, reach_in) = (reach(1.0), reach(-1.0));
         BodyWrap {
+            reach_out,
+            reach_in,
             rest_area: rest.surface_area(),
             guard: FoldGuard::new(&rest),
             rest,
@@ -183,6 +205,11 @@ impl BodyWrap {
                 },
             )
             .collect();
+        for ((t, &out), &inward) in offsets.iter_mut().zip(&self.reach_out).zip(&self.reach_in) {
+            if let Some(t) = t {
+                *t = t.clamp(-o.crease_share * inward, o.crease_share * out);
+            }
+        }
         self.guard.unfold(&self.rest, &self.normals, &mut offsets);
         let positions = self
             .rest
@@ -353,6 +380,31 @@ fn thickness_at(bvh: &Bvh, x: Vec3, n: Vec3) -> f32 {
         .iter()
         .filter_map(|&d| bvh.ray_cast(x - 1e-4 * n, d, 1e-3, 0.2).map(|h| h.t))
         .fold(f32::INFINITY, f32::min)
+}
+
+/// Balls wider than this (metres) are not looked for: offsets never reach that far.
+const MAX_REACH: f32 = 0.1;
+
+/// The radius of the largest ball (up to `MAX_REACH`) touching the surface in `bvh` at `x`
+/// whose centre lies along `dir` (a unit normal, either side): no point of the surface lies
+/// inside it. Balls along one normal nest (a smaller one lies inside a larger one), so the
+/// radius is found by bisection.
+fn touching_ball_radius(bvh: &Bvh, x: Vec3, dir: Vec3) -> f32 {
+    // Facets round a vertex lie up to about a percent inside a ball that touches the smooth
+    // surface there; a tenth of a millimetre covers rounding.
+    let empty = |r: f32| {
+        let clearance = 0.98 * r - 1e-4;
+        clearance <= 0.0 || bvh.closest_point_within(x + r * dir, clearance).is_none()
+    };
+    if empty(MAX_REACH) {
+        return MAX_REACH;
+    }
+    let (mut lo, mut hi) = (0.0f32, MAX_REACH);
+    for _ in 0..14 {
+        let mid = 0.5 * (lo + hi);
+        if empty(mid) { lo = mid } else { hi = mid }
+    }
+    lo
 }
 
 /// Where the SDF sampled at `steps` along a ray goes from inside to outside, the crossing

@@ -245,3 +245,91 @@ fn a_body_too_thin_to_resolve_is_not_wrapped() {
     }
     assert!(w.found[..base as usize].iter().filter(|&&f| f).count() > base as usize * 9 / 10);
 }
+
+/// A torus round the y axis (ring radius `big`, tube radius `small`), faces outward.
+fn torus(big: f32, small: f32, rings: usize, tubes: usize) -> TriMesh {
+    let mut positions = Vec::new();
+    for i in 0..rings {
+        let u = i as f32 / rings as f32 * std::f32::consts::TAU;
+        for j in 0..tubes {
+            let v = j as f32 / tubes as f32 * std::f32::consts::TAU;
+            let r = big + small * v.cos();
+            positions.push(Vec3::new(r * u.cos(), small * v.sin(), r * u.sin()));
+        }
+    }
+    let at = |i: usize, j: usize| ((i % rings) * tubes + j % tubes) as u32;
+    let mut faces = Vec::new();
+    for i in 0..rings {
+        for j in 0..tubes {
+            faces.push([at(i, j), at(i, j + 1), at(i + 1, j)]);
+            faces.push([at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)]);
+        }
+    }
+    TriMesh::new(positions, faces)
+}
+
+#[test]
+fn an_offset_wider_than_a_crease_stops_short_of_folding_and_keeps_its_size_elsewhere() {
+    // The inside of a torus is a crease: the ball touching its inner equator from outside is
+    // 4 cm wide (the hole's radius), while cloth lies 5 cm out all round.
+    let (big, small, cloth) = (0.1, 0.06, 0.05);
+    let mut body = torus(big, small, 96, 48);
+    if body.signed_volume() < 0.0 {
+        body.faces.iter_mut().for_each(|f| f.swap(1, 2));
+    }
+    let sdf = |ps: &[Vec3]| -> Vec<f32> {
+        ps.iter()
+            .map(|p| Vec3::new(p.x.hypot(p.z) - big, p.y, 0.0).length() - small - cloth)
+            .collect()
+    };
+    let wrap = BodyWrap::of_mesh(body.clone());
+    let folds = |w: &Wrapped| {
+        crate::mesh::integrity::self_intersecting_faces(&w.mesh.positions, &w.mesh.faces)
+            .iter()
+            .filter(|&&f| f)
+            .count()
+    };
+    let clamped = wrap.wrap(sdf);
+    assert_eq!(folds(&clamped), 0, "the wrapped torus intersects itself");
+    for (p, rest) in clamped.mesh.positions.iter().zip(&body.positions) {
+        let ring = rest.x.hypot(rest.z);
+        if ring > big + 0.9 * small {
+            // The outside has room: the cloth is reached.
+            assert!((p.distance(*rest) - cloth).abs() < 1e-3, "{} m out", p.distance(*rest));
+        } else if ring < big - 0.99 * small {
+            // The inner equator moves at most `crease_share` of the hole's radius.
+            let most = wrap.options.crease_share * (big - small);
+            assert!(p.distance(*rest) <= most + 1e-3, "{} m out", p.distance(*rest));
+        }
+    }
+}
+
+#[test]
+fn a_head_wrapped_a_few_millimetres_out_does_not_run_through_itself() {
+    // The open body's head inflated by 4 mm: its eyelids, nostrils and ears are creases
+    // narrower than that, where the offset surface passes through itself.
+    let body = crate::body::open_body_ref();
+    let rest = body.mesh(body.shaped_vertices(&[]));
+    let head: Vec<bool> = body.weights.iter().map(|w| w[15] > 0.5).collect();
+    let inflated = crate::mesh::signed_distance::SignedDistance::new(&rest);
+    let sdf = |ps: &[Vec3]| -> Vec<f32> {
+        ps.iter().map(|&p| inflated.at(p).unwrap_or(1.0) - 0.004).collect()
+    };
+    let mut wrap = BodyWrap::of_mesh(rest.clone());
+    let crossing_head_faces = |wrap: &BodyWrap| {
+        let mesh = wrap.wrap(sdf).mesh;
+        crate::mesh::integrity::self_intersecting_faces(&mesh.positions, &mesh.faces)
+            .iter()
+            .zip(&mesh.faces)
+            .filter(|(crossing, f)| **crossing && f.iter().all(|&v| head[v as usize]))
+            .count()
+    };
+    let head_faces = rest.faces.iter().filter(|f| f.iter().all(|&v| head[v as usize])).count();
+    let limited = crossing_head_faces(&wrap);
+    wrap.options.crease_share = f32::INFINITY;
+    let unlimited = crossing_head_faces(&wrap);
+    assert!(
+        (limited as f32) < 0.002 * head_faces as f32 && (limited as f32) < 0.2 * unlimited as f32,
+        "{limited} of {head_faces} head faces cross others ({unlimited} without the limit)"
+    );
+}
