@@ -100,7 +100,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             compact(&m.positions, &faces)
         };
         let views = [Vec3::new(0.0, 0.1, 1.0), Vec3::new(1.0, 0.1, 0.3)];
-        write_view_sheet_from(path, &[head(&naked), head(&mesh)], &views, 0.75)?;
+        write_view_sheet_from(path, &[head(&naked), head(&mesh)], &views, 0.45)?;
         println!("  wrote {}", path.display());
     }
     Ok(())
