@@ -5,7 +5,7 @@
 use anyhow::bail;
 use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitKind, fit_avatar};
 use avatar_neural::capture_points::{CapturePoints, FrameCount};
-use avatar_neural::pose_trace::{PoseTrace, Snap};
+use avatar_neural::pose_trace::{PoseTrace, Snap, TraceLines};
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaModel};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -123,7 +123,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let trace = match &args.true_poses {
         Some(dir) => Some(PoseTrace {
             snap: args.snap_to_truth.as_deref().map(Snap::parse),
-            ..PoseTrace::from_capture(dir)?
+            ..PoseTrace::from_capture(dir, TraceLines::new(|line| eprintln!("pose trace: {line}")))?
         }),
         None => None,
     };

@@ -11,7 +11,6 @@ pub mod garment_skinning;
 pub mod normalise;
 pub mod offset_smoothing;
 pub mod pose_displacement;
-pub mod report;
 pub mod root_finding;
 pub mod sheets;
 pub mod shell;

@@ -230,7 +230,7 @@ pub(crate) fn fit_meta(
     let refine = matches!(init, Init::MetaLearned(_)) && refine_options.enabled;
     let mut refiner = refine.then(|| PoseRefiner::new(capture, refine_options));
     if let (Some(r), Some(t)) = (refiner.as_mut(), trace) {
-        r.trace_against(&t.truth);
+        r.trace_against(t);
     }
     // The plan: a loose outfit's longer fit is expected where pre-alignment finds the body
     // explains few points (the dress's 41-50 %), and is checked after the steps.
@@ -280,13 +280,13 @@ pub(crate) fn fit_meta(
             r.update_samples(&mut samples, encoding);
         }
         on_event(FitEvent::Plan(plan(true, rounds.len(), share < PREALIGN_MIN_NEAR)));
-        if r.truth.is_some() {
-            eprintln!(
-                "pose trace: {:.0} % of the points near the body: pre-alignment {}",
+        r.trace(|| {
+            format!(
+                "{:.0} % of the points near the body: pre-alignment {}",
                 share * 100.0,
                 aligned.unwrap_or("off")
-            );
-        }
+            )
+        });
     }
     // The diagnostic needs the truth (`PoseTrace`); without it the fit is left as it is.
     let snap = trace
@@ -356,8 +356,8 @@ pub(crate) fn fit_meta(
             done = in_chunks(done, longer, chunk, &[], cancel, &prior, on_event, &mut run);
         }
     }
-    if let Some(e) = refiner.as_ref().and_then(|r| r.errors()) {
-        eprintln!("pose trace: refined: {e}\n  per joint: {}", e.per_joint());
+    if let Some(r) = refiner.as_ref() {
+        r.trace_errors("refined");
     }
     (
         MetaAvatar::from_fitted(
