@@ -117,7 +117,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let frames = args.frames.map_or(FrameCount::DEFAULT, FrameCount::exactly);
     let capture = progress.outer("canonicalization", || {
-        CapturePoints::open_with(&args.capture, frames, args.body_model.as_deref())
+        CapturePoints::open_with(
+            &args.capture,
+            frames,
+            args.body_model.as_deref(),
+            avatar_studio::cache::field_cache(),
+        )
     })?;
     eprintln!("{}", capture.choice_summary());
     let trace = match &args.true_poses {

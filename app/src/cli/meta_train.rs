@@ -240,6 +240,7 @@ fn load_data(args: &Args, own: bool) -> anyhow::Result<Option<MetaData>> {
         let options = OwnDataOptions {
             frames_per_capture: args.frames_per_capture,
             seed: args.seed,
+            field_cache: avatar_studio::cache::field_cache().clone(),
             ..OwnDataOptions::default()
         };
         // The samples are kept in OUT/own-data and reused while the items are unchanged.

@@ -16,7 +16,7 @@ pub mod sheets;
 pub mod shell;
 
 pub use body_wrap::{BodyWrap, SurfaceChoice, WrapOptions, Wrapped};
-pub use cache::{cached_field, default_cache_dir};
+pub use cache::{FieldCache, cached_field};
 pub use canonicalize::{
     CanonicalFrame, REPROJECTION_THRESHOLD, canonicalize_points, choose_by_agreement,
     choose_nearest, forward_skin_mesh,

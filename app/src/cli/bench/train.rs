@@ -133,8 +133,10 @@ fn threads() -> usize {
 
 pub fn bench_report() -> String {
     let mut out = String::from("## train-step\n\n");
-    let opened = super::demo_capture()
-        .and_then(|demo| CapturePoints::open(&demo, 8).map_err(|e| e.to_string()));
+    let opened = super::demo_capture().and_then(|demo| {
+        CapturePoints::open(&demo, 8, avatar_studio::cache::field_cache())
+            .map_err(|e| e.to_string())
+    });
     let capture = match opened {
         Ok(c) => c,
         Err(e) => return out + &format!("the demo capture does not open: {e}\n"),
@@ -234,8 +236,13 @@ pub fn bench_report() -> String {
 /// autodiff, and the user's view of a default 8-frame fit of the demo.
 pub fn meta_report() -> String {
     let mut out = String::from("## train-meta\n\n");
-    let opened = super::demo_capture()
-        .and_then(|demo| Ok((CapturePoints::open(&demo, 8).map_err(|e| e.to_string())?, demo)));
+    let opened = super::demo_capture().and_then(|demo| {
+        Ok((
+            CapturePoints::open(&demo, 8, avatar_studio::cache::field_cache())
+                .map_err(|e| e.to_string())?,
+            demo,
+        ))
+    });
     let (capture, demo) = match opened {
         Ok(c) => c,
         Err(e) => return out + &format!("the demo capture does not open: {e}\n"),
@@ -321,6 +328,7 @@ pub fn meta_report() -> String {
     let fitted = MetaAvatar::fit_capture(
         &demo,
         8,
+        avatar_studio::cache::field_cache(),
         &Init::MetaLearned(&shipped),
         &HyperFitOptions::default(),
         None,
