@@ -4,7 +4,7 @@
 //! fit`, so the two devices can be compared side by side.
 use avatar_core::canonical::FieldCache;
 use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::compute::{Compute, select};
+use avatar_neural::compute::Compute;
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaAvatar, MetaModel};
 use std::time::Instant;
 
@@ -19,7 +19,6 @@ fn main() {
         Compute::parse(args.get(1).map_or("cpu", |s| s.as_str())).unwrap_or_else(|e| panic!("{e}"));
     let steps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(20);
     let paper = args.get(3).is_some_and(|s| s == "paper");
-    select(device);
     let demo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
     let capture = CapturePoints::open(&demo, 8, &field_cache()).expect("the demo capture opens");
     let model = MetaModel::shipped();
@@ -28,7 +27,7 @@ fn main() {
     } else {
         Init::MetaLearned(&model)
     };
-    let options = HyperFitOptions { steps, ..HyperFitOptions::default() };
+    let options = HyperFitOptions { steps, compute: device, ..HyperFitOptions::default() };
     let mut losses = Vec::new();
     let mut first = None;
     let t = Instant::now();

@@ -68,7 +68,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    args.device.select()?;
+    let compute = args.device.compute()?;
     if args.steps == 0 || args.frames == Some(0) {
         bail!("--steps and --frames must be at least 1");
     }
@@ -98,8 +98,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         Some(MetaModel::load_or_shipped(args.model.as_deref())?)
     };
-    let mut options =
-        HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
+    let mut options = HyperFitOptions {
+        steps: args.steps,
+        seed: args.seed,
+        compute,
+        ..HyperFitOptions::default()
+    };
     options.refine_poses.enabled = args.refine_poses == "on";
     let (kind, what) = match (&model, args.static_sdf) {
         (None, _) => {

@@ -5,7 +5,7 @@
 //! ([`FitEvent::Partial`], the studio's live preview), and a cancel stops it at the next step
 //! with a usable, partial avatar (`PartialFit` in its header).
 //!
-//! Training runs where `crate::compute::select` chose (`training_device`).
+//! Training runs where the options say (`HyperFitOptions::compute`, `FitOptions::compute`).
 
 use crate::avatar::fit_plan::{FitPhase, FitPlan};
 use crate::avatar::meta_avatar::{Init, MetaAvatar, SCRATCH_ENCODER_RATE};
@@ -208,7 +208,7 @@ pub(crate) fn fit_meta(
 ) -> (MetaAvatar, FitReport) {
     let encoding = init.config().encoding;
     let mut samples = capture.pose_samples(encoding);
-    let device = crate::compute::training_device();
+    let device = options.compute.training_device();
     let mut optimisers = HyperOptimisers::default();
     let mut model = Some(init.network().fork(&device));
     // A frozen encoder keeps meta-learned pose features; a random one must learn (the
@@ -386,7 +386,7 @@ pub(crate) fn fit_static(
     let normals: Vec<Vec3> =
         capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
     let outside: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.outside()).collect();
-    let device = crate::compute::training_device();
+    let device = options.compute.training_device();
     let mut model = Some(init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device));
     let mut optimiser = SdfOptimiser::default();
     on_event(FitEvent::Plan(FitPlan {
