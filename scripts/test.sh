@@ -52,6 +52,18 @@ fi
 
 cargo test --workspace --locked "$@"
 
+# The newcomer's path (README, Layout): the three teaching examples, which `cargo test` built,
+# run end to end on the demo capture (a 2-step fit; about a minute).
+if [ $# -eq 0 ]; then
+  examples="$CARGO_TARGET_DIR/debug/examples"
+  tour=$(mktemp -d)
+  "$examples/open_capture" >/dev/null
+  "$examples/fit_avatar" assets/demo "$tour/me.avatar" 2 >/dev/null
+  "$examples/pose_and_export" "$tour/me.avatar" walk "$tour" >/dev/null
+  [ -s "$tour/posed.obj" ] && [ -s "$tour/walk.glb" ] || { echo "error: the examples wrote nothing" >&2; exit 1; }
+  rm -rf "$tour"
+fi
+
 # Data-parallel meta-training over MPI (neural's `mpi` feature, off in the studio's build): the
 # same seeded run in 1 and 2 processes on loopback (mpirun as root needs its flag; CI is root).
 if [ $# -eq 0 ]; then

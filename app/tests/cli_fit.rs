@@ -1,7 +1,13 @@
 //! `avatar-studio fit` on the demo capture (a few steps), and its argument errors.
 
+use avatar_core::canonical::FieldCache;
 use std::path::Path;
 use std::process::Command;
+
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
 
 fn studio() -> Command {
     Command::new(env!("CARGO_BIN_EXE_avatar-studio"))
@@ -31,7 +37,7 @@ fn fits_the_demo_from_the_shipped_meta_model_and_writes_a_loadable_avatar() {
         assert!(stdout.contains(row), "{row} in {stdout}");
     }
     assert!(stdout.contains("| training |") && stdout.contains("3 steps"), "{stdout}");
-    let avatar = avatar_neural::MetaAvatar::load(&out).unwrap();
+    let avatar = avatar_neural::MetaAvatar::load(&out, &field_cache()).unwrap();
     assert_eq!(avatar.header.config, avatar_neural::HyperConfig::compact());
     assert_eq!(
         (avatar.header.init.as_str(), avatar.header.frames, avatar.header.steps),
@@ -56,7 +62,13 @@ fn fits_the_demo_from_the_shipped_meta_model_and_writes_a_loadable_avatar() {
         .output()
         .unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    assert!(avatar_neural::MetaAvatar::load(&out_off).unwrap().header.refined_poses.is_none());
+    assert!(
+        avatar_neural::MetaAvatar::load(&out_off, &field_cache())
+            .unwrap()
+            .header
+            .refined_poses
+            .is_none()
+    );
     // The studio opens it as a pose-dependent avatar.
     let studio_avatar = avatar_studio::studio::avatar::load_avatar(&out, 32).unwrap();
     assert!(
@@ -76,7 +88,7 @@ fn fits_the_demo_from_the_shipped_meta_model_and_writes_a_loadable_avatar() {
         .output()
         .unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    let avatar = avatar_neural::StaticAvatar::load(&out_static).unwrap();
+    let avatar = avatar_neural::StaticAvatar::load(&out_static, &field_cache()).unwrap();
     assert_eq!(avatar.header.siren, avatar_neural::SirenConfig::compact());
     let posed = dir.path().join("posed");
     let run = studio()
@@ -184,7 +196,7 @@ fn a_capture_fitted_with_an_smpl_model_fits_and_its_avatar_works_without_the_mod
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     std::fs::remove_file(&model).unwrap();
 
-    let avatar = avatar_neural::StaticAvatar::load(&out).unwrap();
+    let avatar = avatar_neural::StaticAvatar::load(&out, &field_cache()).unwrap();
     assert_eq!(avatar.header.body_model, "smpl");
     let posed = dir.path().join("posed");
     let o = studio()

@@ -12,6 +12,7 @@
 //! checked exactly in CI by core/tests/scan.rs.
 
 use avatar_core::body::{BodyParams, open_body_ref};
+use avatar_core::canonical::FieldCache;
 use avatar_core::capture::scan::{ScanViews, import_scan};
 use avatar_core::eval::metrics::Prepared;
 use avatar_core::mesh::TriMesh;
@@ -21,6 +22,11 @@ use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
 use glam::Vec3;
 
 /// The same scan as core/tests/scan.rs: a loose polo, arms lowered, one knee bent, turned.
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
+
 fn scan_pose() -> BodyParams {
     let mut p = BodyParams::default();
     p.pose[0].y = 0.4;
@@ -56,6 +62,7 @@ fn avatar_from_a_scan_is_within_1cm_chamfer() {
     let (avatar, report) = MetaAvatar::fit_capture(
         &out,
         8,
+        &field_cache(),
         &Init::MetaLearned(&model),
         &options,
         None,

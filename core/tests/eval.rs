@@ -9,14 +9,14 @@ use avatar_core::mesh::TriMesh;
 use avatar_core::synth::Outfit;
 
 fn tiny(protocols: Vec<Protocol>, name: &str) -> EvalConfig {
-    let mut c = EvalConfig::paper(protocols);
+    let workdir = std::env::temp_dir().join(format!("eval-test-{}-{name}", std::process::id()));
+    let mut c = EvalConfig::paper(protocols, workdir);
     c.subjects.truncate(1);
     c.outfits = vec![Outfit::BlazerTails];
     c.finetune_clips.truncate(2);
     c.heldout_stride = 20;
     c.metrics.chamfer_samples = 800;
     c.metrics.iou_resolution = 40;
-    c.workdir = std::env::temp_dir().join(format!("eval-test-{}-{name}", std::process::id()));
     c
 }
 
@@ -115,8 +115,15 @@ fn the_pose_independent_outfit_is_exact_at_rest_and_misses_only_the_pose_depende
     let betas = avatar_core::synth::subject_betas(body, 1001);
     let mut row = StaticOutfit::new(body.clone());
     let dir = tempfile::tempdir().unwrap();
-    row.fit(&FitData { capture_dir: dir.path(), body, betas: &betas, outfit: Outfit::PoloLoose })
-        .unwrap();
+    let field_cache = avatar_core::canonical::FieldCache::none();
+    let data = FitData {
+        capture_dir: dir.path(),
+        body,
+        betas: &betas,
+        outfit: Outfit::PoloLoose,
+        field_cache: &field_cache,
+    };
+    row.fit(&data).unwrap();
     let template = avatar_core::synth::ClothedTemplate::build(body, &betas, Outfit::PoloLoose);
     let regions = Regions::of_template(&template).unwrap();
     let score = |params: &BodyParams| {

@@ -3,15 +3,21 @@
 //! there). `cargo run --example canonical_spread -- CAPTURE_DIR [FRAMES [SUBJECT OUTFIT]]`: with
 //! a synthetic capture's subject and outfit, the distances are also measured to the true
 //! clothed surface at the zero pose (the canonical clothing, panels hanging).
+use avatar_core::canonical::FieldCache;
 use avatar_core::mesh::bvh::Bvh;
 use avatar_neural::capture_points::CapturePoints;
 use std::path::PathBuf;
+
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
 
 fn main() -> avatar_core::error::Result<()> {
     let mut args = std::env::args().skip(1);
     let dir = PathBuf::from(args.next().expect("usage: canonical_spread CAPTURE_DIR [FRAMES]"));
     let frames = args.next().and_then(|f| f.parse().ok()).unwrap_or(8);
-    let capture = CapturePoints::open(&dir, frames)?;
+    let capture = CapturePoints::open(&dir, frames, &field_cache())?;
     let mut surfaces = vec![("the canonical body", capture.body.mesh(capture.rest.clone()))];
     if let (Some(subject), Some(outfit)) =
         (args.next().and_then(|s| s.parse::<u64>().ok()), args.next())

@@ -2,10 +2,16 @@
 //! `cargo run --release -p avatar-neural --features gpu --example fit_device -- gpu 50 [paper]`.
 //! Prints seconds per step and the final loss; with `cpu` it is the same fit as `avatar-studio
 //! fit`, so the two devices can be compared side by side.
+use avatar_core::canonical::FieldCache;
 use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::compute::{Compute, select};
+use avatar_neural::compute::Compute;
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaAvatar, MetaModel};
 use std::time::Instant;
+
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -13,16 +19,15 @@ fn main() {
         Compute::parse(args.get(1).map_or("cpu", |s| s.as_str())).unwrap_or_else(|e| panic!("{e}"));
     let steps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(20);
     let paper = args.get(3).is_some_and(|s| s == "paper");
-    select(device);
     let demo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
-    let capture = CapturePoints::open(&demo, 8).expect("the demo capture opens");
+    let capture = CapturePoints::open(&demo, 8, &field_cache()).expect("the demo capture opens");
     let model = MetaModel::shipped();
     let init = if paper {
         Init::Scratch { config: HyperConfig::paper(), seed: 0 }
     } else {
         Init::MetaLearned(&model)
     };
-    let options = HyperFitOptions { steps, ..HyperFitOptions::default() };
+    let options = HyperFitOptions { steps, compute: device, ..HyperFitOptions::default() };
     let mut losses = Vec::new();
     let mut first = None;
     let t = Instant::now();

@@ -6,11 +6,17 @@
 //!   cargo run --release --example pose_refine_check -- assets/demo [FRAMES] [STEPS] [DEG] [CM]
 
 use avatar_core::body::pose_error;
+use avatar_core::canonical::FieldCache;
 use avatar_core::capture::CaptureManifest;
 use avatar_core::eval::conditions::{CaptureConditions, FitError};
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
 use std::path::{Path, PathBuf};
+
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
 
 fn copy_dir(from: &Path, to: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(to)?;
@@ -38,7 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     CaptureConditions { fit_error: error, ..CaptureConditions::clean() }
         .perturb_fittings(&dir, 1)?;
     let (exact, perturbed) = (CaptureManifest::load(&src)?, CaptureManifest::load(&dir)?);
-    let capture = CapturePoints::open(&dir, frames)?;
+    let capture = CapturePoints::open(&dir, frames, &field_cache())?;
     // Each fitted frame's exact fitting: the manifest record its perturbed fitting came from.
     let mut truth = Vec::new();
     for f in &capture.frames {
@@ -68,7 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if std::env::var("ORACLE").is_ok() {
         // The SDF of an avatar fitted on the exact fittings, frozen: how far refinement gets
         // when the surface is right.
-        let exact_points = CapturePoints::open(&src, frames)?;
+        let exact_points = CapturePoints::open(&src, frames, &field_cache())?;
         let off = HyperFitOptions {
             steps,
             refine_poses: avatar_neural::pose_refine::PoseRefineOptions::off(),

@@ -1,12 +1,18 @@
 //! Where the time of one posed mesh goes: `cargo run -p avatar-neural --example pose_timing -- NAME.avatar`.
+use avatar_core::canonical::FieldCache;
 use avatar_core::mesh::extract::{ExtractOptions, extract};
 use glam::Vec3;
 use std::time::Instant;
 
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
+
 fn main() {
     let path = std::env::args().nth(1).expect("usage: pose_timing NAME.avatar");
     let t = Instant::now();
-    let avatar = avatar_neural::MetaAvatar::load(&path).expect("avatar loads");
+    let avatar = avatar_neural::MetaAvatar::load(&path, &field_cache()).expect("avatar loads");
     println!("load {:.2} s", t.elapsed().as_secs_f64());
     let params = avatar_core::motion::clip_by_name("squat").unwrap().frames[20].clone();
     let n = avatar.header.normalisation;

@@ -15,6 +15,7 @@
 //! K's surface.
 //! LOOPS=1 prints each frame's border loops; LOOSE_SHEET=PREFIX draws every piece but the
 //! largest close up.
+use avatar_core::canonical::FieldCache;
 use avatar_core::capture::Capture;
 use avatar_core::eval::metrics::{MetricOptions, Regions, evaluate_frame};
 use avatar_core::eval::runner::{ground_truth_mesh, query};
@@ -34,12 +35,17 @@ const PARTS: [(&str, &[usize]); 5] = [
     ("shin", &[4, 5]),
 ];
 
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     if args.len() < 5 {
         return Err("usage: posed_errors AVATAR CAPTURE SUBJECT OUTFIT [EVERY] [CLIP,...]".into());
     }
-    let mut avatar = avatar_neural::MetaAvatar::load(&args[1])?;
+    let mut avatar = avatar_neural::MetaAvatar::load(&args[1], &field_cache())?;
     // RESOLUTION=N: mesh on N cells instead of the output resolution (loose pieces at most
     // `LOOSE_RESOLUTION`).
     if let Ok(r) = std::env::var("RESOLUTION") {

@@ -1,10 +1,16 @@
 //! Where an export frame's time goes for a meta avatar: `cargo run -p avatar-neural --example project_timing -- NAME.avatar`.
 use avatar_core::avatar::AvatarSource;
+use avatar_core::canonical::FieldCache;
 use std::time::Instant;
+
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
 
 fn main() {
     let path = std::env::args().nth(1).expect("usage: project_timing NAME.avatar");
-    let avatar = avatar_neural::MetaAvatar::load(&path).expect("avatar loads");
+    let avatar = avatar_neural::MetaAvatar::load(&path, &field_cache()).expect("avatar loads");
     let clip = avatar_core::motion::clip_by_name("walk").unwrap();
     let rest = avatar.canonical_mesh(&avatar_core::body::BodyParams::default()).unwrap();
     println!("{} reference vertices", rest.positions.len());

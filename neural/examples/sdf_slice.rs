@@ -2,12 +2,18 @@
 //! light, the zero level black, 1 pixel = 5 mm. Shows how thick a garment's walls are.
 //!   cargo run --example sdf_slice -- AVATAR OUT.png [z|x] [OFFSET_M]
 use avatar_core::body::BodyParams;
+use avatar_core::canonical::FieldCache;
 use avatar_neural::MetaAvatar;
 use glam::Vec3;
 
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let avatar = MetaAvatar::load(&args[1])?;
+    let avatar = MetaAvatar::load(&args[1], &field_cache())?;
     let axis = args.get(3).map_or("z", |s| s.as_str());
     let offset: f32 = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(0.0);
     let params = BodyParams { betas: avatar.header.betas.clone(), ..Default::default() };

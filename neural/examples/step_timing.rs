@@ -1,15 +1,21 @@
 //! Fine-tuning step time of batch shapes side by side (the demo capture, 8 frames, the shipped
 //! model): `cargo run -p avatar-neural --example step_timing -- 30`. Each configuration runs
 //! twice, interleaved, so drifting machine load hits them alike.
+use avatar_core::canonical::FieldCache;
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::loss::IgrWeights;
 use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
 use std::time::Instant;
 
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
+
 fn main() {
     let steps: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(30);
     let demo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
-    let capture = CapturePoints::open(&demo, 8).expect("the demo capture opens");
+    let capture = CapturePoints::open(&demo, 8, &field_cache()).expect("the demo capture opens");
     let model = MetaModel::shipped();
     let new = HyperFitOptions { steps, ..HyperFitOptions::default() };
     let configs = [

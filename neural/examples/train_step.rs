@@ -3,10 +3,16 @@
 //! compact 40` (or `paper 5`; `RAYON_NUM_THREADS=1` for one core; a third argument `avx2` or
 //! `portable` chooses those kernels). CPU time (all threads) is steadier than wall time on a
 //! shared machine.
+use avatar_core::canonical::FieldCache;
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use avatar_neural::{HyperConfig, MetaModel};
 use std::time::Instant;
+
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
 
 fn cpu_seconds() -> f64 {
     let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
@@ -27,7 +33,7 @@ fn main() {
         _ => {}
     }
     let demo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
-    let capture = CapturePoints::open(&demo, 8).expect("the demo capture opens");
+    let capture = CapturePoints::open(&demo, 8, &field_cache()).expect("the demo capture opens");
     let device = avatar_neural::cpu_training_device();
     let model = match preset {
         "paper" => {

@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::pose_sample::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS};
 use avatar_core::canonical::{
-    Canonicalizer, FieldOptions, Normalisation, ShellOptions, SkinningField, default_cache_dir,
+    Canonicalizer, FieldCache, FieldOptions, Normalisation, ShellOptions, SkinningField,
     shell_samples,
 };
 use avatar_core::capture::{
@@ -126,9 +126,10 @@ impl FrameCount {
 
 impl CapturePoints {
     /// Canonicalize `frames` usable frames of the capture in `dir` (all of them when it has
-    /// no more; else chosen over the whole capture: [`CapturePoints::open_with`]).
-    pub fn open(dir: &Path, frames: usize) -> Result<CapturePoints> {
-        Self::open_with(dir, FrameCount::exactly(frames), None)
+    /// no more; else chosen over the whole capture: [`CapturePoints::open_with`]), the
+    /// skinning field taken from `field_cache` when it is there.
+    pub fn open(dir: &Path, frames: usize, field_cache: &FieldCache) -> Result<CapturePoints> {
+        Self::open_with(dir, FrameCount::exactly(frames), None, field_cache)
     }
 
     /// Like [`CapturePoints::open`], for a range of frame counts, with `body_model` (an SMPL
@@ -140,6 +141,7 @@ impl CapturePoints {
         dir: &Path,
         count: FrameCount,
         body_model: Option<&Path>,
+        field_cache: &FieldCache,
     ) -> Result<CapturePoints> {
         let (frames, at_least) =
             (count.at_most.max(1), count.at_least.clamp(1, count.at_most.max(1)));
@@ -166,9 +168,8 @@ impl CapturePoints {
         let first = capture.frames.iter().min_by_key(|f| f.index).expect("a usable frame");
         let betas = first.params.betas.clone();
         let field_options = FieldOptions::default();
-        let cache = default_cache_dir();
         let body = capture.body.clone();
-        let canon = Canonicalizer::new(&body, &betas, &field_options, cache.as_deref())?;
+        let canon = Canonicalizer::new(&body, &betas, &field_options, field_cache.dir())?;
         let cache_warning = canon.cache_warning.clone();
         let norm = canon.normalisation;
         let mut out = Vec::new();

@@ -2,12 +2,12 @@
 //! backend, behind the `gpu` feature so that CI and laptops without a GPU never build it).
 //! Inference (meshing, projection, the pose slider) stays on the CPU path of `siren_eval`.
 //!
-//! The choice is process-wide: the command line sets it once from `--device` before any fit
-//! starts, and every fitting entry point asks [`training_device`].
+//! The choice is part of each fit's options (`FitOptions::compute`, `HyperFitOptions::compute`,
+//! `MetaOptions::compute`): the command line fills it from `--device`, the benchmark names a
+//! path per measurement, and the default is the CPU's training path.
 
 use crate::error::Error;
 use burn::tensor::Device;
-use std::sync::atomic::{AtomicU8, Ordering};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Compute {
@@ -19,8 +19,6 @@ pub enum Compute {
     /// for comparisons (`--device cpu-burn`, the training benchmark).
     CpuBurn,
 }
-
-static SELECTED: AtomicU8 = AtomicU8::new(0);
 
 impl Compute {
     /// `cpu` or `gpu`; `gpu` in a build without the `gpu` feature is refused with the reason.
@@ -43,29 +41,18 @@ impl Compute {
     }
 }
 
-/// Select where later fits train.
-pub fn select(compute: Compute) {
-    SELECTED.store(compute as u8, Ordering::Relaxed);
-}
-
-pub fn selected() -> Compute {
-    match SELECTED.load(Ordering::Relaxed) {
-        v if v == Compute::Gpu as u8 => Compute::Gpu,
-        v if v == Compute::CpuBurn as u8 => Compute::CpuBurn,
-        _ => Compute::Cpu,
+impl Compute {
+    /// Whether fits take the training path (`crate::train`) rather than burn's autodiff.
+    pub fn flat_training(self) -> bool {
+        self == Compute::Cpu
     }
-}
 
-/// Whether fits take the training path (`crate::train`) rather than burn's autodiff.
-pub fn flat_training() -> bool {
-    selected() == Compute::Cpu
-}
-
-/// The device fits train on (with autodiff).
-pub fn training_device() -> Device {
-    match selected() {
-        Compute::Cpu | Compute::CpuBurn => crate::cpu_training_device(),
-        Compute::Gpu => gpu_device().autodiff(),
+    /// The device fits train on (with autodiff).
+    pub fn training_device(self) -> Device {
+        match self {
+            Compute::Cpu | Compute::CpuBurn => crate::cpu_training_device(),
+            Compute::Gpu => gpu_device().autodiff(),
+        }
     }
 }
 
@@ -77,8 +64,8 @@ fn gpu_device() -> Device {
 
 #[cfg(not(feature = "gpu"))]
 fn gpu_device() -> Device {
-    // Unreachable: `Compute::parse` refuses gpu in this build and `select` is only given parsed
-    // values; fall back to the CPU rather than panic.
+    // Only reached with a `Compute::Gpu` not made by `Compute::parse` (which refuses gpu in
+    // this build): fall back to the CPU rather than panic.
     crate::cpu_device()
 }
 

@@ -70,7 +70,7 @@ impl Predictor for NeuralRow {
     }
 
     fn fit(&mut self, data: &FitData) -> Result<()> {
-        let capture = CapturePoints::open(data.capture_dir, self.max_frames)?;
+        let capture = CapturePoints::open(data.capture_dir, self.max_frames, data.field_cache)?;
         let kind = match self.kind {
             RowKind::MetaLearned => FitKind::Meta(Init::MetaLearned(&self.model)),
             RowKind::FromScratch => FitKind::Meta(Init::Scratch {

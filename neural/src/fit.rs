@@ -29,6 +29,8 @@ pub struct FitOptions {
     /// Weight of the off-surface sign prior (when a prior is given).
     pub prior_weight: f32,
     pub seed: u64,
+    /// Where the steps run.
+    pub compute: crate::compute::Compute,
 }
 
 impl Default for FitOptions {
@@ -43,6 +45,7 @@ impl Default for FitOptions {
             weights: IgrWeights::default(),
             prior_weight: 1000.0,
             seed: 0,
+            compute: crate::compute::Compute::Cpu,
         }
     }
 }
@@ -130,7 +133,7 @@ pub fn fit_sdf_resuming(
     let optim = optimiser.burn.get_or_insert_with(|| AdamConfig::new().init());
     let log_every = (options.steps / 50).max(1);
     // On the CPU the steps run on the training path (`crate::train`), on a GPU through burn.
-    let mut flat = crate::compute::flat_training().then(|| {
+    let mut flat = options.compute.flat_training().then(|| {
         let (gradient, adam) = optimiser.flat.get_or_insert_with(|| {
             (SirenGradient::new(SirenShape::of(&model.config())), Adam::default())
         });

@@ -52,6 +52,9 @@ pub struct HyperFitOptions {
     /// default; meta-training ignores it).
     #[serde(default)]
     pub refine_poses: crate::pose_refine::PoseRefineOptions,
+    /// Where the steps run (a choice of this run, never written with the options).
+    #[serde(skip)]
+    pub compute: crate::compute::Compute,
 }
 
 impl Default for HyperFitOptions {
@@ -89,6 +92,7 @@ impl Default for HyperFitOptions {
             residual_weight: 1e2,
             seed: 0,
             refine_poses: crate::pose_refine::PoseRefineOptions::default(),
+            compute: crate::compute::Compute::Cpu,
         }
     }
 }
@@ -122,6 +126,7 @@ impl HyperFitOptions {
             weights: self.weights,
             prior_weight: self.prior_weight,
             seed: self.seed,
+            compute: self.compute,
         }
     }
 }
@@ -387,7 +392,7 @@ pub fn fit_hyper(
     let per_step = options.poses_per_step.clamp(1, samples.len().max(1));
     let mut order: Vec<usize> = Vec::new();
     let log_every = (options.steps / 50).max(1);
-    let mut flat = crate::compute::flat_training().then(|| FlatFit::new(&model, optimisers));
+    let mut flat = options.compute.flat_training().then(|| FlatFit::new(&model, optimisers));
     for step in 0..options.steps {
         if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             break;

@@ -52,6 +52,10 @@ pub struct MetaOptions {
     pub points_per_step: usize,
     pub checkpoint_every: usize,
     pub seed: u64,
+    /// Where the steps run, the inner fits' too (a choice of this run: a checkpoint resumes on
+    /// any device).
+    #[serde(skip)]
+    pub compute: crate::compute::Compute,
 }
 
 fn one() -> usize {
@@ -98,6 +102,7 @@ impl Default for MetaOptions {
             points_per_step: 1000,
             checkpoint_every: 10,
             seed: 0,
+            compute: crate::compute::Compute::Cpu,
         }
     }
 }
@@ -122,9 +127,11 @@ fn resumes(saved: &MetaOptions, asked: &MetaOptions) -> bool {
     let mut same = MetaOptions {
         sdf_iterations: asked.sdf_iterations,
         hyper_iterations: asked.hyper_iterations,
+        compute: asked.compute,
         ..saved.clone()
     };
     same.hyper_inner.refine_poses = asked.hyper_inner.refine_poses;
+    same.hyper_inner.compute = asked.hyper_inner.compute;
     same == *asked
 }
 
@@ -166,7 +173,7 @@ pub fn meta_train_collective(
     if collective.world() > 1 {
         checkpoint::check_same_run(collective, fingerprint(data, options))?;
     }
-    let train_device = crate::compute::training_device();
+    let train_device = options.compute.training_device();
     let ckpt_path = out.join(CHECKPOINT);
     let resume =
         checkpoint::share(collective, options, || checkpoint::read(&ckpt_path, options, resumes))?;
@@ -224,6 +231,7 @@ pub fn meta_train_collective(
                 batch: options.points_per_step,
                 off_surface: options.points_per_step,
                 seed: task.seed,
+                compute: options.compute,
                 ..FitOptions::default()
             };
             let mut last = 0.0;
@@ -290,6 +298,7 @@ pub fn meta_train_collective(
             let inner = HyperFitOptions {
                 steps: options.hyper_inner_epochs * task_samples.len().div_ceil(per_step),
                 seed: task.seed,
+                compute: options.compute,
                 ..options.hyper_inner.clone()
             };
             let mut last = 0.0;

@@ -229,18 +229,19 @@ impl MetaModel {
     }
 }
 
-/// The meta-SDF as a trainable SIREN on the training device.
+/// The meta-SDF as a trainable SIREN on the CPU's training device (a fit forks it to its own).
 pub fn trainable_siren(
     config: &crate::siren::SirenConfig,
     flat: &[f32],
     seed: u64,
 ) -> Result<Siren> {
-    crate::flat_params::load_flat(config.init(seed, &crate::compute::training_device()), flat)
+    crate::flat_params::load_flat(config.init(seed, &crate::cpu_training_device()), flat)
 }
 
-/// The hypernetwork (its base SDF included) as a trainable module on the training device.
+/// The hypernetwork (its base SDF included) as a trainable module on the CPU's training device
+/// (a fit forks it to its own).
 pub fn trainable_hyper(config: &HyperConfig, flat: &[f32], seed: u64) -> Result<HyperNet> {
-    let device = crate::compute::training_device();
+    let device = crate::cpu_training_device();
     crate::flat_params::load_flat(
         config.init(config.siren.init(seed, &device), seed, &device),
         flat,

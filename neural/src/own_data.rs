@@ -12,7 +12,7 @@ use crate::capture_points::{CapturePoints, FrameCount};
 use crate::error::Result;
 use crate::meta_data::{DATA_FORMAT, DATA_VERSION, Group, Manifest, MetaData, MetaDataConfig};
 use avatar_core::body::{BodyModel, BodyParams};
-use avatar_core::canonical::{Canonicalizer, FieldOptions, Normalisation, default_cache_dir};
+use avatar_core::canonical::{Canonicalizer, FieldCache, FieldOptions, Normalisation};
 use avatar_core::capture::open::load_body_model;
 use avatar_core::eval::sampling::sample_surface_with_normals;
 use avatar_core::own_data::check::load_scan_item;
@@ -30,11 +30,18 @@ pub struct OwnDataOptions {
     /// The most frames taken from one capture (chosen over the take).
     pub frames_per_capture: usize,
     pub seed: u64,
+    /// Where the items' skinning fields are cached.
+    pub field_cache: FieldCache,
 }
 
 impl Default for OwnDataOptions {
     fn default() -> Self {
-        OwnDataOptions { points_per_pose: 2000, frames_per_capture: 12, seed: 0 }
+        OwnDataOptions {
+            points_per_pose: 2000,
+            frames_per_capture: 12,
+            seed: 0,
+            field_cache: FieldCache::none(),
+        }
     }
 }
 
@@ -244,7 +251,7 @@ fn item_samples(item: &Item, options: &OwnDataOptions) -> Result<ItemSamples> {
     match &item.kind {
         ItemKind::Capture { .. } => {
             let count = FrameCount { at_least: 1, at_most: options.frames_per_capture };
-            let capture = CapturePoints::open_with(&item.path, count, None)?;
+            let capture = CapturePoints::open_with(&item.path, count, None, &options.field_cache)?;
             let norm = capture.normalisation;
             let frames = capture
                 .frames
@@ -260,12 +267,11 @@ fn item_samples(item: &Item, options: &OwnDataOptions) -> Result<ItemSamples> {
             let body = load_body_model(item.body_file.as_deref(), "named in subject.json")?;
             let (mesh, params) =
                 load_scan_item(&item.path, fitting, &body, item.body_file.is_some())?;
-            let cache = default_cache_dir();
             let canon = Canonicalizer::new(
                 &body,
                 &params.betas,
                 &FieldOptions::default(),
-                cache.as_deref(),
+                options.field_cache.dir(),
             )?;
             // A quarter more than kept: the 2 cm filter drops points where the scan leaves the
             // skinning's reach (hair, a loose hem).

@@ -3,14 +3,16 @@
 //! joints' positions, and the error split into what the frames share (the part a zero-mean
 //! constraint cannot correct) and each joint's twist about its bone and swing of the bone.
 //!
-//! A fit given a [`PoseTrace`] (`AvatarFit::trace`; `avatar-studio fit --true-poses DIR`) prints
-//! these errors after every refinement round.
+//! A fit given a [`PoseTrace`] (`AvatarFit::trace`; `avatar-studio fit --true-poses DIR`)
+//! writes these errors after every refinement round to the trace's [`TraceLines`], which the
+//! caller chooses (the CLI prints them to stderr).
 
 use avatar_core::body::{
     BodyParams, JOINT_NAMES, NUM_JOINTS, forward_kinematics, skeleton::parent,
 };
 use avatar_core::capture::CaptureManifest;
 use glam::{Quat, Vec3};
+use std::sync::Arc;
 
 /// Errors of refined fittings against the truth (means over frames; angles in degrees).
 #[derive(Debug, Clone, PartialEq)]
@@ -159,9 +161,9 @@ pub fn match_truth(given: &[BodyParams], exact: &[BodyParams]) -> Vec<BodyParams
 }
 
 /// A diagnostic of pose refinement during a fit, chosen by its caller: the true fittings of the
-/// capture's frames (each refinement round then prints the refined fittings' errors against
-/// them), and optionally joints snapped to the truth.
-#[derive(Debug, Clone, Default, PartialEq)]
+/// capture's frames (each refinement round then writes the refined fittings' errors against
+/// them to `lines`), and optionally joints snapped to the truth.
+#[derive(Debug, Clone)]
 pub struct PoseTrace {
     /// The exact fittings (a `capture.json`'s records), matched to the given ones by
     /// [`match_truth`].
@@ -169,6 +171,28 @@ pub struct PoseTrace {
     /// Set these refined values to the truth after every refinement round, to measure what
     /// their residual error costs.
     pub snap: Option<Snap>,
+    /// Where the trace's lines go.
+    pub lines: TraceLines,
+}
+
+/// Where a [`PoseTrace`]'s lines go: a function of each line, given by the caller.
+#[derive(Clone)]
+pub struct TraceLines(Arc<dyn Fn(&str) + Send + Sync>);
+
+impl TraceLines {
+    pub fn new(write: impl Fn(&str) + Send + Sync + 'static) -> TraceLines {
+        TraceLines(Arc::new(write))
+    }
+
+    pub fn write(&self, line: &str) {
+        (self.0)(line)
+    }
+}
+
+impl std::fmt::Debug for TraceLines {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("TraceLines")
+    }
 }
 
 /// Which refined values [`PoseTrace::snap`] sets to the truth.
@@ -180,11 +204,14 @@ pub struct Snap {
 }
 
 impl PoseTrace {
-    /// The exact fittings of the capture in `dir` (its `capture.json`).
-    pub fn from_capture(dir: &std::path::Path) -> avatar_core::Result<PoseTrace> {
+    /// The exact fittings of the capture in `dir` (its `capture.json`), traced to `lines`.
+    pub fn from_capture(
+        dir: &std::path::Path,
+        lines: TraceLines,
+    ) -> avatar_core::Result<PoseTrace> {
         let manifest = CaptureManifest::load(dir)?;
         let truth = manifest.frames.iter().filter_map(|r| r.params().ok()).collect();
-        Ok(PoseTrace { truth, snap: None })
+        Ok(PoseTrace { truth, snap: None, lines })
     }
 }
 

@@ -4,6 +4,7 @@
 //! chunk's end keeps the avatar of the steps that ran. A static fit in one chunk of the
 //! `fit_avatar` recipe is `StaticAvatar::fit_points` with `static_equivalent` options.
 
+use avatar_core::canonical::FieldCache;
 use avatar_neural::avatar::{AvatarFit, FitEvent, FitKind, FitPhase, FitPlan, fit_avatar};
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::encoder::PoseEncoding;
@@ -12,8 +13,18 @@ use glam::Vec3;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
+
 fn capture() -> CapturePoints {
-    CapturePoints::open(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo"), 2).unwrap()
+    CapturePoints::open(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo"),
+        2,
+        &field_cache(),
+    )
+    .unwrap()
 }
 
 #[test]

@@ -4,6 +4,7 @@
 //! reloaded avatar gives identical SDF values and bad files are refused.
 
 use avatar_core::body::{BodyParams, NUM_JOINTS};
+use avatar_core::canonical::FieldCache;
 use avatar_core::canonical::Normalisation;
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::flat_params::{flatten, load_flat};
@@ -14,6 +15,11 @@ use burn::tensor::{Tensor, TensorData};
 use glam::Vec3;
 use rand::SeedableRng;
 use std::path::Path;
+
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
 
 fn tiny(rank: Option<usize>, encoding: PoseEncoding) -> HyperConfig {
     HyperConfig { siren: SirenConfig { hidden: 24, layers: 2 }, head_hidden: 16, rank, encoding }
@@ -173,7 +179,7 @@ fn preset_parameter_counts() {
 #[test]
 fn a_short_fine_tune_lowers_the_loss_on_the_demo_capture() {
     let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
-    let capture = CapturePoints::open(&demo, 3).unwrap();
+    let capture = CapturePoints::open(&demo, 3, &field_cache()).unwrap();
     let config = HyperConfig {
         siren: SirenConfig { hidden: 32, layers: 3 },
         head_hidden: 16,
@@ -229,6 +235,7 @@ fn a_saved_and_reloaded_meta_avatar_gives_identical_sdf_values_and_bad_files_are
     let (avatar, _) = MetaAvatar::fit_capture(
         &demo,
         2,
+        &field_cache(),
         &Init::Scratch { config, seed: 0 },
         &options,
         None,
@@ -238,13 +245,13 @@ fn a_saved_and_reloaded_meta_avatar_gives_identical_sdf_values_and_bad_files_are
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("me.avatar");
     avatar.save(&path).unwrap();
-    let back = MetaAvatar::load(&path).unwrap();
+    let back = MetaAvatar::load(&path, &field_cache()).unwrap();
     use avatar_core::avatar::AvatarSource;
     let x: Vec<Vec3> = probe(100).into_iter().map(|p| p * 0.8).collect();
     for p in poses() {
         assert_eq!(avatar.sdf(&p, &x).unwrap(), back.sdf(&p, &x).unwrap());
     }
-    assert!(matches!(AnyAvatar::load(&path).unwrap(), AnyAvatar::Meta(_)));
+    assert!(matches!(AnyAvatar::load(&path, &field_cache()).unwrap(), AnyAvatar::Meta(_)));
 
     let bytes = std::fs::read(&path).unwrap();
     let at = bytes.windows(11).position(|w| w == b"\"version\":1").unwrap();
@@ -252,21 +259,21 @@ fn a_saved_and_reloaded_meta_avatar_gives_identical_sdf_values_and_bad_files_are
     other[at + 10] = b'9';
     let p = dir.path().join("other.avatar");
     std::fs::write(&p, &other).unwrap();
-    let err = MetaAvatar::load(&p).err().unwrap().to_string();
+    let err = MetaAvatar::load(&p, &field_cache()).err().unwrap().to_string();
     assert!(err.contains("other.avatar") && err.contains("version 9"), "{err}");
     let cut = dir.path().join("cut.avatar");
     std::fs::write(&cut, &bytes[..bytes.len() - 40]).unwrap();
-    let err = MetaAvatar::load(&cut).err().unwrap().to_string();
+    let err = MetaAvatar::load(&cut, &field_cache()).err().unwrap().to_string();
     assert!(err.contains("cut.avatar") && err.contains("truncated"), "{err}");
     // Absurd layer sizes in the header: a clean error naming the file, no overflow.
     let mut absurd = avatar.header.clone();
     absurd.config.siren.hidden = usize::MAX / 3;
     let p = dir.path().join("absurd.avatar");
     avatar_neural::weights_file::write(&p, &absurd, &[0.0f32; 16]).unwrap();
-    let err = MetaAvatar::load(&p).err().unwrap().to_string();
+    let err = MetaAvatar::load(&p, &field_cache()).err().unwrap().to_string();
     assert!(err.contains("absurd.avatar") && err.contains("out of range"), "{err}");
     // A static avatar is not a meta avatar.
-    let err = StaticAvatar::load(&path).err().unwrap().to_string();
+    let err = StaticAvatar::load(&path, &field_cache()).err().unwrap().to_string();
     assert!(err.contains("me.avatar") && err.contains("meta-hyper"), "{err}");
 }
 

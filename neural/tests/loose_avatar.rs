@@ -4,6 +4,7 @@
 //! than two faces (docs/integrity.md; `mesh::topology::drop_non_manifold_faces`).
 
 use avatar_core::body::open_body_ref;
+use avatar_core::canonical::FieldCache;
 use avatar_core::canonical::SurfaceChoice;
 use avatar_core::eval::runner::query;
 use avatar_core::mesh::integrity::integrity;
@@ -13,13 +14,18 @@ use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitKind, fit_avatar};
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::{HyperFitOptions, Init, MetaModel};
 
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
+
 #[test]
 fn a_posed_dress_avatar_has_loose_pieces_and_no_non_manifold_edge() {
     let dir = tempfile::tempdir().unwrap();
     let mut job = SynthJob::new(1000, Outfit::Dress, library_clip("walk").unwrap());
     job.frames = Some(6);
     generate_capture(dir.path(), open_body_ref(), &job).unwrap();
-    let capture = CapturePoints::open(dir.path(), 6).unwrap();
+    let capture = CapturePoints::open(dir.path(), 6, &field_cache()).unwrap();
     let model = MetaModel::shipped();
     let options = HyperFitOptions { steps: 24, ..HyperFitOptions::default() };
     let fit = AvatarFit {

@@ -6,6 +6,7 @@
 //! and the avatar names that prior.
 
 use avatar_core::body::{BodyParams, open_body_ref};
+use avatar_core::canonical::FieldCache;
 use avatar_core::mesh::TriMesh;
 use avatar_core::mesh::bvh::Bvh;
 use avatar_core::mesh::io::write_obj;
@@ -24,6 +25,11 @@ use avatar_neural::*;
 use std::path::Path;
 
 /// A training pose (no shape) of the library's training clips.
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
+
 fn pose(k: usize) -> BodyParams {
     let (train, _) = library_split();
     let frames: Vec<&BodyParams> = train.iter().flat_map(|c| &c.frames).collect();
@@ -136,7 +142,12 @@ fn own_data_is_discovered_refused_by_name_prepared_and_meta_trained_into_a_prior
     assert!(e.contains("take1") && e.contains("one capture folder"), "{e}");
 
     // ---- Samples: 2 scans + 2 frames of the capture + 1 scan, each 300 canonical points.
-    let options = OwnDataOptions { points_per_pose: 300, frames_per_capture: 2, seed: 0 };
+    let options = OwnDataOptions {
+        points_per_pose: 300,
+        frames_per_capture: 2,
+        seed: 0,
+        field_cache: field_cache(),
+    };
     let own = prepare(&found, &options, &mut |_| {}).unwrap();
     assert_eq!(own.items_used, 4);
     assert_eq!(own.skipped.len(), 4, "only discovery's refusals: {:?}", own.skipped);
@@ -194,7 +205,8 @@ fn own_data_is_discovered_refused_by_name_prepared_and_meta_trained_into_a_prior
     assert!(prior.name.ends_with("meta-model.bin"), "{}", prior.name);
     assert!(prior.provenance.starts_with("meta-train seed 3"), "{}", prior.provenance);
 
-    let capture = CapturePoints::open(&root.join("s1/tshirt_shorts/take1"), 3).unwrap();
+    let capture =
+        CapturePoints::open(&root.join("s1/tshirt_shorts/take1"), 3, &field_cache()).unwrap();
     let mut fit = HyperFitOptions {
         steps: 2,
         surface_per_pose: 100,
@@ -207,7 +219,7 @@ fn own_data_is_discovered_refused_by_name_prepared_and_meta_trained_into_a_prior
     assert_eq!(avatar.header.prior.as_ref(), Some(&prior));
     let path = dir.path().join("a.avatar");
     avatar.save(&path).unwrap();
-    match AnyAvatar::load(&path).unwrap() {
+    match AnyAvatar::load(&path, &field_cache()).unwrap() {
         AnyAvatar::Meta(back) => assert_eq!(back.header.prior, Some(prior)),
         AnyAvatar::Static(_) => panic!("a MetaAvatar saved"),
     }

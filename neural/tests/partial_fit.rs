@@ -1,16 +1,22 @@
 //! A cancelled fit gives a partial avatar that records the steps that ran ("partial: 29 of 100
 //! steps"), keeps it through save and load, and a finished fit is not marked partial.
 
+use avatar_core::canonical::FieldCache;
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::encoder::PoseEncoding;
 use avatar_neural::*;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
+
 #[test]
 fn cancelled_fits_record_the_steps_that_ran() {
     let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
-    let capture = CapturePoints::open(&demo, 1).unwrap();
+    let capture = CapturePoints::open(&demo, 1, &field_cache()).unwrap();
     let config = HyperConfig {
         siren: SirenConfig { hidden: 16, layers: 2 },
         head_hidden: 8,
@@ -39,7 +45,7 @@ fn cancelled_fits_record_the_steps_that_ran() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("partial.avatar");
     avatar.save(&path).unwrap();
-    let back = AnyAvatar::load(&path).unwrap();
+    let back = AnyAvatar::load(&path, &field_cache()).unwrap();
     assert_eq!(back.partial(), Some(partial));
 
     let static_cancel = AtomicBool::new(false);

@@ -1,5 +1,6 @@
 //! The pose-refinement diagnostic's measures: errors against the truth split into what the
-//! frames share, twist and swing; the snap list as `fit --snap-to-truth` parses it.
+//! frames share, twist and swing; the snap list as `fit --snap-to-truth` parses it; a traced fit
+//! writes to the caller's lines and fits what an untraced one does.
 
 use avatar_core::body::{BodyParams, open_body_lowpoly};
 use avatar_neural::pose_trace::{Snap, match_truth, pose_errors};
@@ -53,4 +54,61 @@ fn the_truth_of_the_same_frames_is_matched_by_index() {
     assert_eq!(match_truth(&given, &frames), frames);
     // Fewer frames given: each matched to the nearest true one.
     assert_eq!(match_truth(&given[..1], &frames), vec![frames[2].clone()]);
+}
+
+/// A fit traced against the demo capture's exact fittings writes its lines to the caller's
+/// `TraceLines` (the given fittings' errors first, the refined ones last) and fits the same
+/// avatar as the fit without a trace: the trace only watches.
+#[test]
+fn a_traced_fit_writes_to_the_callers_lines_and_fits_the_same_avatar() {
+    use avatar_core::avatar::AvatarSource;
+    use avatar_core::canonical::FieldCache;
+    use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitKind, fit_avatar};
+    use avatar_neural::capture_points::CapturePoints;
+    use avatar_neural::pose_trace::{PoseTrace, TraceLines};
+    use avatar_neural::{HyperFitOptions, Init, MetaModel};
+    use std::sync::{Arc, Mutex};
+
+    let demo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo");
+    let cache = FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"));
+    let capture = CapturePoints::open(&demo, 2, &cache).unwrap();
+    let model = MetaModel::shipped();
+    let options = HyperFitOptions {
+        steps: 2,
+        surface_per_pose: 200,
+        off_per_pose: 200,
+        ..HyperFitOptions::default()
+    };
+    let lines = Arc::new(Mutex::new(Vec::<String>::new()));
+    let sink = lines.clone();
+    let trace = PoseTrace::from_capture(
+        &demo,
+        TraceLines::new(move |l| sink.lock().unwrap().push(l.to_string())),
+    )
+    .unwrap();
+    let fit = |trace: Option<&PoseTrace>| {
+        let fit = AvatarFit {
+            kind: FitKind::Meta(Init::MetaLearned(&model)),
+            options: options.clone(),
+            chunk: 0,
+            cancel: None,
+            trace,
+        };
+        match fit_avatar(&capture, &fit, &mut |_| {}).0 {
+            AnyAvatar::Meta(a) => a,
+            AnyAvatar::Static(_) => panic!("a meta fit gives a meta avatar"),
+        }
+    };
+    let traced = fit(Some(&trace));
+    let lines = lines.lock().unwrap().clone();
+    assert!(lines.first().is_some_and(|l| l.starts_with("given fittings: joint ")), "{lines:?}");
+    assert!(lines.last().is_some_and(|l| l.starts_with("refined: joint ")), "{lines:?}");
+    assert!(lines.iter().all(|l| !l.starts_with("pose trace")), "the caller adds its prefix");
+
+    let plain = fit(None);
+    assert_eq!(traced.header.refined_poses, plain.header.refined_poses);
+    let pose = &capture.frames[0].params;
+    let probe: Vec<Vec3> =
+        (0..64).map(|i| Vec3::new(0.0, 0.3 + i as f32 * 0.02, 0.05 * (i % 3) as f32)).collect();
+    assert_eq!(traced.sdf(pose, &probe).unwrap(), plain.sdf(pose, &probe).unwrap());
 }

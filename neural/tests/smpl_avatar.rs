@@ -4,12 +4,18 @@
 //! reloads with the model file gone, with identical SDF values, bones and exported frames.
 
 use avatar_core::body::BodyParams;
+use avatar_core::canonical::FieldCache;
 use avatar_core::export::{AvatarSource, ExportOptions, export_glb};
 use avatar_core::motion::clip_by_name;
 use avatar_core::synth::{Outfit, SynthJob, generate_smpl_capture, smpl_stand_in};
 use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::*;
 use glam::Vec3;
+
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
 
 fn probe() -> Vec<Vec3> {
     (0..200)
@@ -30,7 +36,7 @@ fn an_avatar_of_an_smpl_capture_fits_poses_exports_and_reloads_without_the_model
     let mut job = SynthJob::new(5, Outfit::LongsleeveTrousers, clip_by_name("walk").unwrap());
     job.frames = Some(2);
     generate_smpl_capture(&cap, "my_smpl.npz", &job).unwrap();
-    let capture = CapturePoints::open(&cap, 2).unwrap();
+    let capture = CapturePoints::open(&cap, 2, &field_cache()).unwrap();
     assert_eq!(capture.frames.len(), 2);
     let stand_in = smpl_stand_in();
     let betas = capture.betas.clone();
@@ -96,7 +102,7 @@ fn an_avatar_of_an_smpl_capture_fits_poses_exports_and_reloads_without_the_model
 
     // The model file and the capture are gone: the avatars still load, pose and export.
     std::fs::remove_dir_all(&cap).unwrap();
-    let back = StaticAvatar::load(&static_path).unwrap();
+    let back = StaticAvatar::load(&static_path, &field_cache()).unwrap();
     assert_eq!(back.sdf_metres(&probe()), fitted.sdf_metres(&probe()));
     assert_eq!(back.body().pose(&pose).bones, truth);
     assert_eq!(back.body().v_template, stand_in.shaped_vertices(&betas));
@@ -118,7 +124,7 @@ fn an_avatar_of_an_smpl_capture_fits_poses_exports_and_reloads_without_the_model
         );
     }
 
-    let meta_back = MetaAvatar::load(&meta_path).unwrap();
+    let meta_back = MetaAvatar::load(&meta_path, &field_cache()).unwrap();
     assert_eq!(meta_back.body().pose(&pose).bones, truth);
     for p in &clip.frames {
         assert_eq!(meta_back.sdf(p, &probe()).unwrap(), meta.sdf(p, &probe()).unwrap());
@@ -126,12 +132,12 @@ fn an_avatar_of_an_smpl_capture_fits_poses_exports_and_reloads_without_the_model
     let mut small = meta_back;
     small.resolution = 24;
     assert!(!small.posed_mesh(&pose).unwrap().faces.is_empty());
-    assert!(matches!(AnyAvatar::load(&meta_path).unwrap(), AnyAvatar::Meta(_)));
+    assert!(matches!(AnyAvatar::load(&meta_path, &field_cache()).unwrap(), AnyAvatar::Meta(_)));
 
     // A cut body section is refused, naming the file.
     let bytes = std::fs::read(&static_path).unwrap();
     let cut = dir.path().join("cut.avatar");
     std::fs::write(&cut, &bytes[..bytes.len() - 400]).unwrap();
-    let err = StaticAvatar::load(&cut).err().unwrap().to_string();
+    let err = StaticAvatar::load(&cut, &field_cache()).err().unwrap().to_string();
     assert!(err.contains("cut.avatar") && err.contains("truncated"), "{err}");
 }

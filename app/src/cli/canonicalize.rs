@@ -1,7 +1,7 @@
 //! `avatar-studio canonicalize`: map a capture's depth points to the canonical (unposed) space
 //! and write them as a point cloud with normals.
 
-use avatar_core::canonical::{Canonicalizer, FieldOptions, default_cache_dir};
+use avatar_core::canonical::{Canonicalizer, FieldOptions};
 use avatar_core::capture::{Capture, CaptureOptions};
 use avatar_core::io::Inputs;
 use avatar_core::mesh::{PointCloud, io::write_point_cloud};
@@ -44,8 +44,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let frames: Vec<_> = capture.frames.iter().take(args.frames.unwrap_or(usize::MAX)).collect();
     let betas = frames[0].params.betas.clone();
-    let cache = if args.no_cache { None } else { default_cache_dir() };
-    let canon = Canonicalizer::new(&capture.body, &betas, &options, cache.as_deref())?;
+    let cache = if args.no_cache { None } else { avatar_studio::cache::field_cache().dir() };
+    let canon = Canonicalizer::new(&capture.body, &betas, &options, cache)?;
     if let Some(w) = &canon.cache_warning {
         eprintln!("warning: {w}");
     }

@@ -33,7 +33,7 @@ const HANDS: [usize; 4] = [joint::L_WRIST, joint::R_WRIST, 22, 23];
 const FEET: [usize; 4] = [joint::L_ANKLE, joint::R_ANKLE, 10, 11];
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let avatar = AnyAvatar::load(&args.avatar)?;
+    let avatar = AnyAvatar::load(&args.avatar, avatar_studio::cache::field_cache())?;
     let source = avatar.source();
     let body = source.body();
     let rest = BodyParams { betas: source.betas().to_vec(), ..BodyParams::default() };

@@ -202,7 +202,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if subjects == 0 || subjects > EVAL_SUBJECT_SEEDS.len() {
         bail!("--subjects must be between 1 and {}", EVAL_SUBJECT_SEEDS.len());
     }
-    let mut config = EvalConfig::paper(protocols);
+    let workdir = std::env::temp_dir().join(format!("avatar-studio-eval-{}", std::process::id()));
+    let mut config = EvalConfig::paper(protocols, workdir);
+    config.field_cache = avatar_studio::cache::field_cache().clone();
     config.captures = CaptureConditions::parse_list(
         args.captures.as_deref().unwrap_or(p.captures),
         args.noise.as_deref(),

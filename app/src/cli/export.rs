@@ -151,7 +151,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let synthetic;
     let avatar: &dyn avatar_core::avatar::AvatarSource = match &args.avatar {
         Some(path) => {
-            loaded = avatar_neural::AnyAvatar::load(path)?;
+            loaded = avatar_neural::AnyAvatar::load(path, avatar_studio::cache::field_cache())?;
             if let Some(p) = loaded.partial() {
                 eprintln!(
                     "note: {} is a partial avatar ({p}): its fit was cancelled",

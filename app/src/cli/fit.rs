@@ -5,7 +5,7 @@
 use anyhow::bail;
 use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitKind, fit_avatar};
 use avatar_neural::capture_points::{CapturePoints, FrameCount};
-use avatar_neural::pose_trace::{PoseTrace, Snap};
+use avatar_neural::pose_trace::{PoseTrace, Snap, TraceLines};
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaModel};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -68,7 +68,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    args.device.select()?;
+    let compute = args.device.compute()?;
     if args.steps == 0 || args.frames == Some(0) {
         bail!("--steps and --frames must be at least 1");
     }
@@ -98,8 +98,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         Some(MetaModel::load_or_shipped(args.model.as_deref())?)
     };
-    let mut options =
-        HyperFitOptions { steps: args.steps, seed: args.seed, ..HyperFitOptions::default() };
+    let mut options = HyperFitOptions {
+        steps: args.steps,
+        seed: args.seed,
+        compute,
+        ..HyperFitOptions::default()
+    };
     options.refine_poses.enabled = args.refine_poses == "on";
     let (kind, what) = match (&model, args.static_sdf) {
         (None, _) => {
@@ -117,13 +121,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let frames = args.frames.map_or(FrameCount::DEFAULT, FrameCount::exactly);
     let capture = progress.outer("canonicalization", || {
-        CapturePoints::open_with(&args.capture, frames, args.body_model.as_deref())
+        CapturePoints::open_with(
+            &args.capture,
+            frames,
+            args.body_model.as_deref(),
+            avatar_studio::cache::field_cache(),
+        )
     })?;
     eprintln!("{}", capture.choice_summary());
     let trace = match &args.true_poses {
         Some(dir) => Some(PoseTrace {
             snap: args.snap_to_truth.as_deref().map(Snap::parse),
-            ..PoseTrace::from_capture(dir)?
+            ..PoseTrace::from_capture(dir, TraceLines::new(|line| eprintln!("pose trace: {line}")))?
         }),
         None => None,
     };

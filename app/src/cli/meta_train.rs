@@ -82,7 +82,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    args.device.select()?;
+    let compute = args.device.compute()?;
     let config = HyperConfig::preset(&args.preset)
         .with_context(|| format!("unknown --preset {:?}: use compact or paper", args.preset))?;
     if args.subjects == 0 || args.poses == 0 {
@@ -157,6 +157,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         sdf_meta_batch: args.sdf_meta_batch,
         hyper_meta_batch: args.hyper_meta_batch,
         seed: args.seed,
+        compute,
         ..MetaOptions::default()
     };
     let inner = &mut options.hyper_inner;
@@ -240,6 +241,7 @@ fn load_data(args: &Args, own: bool) -> anyhow::Result<Option<MetaData>> {
         let options = OwnDataOptions {
             frames_per_capture: args.frames_per_capture,
             seed: args.seed,
+            field_cache: avatar_studio::cache::field_cache().clone(),
             ..OwnDataOptions::default()
         };
         // The samples are kept in OUT/own-data and reused while the items are unchanged.

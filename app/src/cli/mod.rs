@@ -105,9 +105,8 @@ pub struct DeviceArg {
 }
 
 impl DeviceArg {
-    /// Select it for the fits of this process (`avatar_neural::compute`).
-    pub fn select(&self) -> anyhow::Result<()> {
-        avatar_neural::compute::select(avatar_neural::compute::Compute::parse(&self.device)?);
-        Ok(())
+    /// Where the fits of this command train (refused with the reason when this build lacks it).
+    pub fn compute(&self) -> anyhow::Result<avatar_neural::compute::Compute> {
+        Ok(avatar_neural::compute::Compute::parse(&self.device)?)
     }
 }

@@ -56,7 +56,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Inputs::new().file(&args.avatar).maybe_file(avatar_core::motion::clip_file(&args.motion));
     inputs.check_folder(&args.out)?;
     let clip = open_motion(&args.motion, args.fps, args.frames)?;
-    let mut avatar = AnyAvatar::load(&args.avatar)?;
+    let mut avatar = AnyAvatar::load(&args.avatar, avatar_studio::cache::field_cache())?;
     avatar.set_resolution(args.resolution);
     if let Some(p) = avatar.partial() {
         eprintln!(

@@ -82,7 +82,7 @@ impl StudioAvatar for MetaAvatar {
 
 /// Open an avatar file of any kind this build reads (`avatar-studio fit` writes both).
 pub fn load_avatar(path: &Path, resolution: usize) -> Result<Arc<dyn StudioAvatar>> {
-    Ok(studio_avatar(AnyAvatar::load(path)?, resolution))
+    Ok(studio_avatar(AnyAvatar::load(path, crate::cache::field_cache())?, resolution))
 }
 
 /// The studio's view of an avatar, meshed at `resolution` (clamped to 16 to 512).

@@ -132,7 +132,12 @@ pub fn run_fit(
     let t = Instant::now();
     // The prior first: a bad model file is refused before the capture is canonicalized.
     let model = cfg.prior()?;
-    let capture = CapturePoints::open_with(dir, FrameCount::up_to(cfg.frames), None)?;
+    let capture = CapturePoints::open_with(
+        dir,
+        FrameCount::up_to(cfg.frames),
+        None,
+        crate::cache::field_cache(),
+    )?;
     send(JobEvent::Started { points: capture.num_points(), frames: capture.frames.len() });
     let fit = AvatarFit {
         kind: cfg.fit_kind(&model),

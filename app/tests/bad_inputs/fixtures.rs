@@ -3,6 +3,7 @@
 //! refusal comes from the corruption, not from a broken base.
 
 use avatar_core::body::{SMPL_PARENTS, open_body_lowpoly_ref, open_body_ref};
+use avatar_core::canonical::FieldCache;
 use avatar_core::canonical::Normalisation;
 use avatar_core::motion::MotionClip;
 use avatar_neural::avatar::meta_avatar::{META_AVATAR_KIND, MetaAvatarHeader};
@@ -29,6 +30,11 @@ pub struct Fixtures {
     pub pose: PathBuf,
     /// Meta-training data (meta-data.json, samples.bin) and a run folder with its checkpoint.
     pub meta_data: PathBuf,
+}
+
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
 }
 
 pub fn small_config() -> HyperConfig {
@@ -326,8 +332,8 @@ impl Fixtures {
     /// Every base loads: the corpus's refusals come from its corruptions.
     pub fn check_valid(&self) {
         avatar_core::capture::Capture::open(&self.capture).unwrap();
-        avatar_neural::AnyAvatar::load(&self.static_avatar).unwrap();
-        avatar_neural::AnyAvatar::load(&self.meta_avatar).unwrap();
+        avatar_neural::AnyAvatar::load(&self.static_avatar, &field_cache()).unwrap();
+        avatar_neural::AnyAvatar::load(&self.meta_avatar, &field_cache()).unwrap();
         MetaModel::load(&self.model).unwrap();
         MotionClip::load(&self.clip).unwrap();
         avatar_core::motion::amass::load_amass_clip(&self.amass).unwrap();

@@ -8,6 +8,7 @@
 use super::fixtures::*;
 use super::snapshot;
 use avatar_core::body::BodyParams;
+use avatar_core::canonical::FieldCache;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 
@@ -50,6 +51,11 @@ const EXTREMES: &[&str] = &[
 ];
 
 /// Byte ranges of the numbers in a JSON text.
+/// Where these runs cache skinning fields (a fixed folder under the temporary directory).
+fn field_cache() -> FieldCache {
+    FieldCache::in_dir(std::env::temp_dir().join("avatar-studio-fields"))
+}
+
 fn numbers(text: &[u8]) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
     let mut i = 0;
@@ -227,7 +233,7 @@ pub fn run(cases: usize, seed: u64) {
     }
 
     let pose = |p: &Path| -> Result<(), String> {
-        let mut a = avatar_neural::AnyAvatar::load(p).map_err(|e| e.to_string())?;
+        let mut a = avatar_neural::AnyAvatar::load(p, &field_cache()).map_err(|e| e.to_string())?;
         a.set_resolution(16);
         // An accepted mutant must pose without a panic (an error is fine: the CLI names the file).
         let _ = a.source().canonical_mesh(&BodyParams::default());

@@ -1,6 +1,8 @@
 //! On-disk cache of skinning fields, keyed by a hash of the body's rest surface, its skinning
 //! weights (two models with one template but other weights differ) and the build options. Stored compactly: the 6 largest weights of each node (joint u8 + weight u16).
-//! A corrupt or stale cache file is rebuilt, never trusted and never a panic.
+//! A corrupt or stale cache file is rebuilt, never trusted and never a panic. The folder is the
+//! caller's choice, passed in ([`FieldCache`]); the program picks it once (avatar-studio:
+//! `$XDG_CACHE_HOME/avatar-studio/fields`, `app/src/cache.rs`).
 
 use super::field::{FieldOptions, SkinningField};
 use crate::body::{BodyModel, NUM_JOINTS};
@@ -13,12 +15,27 @@ const MAGIC: &[u8; 4] = b"ASSF";
 const VERSION: u32 = 1;
 const TOP: usize = 6;
 
-/// Default cache folder: `$XDG_CACHE_HOME/avatar-studio/fields` or `~/.cache/avatar-studio/fields`.
-pub fn default_cache_dir() -> Option<PathBuf> {
-    let base = std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
-    Some(base.join("avatar-studio").join("fields"))
+/// Where skinning fields are kept between runs, chosen by the program and passed down to
+/// whatever builds a field (opening a capture, loading an avatar, the evaluation). A field read
+/// from or written to the cache is its compact form, so every run with one cache fits and
+/// poses the same avatar; [`FieldCache::none`] builds every field at full precision.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct FieldCache(Option<PathBuf>);
+
+impl FieldCache {
+    /// No cache: every field is built.
+    pub fn none() -> FieldCache {
+        FieldCache(None)
+    }
+
+    /// Fields cached in `dir` (created when first written).
+    pub fn in_dir(dir: impl Into<PathBuf>) -> FieldCache {
+        FieldCache(Some(dir.into()))
+    }
+
+    pub fn dir(&self) -> Option<&Path> {
+        self.0.as_deref()
+    }
 }
 
 fn key(rest: &[Vec3], body: &BodyModel, options: &FieldOptions) -> u64 {

@@ -11,13 +11,12 @@ pub mod garment_skinning;
 pub mod normalise;
 pub mod offset_smoothing;
 pub mod pose_displacement;
-pub mod report;
 pub mod root_finding;
 pub mod sheets;
 pub mod shell;
 
 pub use body_wrap::{BodyWrap, SurfaceChoice, WrapOptions, Wrapped};
-pub use cache::{cached_field, default_cache_dir};
+pub use cache::{FieldCache, cached_field};
 pub use canonicalize::{
     CanonicalFrame, REPROJECTION_THRESHOLD, canonicalize_points, choose_by_agreement,
     choose_nearest, forward_skin_mesh,

@@ -16,6 +16,8 @@ pub struct FitData<'a> {
     pub betas: &'a [f32],
     /// The synthetic subject's outfit (reference rows that know the ground truth use it).
     pub outfit: Outfit,
+    /// Where skinning fields are cached (`EvalConfig::field_cache`).
+    pub field_cache: &'a crate::canonical::FieldCache,
 }
 
 pub trait Predictor: Send + Sync {
@@ -111,7 +113,7 @@ impl Predictor for StaticOutfit {
                     data.body,
                     data.betas,
                     o,
-                    crate::canonical::default_cache_dir().as_deref(),
+                    data.field_cache.dir(),
                 )?
                 .field;
                 Some(

@@ -12,6 +12,7 @@ use super::report::RowInput;
 pub use super::report::{Report, RowResult};
 use super::truth::OutfitTruth;
 use crate::body::{BodyModel, BodyParams};
+use crate::canonical::FieldCache;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::motion::MotionClip;
@@ -39,6 +40,8 @@ pub struct EvalConfig {
     pub ground_truth_row: bool,
     /// Where fine-tuning captures are written (removed afterwards unless `keep_captures`).
     pub workdir: PathBuf,
+    /// Where skinning fields are cached.
+    pub field_cache: FieldCache,
     /// Keep the fine-tuning captures in `workdir` (to inspect or fit them by hand).
     pub keep_captures: bool,
     pub seed: u64,
@@ -48,8 +51,9 @@ pub struct EvalConfig {
 }
 
 impl EvalConfig {
-    /// MetaAvatar's protocol: clean captures, a seen and the unseen outfit.
-    pub fn paper(protocols: Vec<Protocol>) -> Self {
+    /// MetaAvatar's protocol: clean captures, a seen and the unseen outfit; the fine-tuning
+    /// captures are written in `workdir`.
+    pub fn paper(protocols: Vec<Protocol>, workdir: PathBuf) -> Self {
         EvalConfig {
             protocols,
             captures: vec![CaptureConditions::clean()],
@@ -60,8 +64,8 @@ impl EvalConfig {
             heldout_stride: 5,
             metrics: MetricOptions::default(),
             ground_truth_row: true,
-            workdir: std::env::temp_dir()
-                .join(format!("avatar-studio-eval-{}", std::process::id())),
+            workdir,
+            field_cache: FieldCache::none(),
             keep_captures: false,
             seed: 0,
             contact_sheets: None,
@@ -71,11 +75,11 @@ impl EvalConfig {
     /// Captures as users make them (the default table): 8 frames (one per fine-tuning clip),
     /// scored on the held-out clips, under `user` and then `clean` conditions, every outfit,
     /// the four held-out subjects.
-    pub fn user_captures() -> Self {
+    pub fn user_captures(workdir: PathBuf) -> Self {
         EvalConfig {
             captures: vec![CaptureConditions::user(), CaptureConditions::clean()],
             outfits: ALL_OUTFITS.to_vec(),
-            ..Self::paper(vec![Protocol::FewShot(Shots::OnePerClip)])
+            ..Self::paper(vec![Protocol::FewShot(Shots::OnePerClip)], workdir)
         }
     }
 }
@@ -204,6 +208,7 @@ pub fn run(
                         body,
                         betas: &betas,
                         outfit,
+                        field_cache: &config.field_cache,
                     })?;
                     let predictor: &dyn Predictor = &**predictor;
                     let scores: Vec<FrameMetrics> = eval_poses

@@ -1,6 +1,6 @@
-//! One-chunk fits of either kind with a progress callback: [`MetaAvatar::fit_capture`],
-//! [`StaticAvatar::fit_capture`] and their `fit_points` (tests, examples, benches and the
-//! evaluation), over [`super::fitting`]'s fits.
+//! One-chunk fits of either kind with a progress callback: [`MetaAvatar::fit_capture`] and
+//! each kind's `fit_points` (tests, examples, benches and the evaluation), over
+//! [`super::fitting`]'s fits.
 
 use crate::avatar::fitting::FitReport;
 use crate::avatar::fitting::{FitEvent, fit_meta, fit_static};
@@ -11,6 +11,7 @@ use crate::error::Result;
 use crate::fit::{FitOptions, Progress};
 use crate::hyper_fit::HyperFitOptions;
 use crate::siren::{Siren, SirenConfig};
+use avatar_core::canonical::FieldCache;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
@@ -29,12 +30,13 @@ impl MetaAvatar {
     pub fn fit_capture(
         dir: &Path,
         frames: usize,
+        field_cache: &FieldCache,
         init: &Init,
         options: &HyperFitOptions,
         cancel: Option<&AtomicBool>,
         progress: Progress,
     ) -> Result<(MetaAvatar, FitReport)> {
-        let capture = CapturePoints::open(dir, frames)?;
+        let capture = CapturePoints::open(dir, frames, field_cache)?;
         Ok(Self::fit_points(&capture, init, options, cancel, progress))
     }
 
@@ -52,23 +54,9 @@ impl MetaAvatar {
 }
 
 impl StaticAvatar {
-    /// Fit to `frames` usable frames of a capture (chosen over all of it), from SIREN's random
-    /// initialisation (`init` None) or from given weights (the static meta-SDF).
-    pub fn fit_capture(
-        dir: &Path,
-        frames: usize,
-        siren: SirenConfig,
-        init: Option<Siren>,
-        options: &FitOptions,
-        cancel: Option<&AtomicBool>,
-        progress: Progress,
-    ) -> Result<(StaticAvatar, FitReport)> {
-        let capture = CapturePoints::open(dir, frames)?;
-        Ok(Self::fit_points(&capture, siren, init, options, cancel, progress))
-    }
-
-    /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose) with
-    /// these options (one chunk of `fit_static`; the avatars of `fit_avatar` take theirs
+    /// Fit to a canonicalized capture (all its frames pooled: the SDF ignores the pose), from
+    /// SIREN's random initialisation (`init` None) or from given weights (the static
+    /// meta-SDF), with these options (one chunk of `fit_static`; the avatars of `fit_avatar` take theirs
     /// from `HyperFitOptions::static_equivalent`).
     pub fn fit_points(
         capture: &CapturePoints,

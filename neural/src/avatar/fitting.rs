@@ -5,7 +5,7 @@
 //! ([`FitEvent::Partial`], the studio's live preview), and a cancel stops it at the next step
 //! with a usable, partial avatar (`PartialFit` in its header).
 //!
-//! Training runs where `crate::compute::select` chose (`training_device`).
+//! Training runs where the options say (`HyperFitOptions::compute`, `FitOptions::compute`).
 
 use crate::avatar::fit_plan::{FitPhase, FitPlan};
 use crate::avatar::meta_avatar::{Init, MetaAvatar, SCRATCH_ENCODER_RATE};
@@ -211,7 +211,7 @@ pub(crate) fn fit_meta(
 ) -> (MetaAvatar, FitReport) {
     let encoding = init.config().encoding;
     let mut samples = capture.pose_samples(encoding);
-    let device = crate::compute::training_device();
+    let device = options.compute.training_device();
     let mut optimisers = HyperOptimisers::default();
     let mut model = Some(init.network().fork(&device));
     // A frozen encoder keeps meta-learned pose features; a random one must learn (the
@@ -233,7 +233,7 @@ pub(crate) fn fit_meta(
     let refine = matches!(init, Init::MetaLearned(_)) && refine_options.enabled;
     let mut refiner = refine.then(|| PoseRefiner::new(capture, refine_options));
     if let (Some(r), Some(t)) = (refiner.as_mut(), trace) {
-        r.trace_against(&t.truth);
+        r.trace_against(t);
     }
     // The plan: a loose outfit's longer fit is expected where pre-alignment finds the body
     // explains few points (the dress's 41-50 %), and is checked after the steps.
@@ -283,13 +283,13 @@ pub(crate) fn fit_meta(
             r.update_samples(&mut samples, encoding);
         }
         on_event(FitEvent::Plan(plan(true, rounds.len(), share < PREALIGN_MIN_NEAR)));
-        if r.truth.is_some() {
-            eprintln!(
-                "pose trace: {:.0} % of the points near the body: pre-alignment {}",
+        r.trace(|| {
+            format!(
+                "{:.0} % of the points near the body: pre-alignment {}",
                 share * 100.0,
                 aligned.unwrap_or("off")
-            );
-        }
+            )
+        });
     }
     // The diagnostic needs the truth (`PoseTrace`); without it the fit is left as it is.
     let snap = trace
@@ -359,8 +359,8 @@ pub(crate) fn fit_meta(
             done = in_chunks(done, longer, chunk, &[], cancel, &prior, on_event, &mut run);
         }
     }
-    if let Some(e) = refiner.as_ref().and_then(|r| r.errors()) {
-        eprintln!("pose trace: refined: {e}\n  per joint: {}", e.per_joint());
+    if let Some(r) = refiner.as_ref() {
+        r.trace_errors("refined");
     }
     (
         MetaAvatar::from_fitted(
@@ -389,7 +389,7 @@ pub(crate) fn fit_static(
     let normals: Vec<Vec3> =
         capture.frames.iter().flat_map(|f| f.normals.iter().copied()).collect();
     let outside: Vec<Vec3> = capture.frames.iter().flat_map(|f| f.outside()).collect();
-    let device = crate::compute::training_device();
+    let device = options.compute.training_device();
     let mut model = Some(init.unwrap_or_else(|| siren.init(options.seed, &device)).fork(&device));
     let mut optimiser = SdfOptimiser::default();
     on_event(FitEvent::Plan(FitPlan {

@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, check_betas};
 use avatar_core::canonical::{
-    Canonicalizer, FIELD_CELLS, FieldOptions, Normalisation, SkinningField, default_cache_dir,
+    Canonicalizer, FIELD_CELLS, FieldCache, FieldOptions, Normalisation, SkinningField,
 };
 use avatar_core::mesh::extract::ExtractOptions;
 use glam::Vec3;
@@ -102,10 +102,14 @@ pub(crate) fn extract_options(normalisation: &Normalisation, resolution: usize) 
 }
 
 /// The skinning field of an avatar's body shape (from the cache when it is there).
-pub(crate) fn avatar_field(body: &BodyModel, betas: &[f32], cells: usize) -> Result<SkinningField> {
+pub(crate) fn avatar_field(
+    body: &BodyModel,
+    betas: &[f32],
+    cells: usize,
+    cache: &FieldCache,
+) -> Result<SkinningField> {
     let field_options = FieldOptions { cells_along_height: cells, ..FieldOptions::default() };
-    let cache = default_cache_dir();
-    Ok(Canonicalizer::new(body, betas, &field_options, cache.as_deref())?.field)
+    Ok(Canonicalizer::new(body, betas, &field_options, cache.dir())?.field)
 }
 
 /// Refuse avatar files of another format, version or kind with a message naming the file

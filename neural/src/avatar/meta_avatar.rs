@@ -22,8 +22,8 @@ use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, Weights};
 use avatar_core::canonical::{
-    BodyWrap, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice, field_weights,
-    forward_skin_with_weights,
+    BodyWrap, FieldCache, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice,
+    field_weights, forward_skin_with_weights,
 };
 use avatar_core::mesh::TriMesh;
 use avatar_core::mesh::extract::extract;
@@ -198,7 +198,8 @@ impl MetaAvatar {
         weights_file::write(path.as_ref(), &self.header, &values)
     }
 
-    pub fn load(path: impl AsRef<Path>) -> Result<MetaAvatar> {
+    /// Read an avatar file (its skinning field from `field_cache` when it is there).
+    pub fn load(path: impl AsRef<Path>, field_cache: &FieldCache) -> Result<MetaAvatar> {
         let path = path.as_ref();
         check_avatar_header(path, META_AVATAR_KIND)?;
         let (header, values): (MetaAvatarHeader, Vec<f32>) =
@@ -241,8 +242,8 @@ impl MetaAvatar {
         let device = crate::cpu_device();
         let blank = header.config.init(header.config.siren.init(0, &device), 0, &device);
         let model = load_flat(blank, &weights).map_err(|e| e.in_file(path))?;
-        let field =
-            avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
+        let field = avatar_field(&body, &header.betas, header.field_cells, field_cache)
+            .map_err(|e| e.in_file(path))?;
         let rest_joints = body.regress_joints(&body.shaped_vertices(&header.betas));
         let skinner = GarmentSkinner::new(&body, &header.betas);
         let wrap = Arc::new(BodyWrap::new(&body, &header.betas));

@@ -39,12 +39,17 @@ pub enum AnyAvatar {
 }
 
 impl AnyAvatar {
-    pub fn load(path: impl AsRef<std::path::Path>) -> crate::error::Result<AnyAvatar> {
+    /// Read an avatar file of either kind (its skinning field from `field_cache` when it is
+    /// there).
+    pub fn load(
+        path: impl AsRef<std::path::Path>,
+        field_cache: &avatar_core::canonical::FieldCache,
+    ) -> crate::error::Result<AnyAvatar> {
         let path = path.as_ref();
         let id = weights_file::identity(path)?;
         match id.kind.as_str() {
-            STATIC_AVATAR_KIND => Ok(AnyAvatar::Static(StaticAvatar::load(path)?)),
-            META_AVATAR_KIND => Ok(AnyAvatar::Meta(MetaAvatar::load(path)?)),
+            STATIC_AVATAR_KIND => Ok(AnyAvatar::Static(StaticAvatar::load(path, field_cache)?)),
+            META_AVATAR_KIND => Ok(AnyAvatar::Meta(MetaAvatar::load(path, field_cache)?)),
             other => Err(crate::error::Error::AvatarKind {
                 path: path.into(),
                 kind: other.into(),

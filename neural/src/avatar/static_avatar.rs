@@ -13,7 +13,7 @@ use crate::siren_eval::MetricSdf;
 use crate::weights_file;
 use avatar_core::avatar::AvatarSource;
 use avatar_core::body::{BodyModel, BodyParams, Weights};
-use avatar_core::canonical::{GarmentSkinner, Normalisation, SkinningField};
+use avatar_core::canonical::{FieldCache, GarmentSkinner, Normalisation, SkinningField};
 use avatar_core::mesh::TriMesh;
 use avatar_core::mesh::extract::extract;
 use burn::module::Module;
@@ -115,7 +115,8 @@ impl StaticAvatar {
         weights_file::write(path.as_ref(), &self.header, &values)
     }
 
-    pub fn load(path: impl AsRef<Path>) -> Result<StaticAvatar> {
+    /// Read an avatar file (its skinning field from `field_cache` when it is there).
+    pub fn load(path: impl AsRef<Path>, field_cache: &FieldCache) -> Result<StaticAvatar> {
         let path = path.as_ref();
         check_avatar_header(path, STATIC_AVATAR_KIND)?;
         let (header, values): (AvatarHeader, Vec<f32>) =
@@ -138,8 +139,8 @@ impl StaticAvatar {
         let device = crate::cpu_device();
         let model =
             load_flat(header.siren.init(0, &device), &weights).map_err(|e| e.in_file(path))?;
-        let field =
-            avatar_field(&body, &header.betas, header.field_cells).map_err(|e| e.in_file(path))?;
+        let field = avatar_field(&body, &header.betas, header.field_cells, field_cache)
+            .map_err(|e| e.in_file(path))?;
         let sdf = MetricSdf::of(&model, header.normalisation);
         let skinner = GarmentSkinner::new(&body, &header.betas);
         Ok(StaticAvatar {

@@ -19,6 +19,7 @@
 use crate::capture_points::{CapturePoints, shell_samples_of};
 use crate::encoder::PoseEncoding;
 use crate::pose_sample::PoseSample;
+use crate::pose_trace::{PoseTrace, TraceLines};
 use crate::siren_eval::SirenEval;
 use avatar_core::body::{BodyParams, NUM_JOINTS, POSE_DOF, PoseCorrection, blend_transform};
 use avatar_core::canonical::ShellOptions;
@@ -196,8 +197,10 @@ pub struct PoseRefiner<'a> {
     rest_joints: [Vec3; NUM_JOINTS],
     frames: Vec<Frame>,
     pub options: PoseRefineOptions,
-    /// The true fittings when known (`pose_trace`): each round then prints its errors.
+    /// The true fittings when known (`pose_trace`): each round then traces its errors.
     pub truth: Option<Vec<BodyParams>>,
+    /// Where the trace's lines go (`PoseTrace::lines`; none: the errors are not written).
+    lines: Option<TraceLines>,
     rounds_done: usize,
 }
 
@@ -279,17 +282,43 @@ impl<'a> PoseRefiner<'a> {
                 }
             })
             .collect();
-        PoseRefiner { capture, rest_joints, frames, options, truth: None, rounds_done: 0 }
+        PoseRefiner {
+            capture,
+            rest_joints,
+            frames,
+            options,
+            truth: None,
+            lines: None,
+            rounds_done: 0,
+        }
     }
 
-    /// Diagnostic: trace the rounds against these exact fittings (matched to the given ones by
-    /// `pose_trace::match_truth`); prints the given fittings' errors.
-    pub fn trace_against(&mut self, exact: &[BodyParams]) {
+    /// Diagnostic: trace the rounds against the trace's exact fittings (matched to the given
+    /// ones by `pose_trace::match_truth`); writes the given fittings' errors.
+    pub fn trace_against(&mut self, trace: &PoseTrace) {
         let given: Vec<BodyParams> = self.frames.iter().map(|f| f.given.clone()).collect();
-        self.truth = Some(crate::pose_trace::match_truth(&given, exact));
-        if let Some(e) = self.errors() {
-            eprintln!("pose trace: given fittings: {e}\n  per joint: {}", e.per_joint());
+        self.truth = Some(crate::pose_trace::match_truth(&given, &trace.truth));
+        self.lines = Some(trace.lines.clone());
+        self.trace_errors("given fittings");
+    }
+
+    /// Write a line to the trace, when there is one.
+    pub fn trace(&self, line: impl FnOnce() -> String) {
+        if let Some(lines) = &self.lines {
+            lines.write(&line());
         }
+    }
+
+    /// Write the current fittings' errors, each joint's too, to the trace.
+    pub fn trace_errors(&self, what: &str) {
+        if let Some(e) = self.traced_errors() {
+            self.trace(|| format!("{what}: {e}\n  per joint: {}", e.per_joint()));
+        }
+    }
+
+    /// The errors against the truth when a trace is written.
+    fn traced_errors(&self) -> Option<crate::pose_trace::PoseErrors> {
+        self.lines.as_ref().and_then(|_| self.errors())
     }
 
     /// The corrected fitting of each frame.
@@ -345,13 +374,15 @@ impl<'a> PoseRefiner<'a> {
             self.recanonicalise_fully(k);
         }
         self.rounds_done += 1;
-        if let Some(e) = self.errors() {
-            eprintln!(
-                "pose trace: round {}: |sdf| {:.2} -> {:.2} mm; {e}",
-                self.rounds_done,
-                report.residual_before * 1e3,
-                report.residual_after * 1e3
-            );
+        if let Some(e) = self.traced_errors() {
+            self.trace(|| {
+                format!(
+                    "round {}: |sdf| {:.2} -> {:.2} mm; {e}",
+                    self.rounds_done,
+                    report.residual_before * 1e3,
+                    report.residual_after * 1e3
+                )
+            });
         }
         report
     }

@@ -83,12 +83,14 @@ impl PoseRefiner<'_> {
         for f in self.frames.iter_mut() {
             f.anchor = f.correction;
         }
-        if let Some(e) = self.errors() {
-            eprintln!(
-                "pose trace: pre-alignment from the trunk first kept for {} of {} frames; {e}",
-                whole_better.iter().filter(|&&w| !w).count(),
-                whole_better.len()
-            );
+        if let Some(e) = self.traced_errors() {
+            self.trace(|| {
+                format!(
+                    "pre-alignment from the trunk first kept for {} of {} frames; {e}",
+                    whole_better.iter().filter(|&&w| !w).count(),
+                    whole_better.len()
+                )
+            });
         }
         // Both starts begin at the given fittings.
         let after = if whole_better.iter().all(|&w| w) {
@@ -213,14 +215,14 @@ impl PoseRefiner<'_> {
                 for k in 0..self.frames.len() {
                     self.recanonicalise(k);
                 }
-                if let Some(e) = self.errors() {
-                    eprintln!(
-                        "pose trace: pre-alignment {}: |sdf| {:.2} mm, no better than {:.2}: back to round {}'s start; {e}",
+                if let Some(e) = self.traced_errors() {
+                    self.trace(|| format!(
+                        "pre-alignment {}: |sdf| {:.2} mm, no better than {:.2}: back to round {}'s start; {e}",
                         round + 1,
                         r.residual_before * 1e3,
                         best_residual * 1e3,
                         round
-                    );
+                    ));
                 }
                 break;
             }
@@ -229,13 +231,15 @@ impl PoseRefiner<'_> {
             for k in 0..self.frames.len() {
                 self.recanonicalise(k);
             }
-            if let Some(e) = self.errors() {
-                eprintln!(
-                    "pose trace: pre-alignment {}: |sdf| {:.2} -> {:.2} mm; {e}",
-                    round + 1,
-                    r.residual_before * 1e3,
-                    r.residual_after * 1e3
-                );
+            if let Some(e) = self.traced_errors() {
+                self.trace(|| {
+                    format!(
+                        "pre-alignment {}: |sdf| {:.2} -> {:.2} mm; {e}",
+                        round + 1,
+                        r.residual_before * 1e3,
+                        r.residual_after * 1e3
+                    )
+                });
             }
             report = Some(report.map_or(r, |first| RoundReport {
                 residual_before: first.residual_before,

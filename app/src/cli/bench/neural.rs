@@ -25,9 +25,10 @@ pub fn peak_memory_bytes() -> Option<u64> {
 pub fn bench_report(steps: usize) -> String {
     let mut out = String::from("## neural\n\n| what | measured | target |\n|---|---|---|\n");
     let t = Instant::now();
-    let capture = match super::demo_capture()
-        .and_then(|demo| CapturePoints::open(&demo, 8).map_err(|e| e.to_string()))
-    {
+    let capture = match super::demo_capture().and_then(|demo| {
+        CapturePoints::open(&demo, 8, avatar_studio::cache::field_cache())
+            .map_err(|e| e.to_string())
+    }) {
         Ok(c) => c,
         Err(e) => return out + &format!("| open the demo capture | failed: {e} | |\n"),
     };

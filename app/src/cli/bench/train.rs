@@ -6,7 +6,7 @@
 //! and Alg. 2) and a default 8-frame fit of the demo (canonicalization included).
 
 use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::compute::{Compute, select};
+use avatar_neural::compute::Compute;
 use avatar_neural::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use avatar_neural::meta_training::MetaOptions;
 use avatar_neural::pose_sample::PoseSample;
@@ -42,23 +42,21 @@ fn hyper_step_ms(
     capture: &CapturePoints,
     path: Compute,
 ) -> StepTime {
-    select(path);
     let prior = capture.sign_prior();
-    let device = avatar_neural::compute::training_device();
-    let ms = step_ms(options.steps, |progress| {
+    let device = path.training_device();
+    let options = HyperFitOptions { compute: path, ..options.clone() };
+    step_ms(options.steps, |progress| {
         fit_hyper(
             model.clone(),
             samples,
-            options,
+            &options,
             &mut HyperOptimisers::default(),
             &device,
             Some(&prior),
             None,
             progress,
         );
-    });
-    select(Compute::Cpu);
-    ms
+    })
 }
 
 /// The PyTorch side of one preset at a workload (poses, surface and off-surface points a
@@ -133,8 +131,10 @@ fn threads() -> usize {
 
 pub fn bench_report() -> String {
     let mut out = String::from("## train-step\n\n");
-    let opened = super::demo_capture()
-        .and_then(|demo| CapturePoints::open(&demo, 8).map_err(|e| e.to_string()));
+    let opened = super::demo_capture().and_then(|demo| {
+        CapturePoints::open(&demo, 8, avatar_studio::cache::field_cache())
+            .map_err(|e| e.to_string())
+    });
     let capture = match opened {
         Ok(c) => c,
         Err(e) => return out + &format!("the demo capture does not open: {e}\n"),
@@ -234,8 +234,13 @@ pub fn bench_report() -> String {
 /// autodiff, and the user's view of a default 8-frame fit of the demo.
 pub fn meta_report() -> String {
     let mut out = String::from("## train-meta\n\n");
-    let opened = super::demo_capture()
-        .and_then(|demo| Ok((CapturePoints::open(&demo, 8).map_err(|e| e.to_string())?, demo)));
+    let opened = super::demo_capture().and_then(|demo| {
+        Ok((
+            CapturePoints::open(&demo, 8, avatar_studio::cache::field_cache())
+                .map_err(|e| e.to_string())?,
+            demo,
+        ))
+    });
     let (capture, demo) = match opened {
         Ok(c) => c,
         Err(e) => return out + &format!("the demo capture does not open: {e}\n"),
@@ -260,7 +265,7 @@ pub fn meta_report() -> String {
     };
     out += "| meta-training iteration (compact) | training path | burn autodiff | ratio |\n|---|---|---|---|\n";
     let time_alg1 = |path: Compute| {
-        select(path);
+        let alg1 = FitOptions { compute: path, ..alg1.clone() };
         let t = Instant::now();
         for _ in 0..meta.sdf_meta_batch {
             let siren = shipped.static_siren();
@@ -270,29 +275,27 @@ pub fn meta_report() -> String {
                 &frame.normals,
                 &[],
                 &alg1,
-                &avatar_neural::compute::training_device(),
+                &path.training_device(),
                 None,
                 None,
                 &mut |_, _, _| {},
             );
         }
-        select(Compute::Cpu);
         t.elapsed().as_secs_f64()
     };
     let time_alg2 = |path: Compute| {
-        select(path);
+        let alg2 = HyperFitOptions { compute: path, ..alg2.clone() };
         let t = Instant::now();
         fit_hyper(
             compact.clone(),
             &samples,
             &alg2,
             &mut HyperOptimisers::default(),
-            &avatar_neural::compute::training_device(),
+            &path.training_device(),
             None,
             None,
             &mut |_, _, _| {},
         );
-        select(Compute::Cpu);
         t.elapsed().as_secs_f64()
     };
     let (o1, b1) = (time_alg1(Compute::Cpu), time_alg1(Compute::CpuBurn));
@@ -321,6 +324,7 @@ pub fn meta_report() -> String {
     let fitted = MetaAvatar::fit_capture(
         &demo,
         8,
+        avatar_studio::cache::field_cache(),
         &Init::MetaLearned(&shipped),
         &HyperFitOptions::default(),
         None,
