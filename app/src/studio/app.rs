@@ -73,10 +73,12 @@ impl StudioApp {
             pose_needed: true,
             last_pose_seconds: None,
             pose_failed: None,
+            pose_floor: 0,
             pose_requested_at: None,
             last_request_to_mesh: None,
             bakes: Default::default(),
             timeline,
+            loaded_clips: Default::default(),
             view,
             scene: Arc::new(Scene::new()),
             scene_dirty: true,
@@ -86,6 +88,8 @@ impl StudioApp {
             viewport_moving: false,
             ui_meshes_painted: false,
             playback_measure: None,
+            motion_open_s: None,
+            play_timing: None,
             show_shortcuts: false,
             status: None,
             error: None,
@@ -96,11 +100,16 @@ impl StudioApp {
             show_timings: true,
             pending_view: None,
             screenshot_dir: crate::studio::screenshot::default_screenshot_dir(),
+            autosave_dir: crate::studio::demo::cache_dir().join("unsaved-avatars"),
             path_field: String::new(),
             project_path: None,
         };
         if let Some(p) = &options.project {
             app.apply(Command::OpenProject(p.clone()));
+        } else if let Some(c) = options.capture.as_ref().filter(|c| is_motion_file(c)) {
+            // A motion file: the demo capture with that motion.
+            app.apply(Command::OpenCapture(DEMO.to_string()));
+            app.apply(Command::LoadMotion(c.display().to_string()));
         } else if let Some(c) = &options.capture {
             app.apply(Command::OpenCapture(c.display().to_string()));
         } else if options.load_demo {
@@ -128,6 +137,7 @@ impl StudioApp {
             self.request_pose();
         }
         if self.scene_dirty {
+            self.follow_root();
             self.scene = Arc::new(self.build_scene());
             self.scene_dirty = false;
             if !self.framed
@@ -151,6 +161,15 @@ impl StudioApp {
     }
 }
 
+/// A motion file (JSON that is not a capture's or a project's, AMASS npz, BVH) by its name.
+pub fn is_motion_file(p: &std::path::Path) -> bool {
+    let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_lowercase();
+    p.is_file()
+        && !name.ends_with(crate::studio::project::PROJECT_EXTENSION)
+        && name != "capture.json"
+        && [".json", ".npz", ".bvh"].iter().any(|e| name.ends_with(e))
+}
+
 impl eframe::App for StudioApp {
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         self.update_state();
@@ -159,6 +178,7 @@ impl eframe::App for StudioApp {
         self.apply_all(commands);
         self.frames_drawn += 1;
         self.after_frame();
+        self.report_first_playable();
         self.measure_playback();
         // While the view moves on a software renderer, the panels' text and widgets too are
         // painted by our shader (viewport/ui_meshes.rs); a still window is egui's.

@@ -160,7 +160,13 @@ fn long_take_row(
     };
     let open_s = t.elapsed().as_secs_f64();
     let params = (0..timeline.frames()).map(|f| timeline.params_at(f, betas)).collect();
-    let key = BakeKey::new(posable, &timeline.clip_source, timeline.frames(), &timeline.offsets);
+    let key = BakeKey::new(
+        posable,
+        &timeline.clip_source,
+        timeline.frames(),
+        &timeline.offsets,
+        timeline.play_range(),
+    );
     let mut bakes = Bakes::default();
     bakes.start(key.clone(), posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
     while bakes.frame(&key, 0).is_none() {
@@ -188,7 +194,13 @@ fn playback_rows(
 ) -> String {
     use crate::studio::playback::{BakeKey, Bakes};
     let params = (0..timeline.frames()).map(|f| timeline.params_at(f, betas)).collect();
-    let key = BakeKey::new(posable, &timeline.clip_source, timeline.frames(), &timeline.offsets);
+    let key = BakeKey::new(
+        posable,
+        &timeline.clip_source,
+        timeline.frames(),
+        &timeline.offsets,
+        timeline.play_range(),
+    );
     let mut bakes = Bakes::default();
     let t = Instant::now();
     bakes.start(key, posable.clone().exact(), body.clone(), params, Arc::new(|| {}));

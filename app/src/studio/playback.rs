@@ -1,7 +1,8 @@
 //! Playback at the clip's rate: a pose takes longer than a frame on two cores, so the clip's
-//! poses are baked once in the background (with progress) and played from memory, each frame
-//! as soon as it is baked (a long take plays its start while the rest bakes). Bakes are cached
-//! per posable (avatar, body or partial result) and per clip with its joint offsets; at most
+//! poses (the timeline's range of them) are baked once in the background (with progress) and
+//! played from memory, each frame as soon as it is baked (a long take plays its start while the
+//! rest bakes). Bakes are cached per posable (avatar, body or partial result) and per clip with
+//! its joint offsets, and serve any of their frames whatever range asked for them; at most
 //! [`MAX_BAKED_FRAMES`] frames are held in all (a longer clip's later frames are posed live),
 //! and a bake stopped by hand keeps the frames it made.
 
@@ -18,28 +19,49 @@ const CACHED: usize = 3;
 pub const MAX_BAKED_FRAMES: usize = 1200;
 
 /// What a bake depends on: the canonical mesh posed (by identity), the clip and the joint
-/// offsets (bit patterns, so that the key is exact).
+/// offsets (bit patterns, so that the key is exact), and the frames it bakes (the timeline's
+/// range).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BakeKey {
     canonical: usize,
     clip: String,
-    frames: usize,
+    clip_frames: usize,
     offsets: Vec<u32>,
+    /// The first frame baked and how many (at most [`MAX_BAKED_FRAMES`] are).
+    first: usize,
+    count: usize,
 }
 
 impl BakeKey {
+    /// Frames `range.0` to `range.1` (inclusive) of a clip of `clip_frames` frames.
     pub fn new(
         posable: &Posable,
         clip_source: &str,
-        frames: usize,
+        clip_frames: usize,
         offsets: &[[f32; 3]],
+        range: (usize, usize),
     ) -> BakeKey {
         BakeKey {
             canonical: Arc::as_ptr(posable.canonical()) as usize,
             clip: clip_source.to_string(),
-            frames,
+            clip_frames,
             offsets: offsets.iter().flatten().map(|v| v.to_bits()).collect(),
+            first: range.0,
+            count: (range.1 + 1).saturating_sub(range.0).min(MAX_BAKED_FRAMES),
         }
+    }
+
+    /// The same mesh, clip and offsets (any frames).
+    fn same_motion(&self, other: &BakeKey) -> bool {
+        self.canonical == other.canonical
+            && self.clip == other.clip
+            && self.clip_frames == other.clip_frames
+            && self.offsets == other.offsets
+    }
+
+    /// The first frame baked.
+    pub fn first(&self) -> usize {
+        self.first
     }
 }
 
@@ -74,15 +96,35 @@ impl Bakes {
         self.running.is_some()
     }
 
-    /// Frame `frame` of the bake `key`: done, or already made by the running bake.
+    /// Clip frame `frame` of the motion of `key`, from any bake of it (done, or already made
+    /// by the running one) whose frames include it.
     pub fn frame(&self, key: &BakeKey, frame: usize) -> Option<Arc<PosedMesh>> {
-        if let Some(b) = self.get(key) {
-            return b.frames.get(frame).cloned();
+        let at = |k: &BakeKey, frames: &[Arc<PosedMesh>]| {
+            frame.checked_sub(k.first).and_then(|i| frames.get(i)).cloned()
+        };
+        let done = self.done.iter().rev().filter(|b| b.key.same_motion(key));
+        if let Some(m) = done.filter_map(|b| at(&b.key, &b.frames)).next() {
+            return Some(m);
         }
         match &self.running {
-            Some((k, _)) if k == key => self.partial.get(frame).cloned(),
+            Some((k, _)) if k.same_motion(key) => at(k, &self.partial),
             _ => None,
         }
+    }
+
+    /// The frames of the motion of `key` that are baked (first, count), for the timeline.
+    pub fn baked_spans(&self, key: &BakeKey) -> Vec<(usize, usize)> {
+        let mut spans: Vec<(usize, usize)> = self
+            .done
+            .iter()
+            .filter(|b| b.key.same_motion(key))
+            .map(|b| (b.key.first, b.frames.len()))
+            .collect();
+        if let Some((k, _)) = self.running.as_ref().filter(|(k, _)| k.same_motion(key)) {
+            spans.push((k.first, self.partial.len()));
+        }
+        spans.retain(|s| s.1 > 0);
+        spans
     }
 
     /// Frames held by the finished bakes and the running one.
@@ -100,7 +142,14 @@ impl Bakes {
         params: Vec<BodyParams>,
         wake: Wake,
     ) {
-        if self.get(&key).is_some()
+        // A finished bake of the same motion holding all these frames serves them.
+        let covered = self.done.iter().any(|b| {
+            b.key.same_motion(&key)
+                && b.key.first <= key.first
+                && key.first + key.count <= b.key.first + b.frames.len()
+        });
+        if covered
+            || self.get(&key).is_some()
             || self.failed.contains(&key)
             || self.running.as_ref().is_some_and(|(k, _)| *k == key)
         {
@@ -147,7 +196,11 @@ impl Bakes {
     /// bar; a cancelled bake is dropped quietly, a stopped one keeps its frames).
     pub fn poll(&mut self) -> Option<crate::error::Result<Arc<Baked>>> {
         let (key, task) = self.running.as_ref()?;
-        self.partial.extend(task.drain_events());
+        let events = task.drain_events();
+        // A cancelled bake's frames are dropped as they arrive; a stopped one keeps them.
+        if !task.is_cancelling() || self.stopped.as_ref() == Some(key) {
+            self.partial.extend(events);
+        }
         if let Some((_, n)) = self.progress {
             self.progress = Some((self.partial.len(), n));
         }
@@ -188,6 +241,14 @@ impl Bakes {
             t.cancel();
         }
         self.partial.clear();
+        self.progress = None;
+    }
+
+    /// Cancel the running bake and drop every bake (the avatar they posed is closed).
+    pub fn clear(&mut self) {
+        self.cancel();
+        self.done.clear();
+        self.failed.clear();
     }
 
     /// Stop the running bake by hand: the frames baked so far are kept and played, the rest
