@@ -9,7 +9,7 @@ use crate::studio::posing::PoseWorker;
 use crate::studio::project::{DEMO, ViewMode, ViewState};
 use crate::studio::settings::{RfdDialogs, SETTINGS_KEY, Settings};
 use crate::studio::state::{JobView, StudioApp, StudioOptions, Tasks};
-use crate::studio::timeline::Timeline;
+use crate::studio::timeline::{Timeline, is_motion_file};
 use crate::studio::viewport::{self, Scene};
 use eframe::egui;
 use std::sync::Arc;
@@ -159,15 +159,6 @@ impl StudioApp {
             PathDialogOutcome::Cancelled => None,
         }
     }
-}
-
-/// A motion file (JSON that is not a capture's or a project's, AMASS npz, BVH) by its name.
-pub fn is_motion_file(p: &std::path::Path) -> bool {
-    let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_lowercase();
-    p.is_file()
-        && !name.ends_with(crate::studio::project::PROJECT_EXTENSION)
-        && name != "capture.json"
-        && [".json", ".npz", ".bvh"].iter().any(|e| name.ends_with(e))
 }
 
 impl eframe::App for StudioApp {

@@ -180,7 +180,7 @@ impl StudioApp {
             self.open_project(&p);
         } else if name.ends_with(".avatar") {
             self.open_avatar(&p);
-        } else if crate::studio::app::is_motion_file(&p) {
+        } else if crate::studio::timeline::is_motion_file(&p) {
             self.load_motion(&p.display().to_string());
         } else if !p.exists() {
             self.fail(format!("{}: no such file or folder", p.display()));

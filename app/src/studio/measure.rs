@@ -19,7 +19,7 @@ impl StudioApp {
     /// the file's opening time and Play to that frame (called after every frame).
     pub(crate) fn report_first_playable(&mut self) {
         let Some((play, open_s)) = self.play_timing else { return };
-        if !self.posed.as_ref().is_some_and(|p| p.id == 0) {
+        if self.posed.as_ref().is_none_or(|p| p.id != 0) {
             return; // a baked frame is shown (id 0)
         }
         let play_s = play.elapsed().as_secs_f64();

@@ -241,6 +241,15 @@ impl Timeline {
     }
 }
 
+/// A motion file (JSON that is not a capture's or a project's, AMASS npz, BVH) by its name.
+pub fn is_motion_file(p: &std::path::Path) -> bool {
+    let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_lowercase();
+    p.is_file()
+        && !name.ends_with(".studio.json")
+        && name != "capture.json"
+        && [".json", ".npz", ".bvh"].iter().any(|e| name.ends_with(e))
+}
+
 /// The motion files opened in this session, newest first, kept in the clip list: choosing one
 /// shows it again without reading its file.
 #[derive(Default)]
