@@ -122,7 +122,9 @@ impl StudioApp {
     pub fn update_state(&mut self) {
         self.poll_tasks();
         let dt = self.ctx.input(|i| i.stable_dt).min(0.1);
+        let from = self.timeline.current_frame();
         if self.timeline.tick(dt) {
+            self.hold_for_bake(from);
             self.pose_needed = true;
         }
         if self.timeline.playing {

@@ -260,7 +260,33 @@ impl StudioApp {
             .map(|f| self.timeline.params_at(f, &betas))
             .collect();
         let (body, wake) = (self.body(), self.wake());
-        self.bakes.start(key, posable.exact(), body, params, wake);
+        let from = self.timeline.current_frame();
+        self.bakes.start(key, from, posable.exact(), body, params, wake);
+    }
+
+    /// While the clip's bake runs, playback does not run ahead of it: from a baked frame (or
+    /// the one the bake makes next) the playhead goes no further than the last frame baked on
+    /// its way, so every frame played is baked and no live pose takes the cores from the bake.
+    /// `from` is the frame before the timeline advanced. The bake begins at the playhead
+    /// (`start_bake`), so playing from anywhere in the range plays at the bake's pace.
+    pub(crate) fn hold_for_bake(&mut self, from: usize) {
+        let Some((key, _)) = self.current_bake() else { return };
+        let Some(((first, count), Some(next))) = self.bakes.running_span(&key) else { return };
+        let f = self.timeline.current_frame();
+        let baked = |g: usize| self.bakes.frame(&key, g).is_some();
+        if !(first..first + count).contains(&f) || baked(f) || !(baked(from) || from == next) {
+            return;
+        }
+        // The frame before the bake's next, if it lies between `from` and `f` in play order.
+        let (a, b) = self.timeline.play_range();
+        let ahead = |x: usize, y: usize| (y + (b - a + 1) - x) % (b - a + 1);
+        let last = if next == a { b } else { next - 1 };
+        let hold = if from != next && baked(last) && ahead(from, last) < ahead(from, f) {
+            last
+        } else {
+            from
+        };
+        self.timeline.frame = hold as f32;
     }
 
     /// Show the baked mesh of the current frame, if it is baked (by a finished bake or the

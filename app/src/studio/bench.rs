@@ -168,7 +168,7 @@ fn long_take_row(
         timeline.play_range(),
     );
     let mut bakes = Bakes::default();
-    bakes.start(key.clone(), posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
+    bakes.start(key.clone(), 0, posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
     while bakes.frame(&key, 0).is_none() {
         if let Some(Err(e)) = bakes.poll() {
             return fail(e.to_string());
@@ -203,7 +203,7 @@ fn playback_rows(
     );
     let mut bakes = Bakes::default();
     let t = Instant::now();
-    bakes.start(key, posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
+    bakes.start(key, 0, posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
     let baked = loop {
         match bakes.poll() {
             Some(Ok(b)) => break b,

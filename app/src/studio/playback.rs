@@ -65,20 +65,29 @@ impl BakeKey {
     }
 }
 
-/// Every frame of a clip, posed.
+/// Frames of a clip, posed: `frames[i]` is clip frame `first + i`.
 pub struct Baked {
     pub key: BakeKey,
+    pub first: usize,
     pub frames: Vec<Arc<PosedMesh>>,
     pub seconds: f64,
+}
+
+/// The running bake: its key, the frame it began with (an index into the key's frames), its
+/// task (events: the index of a frame made and its mesh) and the frames made so far.
+struct Running {
+    key: BakeKey,
+    from: usize,
+    task: Task<Baked, (usize, Arc<PosedMesh>)>,
+    made: Vec<Option<Arc<PosedMesh>>>,
+    count: usize,
 }
 
 /// The bakes, the one running and its progress.
 #[derive(Default)]
 pub struct Bakes {
     done: Vec<Arc<Baked>>,
-    running: Option<(BakeKey, Task<Baked, Arc<PosedMesh>>)>,
-    /// The running bake's frames so far (played while it runs).
-    partial: Vec<Arc<PosedMesh>>,
+    running: Option<Running>,
     /// (frames baked, frames) of the running bake.
     pub progress: Option<(usize, usize)>,
     /// Bakes that failed (not retried).
@@ -96,20 +105,31 @@ impl Bakes {
         self.running.is_some()
     }
 
+    /// The running bake, if it is of the motion of `key`.
+    fn running_for(&self, key: &BakeKey) -> Option<&Running> {
+        self.running.as_ref().filter(|r| r.key.same_motion(key))
+    }
+
     /// Clip frame `frame` of the motion of `key`, from any bake of it (done, or already made
     /// by the running one) whose frames include it.
     pub fn frame(&self, key: &BakeKey, frame: usize) -> Option<Arc<PosedMesh>> {
-        let at = |k: &BakeKey, frames: &[Arc<PosedMesh>]| {
-            frame.checked_sub(k.first).and_then(|i| frames.get(i)).cloned()
-        };
-        let done = self.done.iter().rev().filter(|b| b.key.same_motion(key));
-        if let Some(m) = done.filter_map(|b| at(&b.key, &b.frames)).next() {
-            return Some(m);
+        let mut done = self.done.iter().rev().filter(|b| b.key.same_motion(key));
+        let found =
+            done.find_map(|b| frame.checked_sub(b.first).and_then(|i| b.frames.get(i)).cloned());
+        if found.is_some() {
+            return found;
         }
-        match &self.running {
-            Some((k, _)) if k.same_motion(key) => at(k, &self.partial),
-            _ => None,
-        }
+        let r = self.running_for(key)?;
+        frame.checked_sub(r.key.first).and_then(|i| r.made.get(i)).cloned().flatten()
+    }
+
+    /// The running bake of the motion of `key`: the clip frames it bakes (first, count) and the
+    /// one it makes next (None once all are made).
+    pub fn running_span(&self, key: &BakeKey) -> Option<((usize, usize), Option<usize>)> {
+        let r = self.running_for(key)?;
+        let n = r.made.len();
+        let next = (0..n).map(|i| (r.from + i) % n).find(|&i| r.made[i].is_none());
+        Some(((r.key.first, n), next.map(|i| r.key.first + i)))
     }
 
     /// The frames of the motion of `key` that are baked (first, count), for the timeline.
@@ -118,10 +138,10 @@ impl Bakes {
             .done
             .iter()
             .filter(|b| b.key.same_motion(key))
-            .map(|b| (b.key.first, b.frames.len()))
+            .map(|b| (b.first, b.frames.len()))
             .collect();
-        if let Some((k, _)) = self.running.as_ref().filter(|(k, _)| k.same_motion(key)) {
-            spans.push((k.first, self.partial.len()));
+        if let Some(r) = self.running_for(key) {
+            spans.extend(runs(&r.made).into_iter().map(|(i, n)| (r.key.first + i, n)));
         }
         spans.retain(|s| s.1 > 0);
         spans
@@ -129,14 +149,17 @@ impl Bakes {
 
     /// Frames held by the finished bakes and the running one.
     pub fn held_frames(&self) -> usize {
-        self.done.iter().map(|b| b.frames.len()).sum::<usize>() + self.partial.len()
+        let running = self.running.as_ref().map_or(0, |r| r.count);
+        self.done.iter().map(|b| b.frames.len()).sum::<usize>() + running
     }
 
-    /// Start baking `params` (one per frame) unless that bake exists or runs; a bake of another
-    /// key still running is cancelled.
+    /// Start baking `params` (one per frame of the key's frames), beginning with clip frame
+    /// `from` (the playhead; the key's first frame when it is outside) and going round, unless
+    /// a bake of those frames exists or runs; a bake of another key still running is cancelled.
     pub fn start(
         &mut self,
         key: BakeKey,
+        from: usize,
         posable: Posable,
         body: Arc<BodyModel>,
         params: Vec<BodyParams>,
@@ -145,19 +168,18 @@ impl Bakes {
         // A finished bake of the same motion holding all these frames serves them.
         let covered = self.done.iter().any(|b| {
             b.key.same_motion(&key)
-                && b.key.first <= key.first
-                && key.first + key.count <= b.key.first + b.frames.len()
+                && b.first <= key.first
+                && key.first + key.count <= b.first + b.frames.len()
         });
         if covered
             || self.get(&key).is_some()
             || self.failed.contains(&key)
-            || self.running.as_ref().is_some_and(|(k, _)| *k == key)
+            || self.running.as_ref().is_some_and(|r| r.key == key)
         {
             return;
         }
         self.cancel();
         self.running = None;
-        self.partial.clear();
         let mut params = params;
         params.truncate(MAX_BAKED_FRAMES);
         // Room for the new bake: the oldest bakes go first.
@@ -165,60 +187,79 @@ impl Bakes {
             self.done.remove(0);
         }
         let n = params.len();
+        let from = from.checked_sub(key.first).filter(|&i| i < n).unwrap_or(0);
         let k = key.clone();
         let task = Task::spawn("playback bake", wake, move |cx| {
             let t = std::time::Instant::now();
-            let mut frames: Vec<Arc<PosedMesh>> = Vec::with_capacity(n);
-            for params in params {
+            let mut frames: Vec<Option<Arc<PosedMesh>>> = vec![None; n];
+            let mut faces = None;
+            for i in (from..n).chain(0..from) {
                 if cx.cancelled() {
                     return Err(StudioError::invalid("cancelled"));
                 }
-                let mut m = pose(&PoseRequest {
+                let request = PoseRequest {
                     id: 0,
-                    params,
+                    params: params[i].clone(),
                     posable: posable.clone(),
                     body: body.clone(),
-                })?;
-                if let Some(first) = frames.first() {
-                    m.faces = first.faces.clone(); // one copy of the triangles for the whole clip
-                }
+                };
+                let mut m = pose(&request)?;
+                // One copy of the triangles for the whole clip.
+                m.faces = faces.get_or_insert_with(|| m.faces.clone()).clone();
                 let m = Arc::new(m);
-                frames.push(m.clone());
-                cx.send(m);
+                frames[i] = Some(m.clone());
+                cx.send((i, m));
             }
-            Ok(Baked { key: k, frames, seconds: t.elapsed().as_secs_f64() })
+            let frames = frames.into_iter().flatten().collect();
+            let first = k.first;
+            Ok(Baked { key: k, first, frames, seconds: t.elapsed().as_secs_f64() })
         });
         self.progress = Some((0, n));
-        self.running = Some((key, task));
+        self.running = Some(Running { key, from, task, made: vec![None; n], count: 0 });
     }
 
     /// Progress and the finished bake, if it just finished (errors are returned for the status
     /// bar; a cancelled bake is dropped quietly, a stopped one keeps its frames).
     pub fn poll(&mut self) -> Option<crate::error::Result<Arc<Baked>>> {
-        let (key, task) = self.running.as_ref()?;
-        let events = task.drain_events();
+        let r = self.running.as_mut()?;
+        let events = r.task.drain_events();
         // A cancelled bake's frames are dropped as they arrive; a stopped one keeps them.
-        if !task.is_cancelling() || self.stopped.as_ref() == Some(key) {
-            self.partial.extend(events);
+        if !r.task.is_cancelling() || self.stopped.as_ref() == Some(&r.key) {
+            for (i, m) in events {
+                r.count += usize::from(r.made[i].is_none());
+                r.made[i] = Some(m);
+            }
         }
         if let Some((_, n)) = self.progress {
-            self.progress = Some((self.partial.len(), n));
+            self.progress = Some((r.count, n));
         }
-        let r = task.poll()?;
-        let cancelled = task.is_cancelling();
-        let key = key.clone();
-        self.running = None;
+        let result = r.task.poll()?;
+        let cancelled = r.task.is_cancelling();
+        let r = self.running.take().expect("polled above");
         self.progress = None;
-        let partial = std::mem::take(&mut self.partial);
-        let stopped = self.stopped.take().is_some_and(|k| k == key);
-        match r {
+        let stopped = self.stopped.take().is_some_and(|k| k == r.key);
+        match result {
             Ok(b) => Some(Ok(self.keep(b))),
             Err(_) if stopped => {
-                Some(Ok(self.keep(Baked { key, frames: partial, seconds: f64::NAN })))
+                // The frames made, as the runs they form (the first named in the status).
+                let mut kept = None;
+                for (i, n) in runs(&r.made) {
+                    let frames = r.made[i..i + n].iter().flatten().cloned().collect();
+                    let b = Baked {
+                        key: r.key.clone(),
+                        first: r.key.first + i,
+                        frames,
+                        seconds: f64::NAN,
+                    };
+                    kept.get_or_insert(self.keep(b));
+                }
+                let none =
+                    || Arc::new(Baked { key: r.key, first: 0, frames: vec![], seconds: f64::NAN });
+                Some(Ok(kept.unwrap_or_else(none)))
             }
             Err(_) if cancelled => None,
             Err(e) => {
-                self.failed.push(key);
+                self.failed.push(r.key);
                 Some(Err(StudioError::from(e).context("baking the clip for playback")))
             }
         }
@@ -237,10 +278,11 @@ impl Bakes {
 
     /// Cancel the running bake (another clip or avatar is shown): its frames are dropped.
     pub fn cancel(&mut self) {
-        if let Some((_, t)) = &self.running {
-            t.cancel();
+        if let Some(r) = &mut self.running {
+            r.task.cancel();
+            r.made.iter_mut().for_each(|m| *m = None);
+            r.count = 0;
         }
-        self.partial.clear();
         self.progress = None;
     }
 
@@ -254,9 +296,22 @@ impl Bakes {
     /// Stop the running bake by hand: the frames baked so far are kept and played, the rest
     /// posed live, and the bake is not started again for this clip.
     pub fn stop(&mut self) {
-        if let Some((k, t)) = &self.running {
-            self.stopped = Some(k.clone());
-            t.cancel();
+        if let Some(r) = &self.running {
+            self.stopped = Some(r.key.clone());
+            r.task.cancel();
         }
     }
+}
+
+/// The runs of made frames: (first index, length).
+fn runs(made: &[Option<Arc<PosedMesh>>]) -> Vec<(usize, usize)> {
+    let mut out: Vec<(usize, usize)> = Vec::new();
+    for (i, m) in made.iter().enumerate() {
+        match out.last_mut() {
+            Some((s, n)) if m.is_some() && *s + *n == i => *n += 1,
+            _ if m.is_some() => out.push((i, 1)),
+            _ => {}
+        }
+    }
+    out
 }
