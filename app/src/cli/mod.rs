@@ -32,7 +32,8 @@ pub struct Cli {
 /// Options of the studio window (no subcommand).
 #[derive(clap::Args, Debug, Default)]
 pub struct StudioArgs {
-    /// A capture folder or a project (.studio.json) to open instead of the demo.
+    /// A capture folder, an OBJ scan or a project (.studio.json) to open instead of the demo;
+    /// a motion file (JSON, npz, BVH) opens with the demo.
     #[arg(long, global = false)]
     pub open: Option<std::path::PathBuf>,
     /// Save a screenshot of the window here once it is idle, then exit (also

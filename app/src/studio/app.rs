@@ -9,7 +9,7 @@ use crate::studio::posing::PoseWorker;
 use crate::studio::project::{DEMO, ViewMode, ViewState};
 use crate::studio::settings::{RfdDialogs, SETTINGS_KEY, Settings};
 use crate::studio::state::{JobView, StudioApp, StudioOptions, Tasks};
-use crate::studio::timeline::Timeline;
+use crate::studio::timeline::{Timeline, is_motion_file};
 use crate::studio::viewport::{self, Scene};
 use eframe::egui;
 use std::sync::Arc;
@@ -73,10 +73,12 @@ impl StudioApp {
             pose_needed: true,
             last_pose_seconds: None,
             pose_failed: None,
+            pose_floor: 0,
             pose_requested_at: None,
             last_request_to_mesh: None,
             bakes: Default::default(),
             timeline,
+            loaded_clips: Default::default(),
             view,
             scene: Arc::new(Scene::new()),
             scene_dirty: true,
@@ -86,6 +88,8 @@ impl StudioApp {
             viewport_moving: false,
             ui_meshes_painted: false,
             playback_measure: None,
+            motion_open_s: None,
+            play_timing: None,
             show_shortcuts: false,
             status: None,
             error: None,
@@ -96,11 +100,16 @@ impl StudioApp {
             show_timings: true,
             pending_view: None,
             screenshot_dir: crate::studio::screenshot::default_screenshot_dir(),
+            autosave_dir: crate::studio::demo::cache_dir().join("unsaved-avatars"),
             path_field: String::new(),
             project_path: None,
         };
         if let Some(p) = &options.project {
             app.apply(Command::OpenProject(p.clone()));
+        } else if let Some(c) = options.capture.as_ref().filter(|c| is_motion_file(c)) {
+            // A motion file: the demo capture with that motion.
+            app.apply(Command::OpenCapture(DEMO.to_string()));
+            app.apply(Command::LoadMotion(c.display().to_string()));
         } else if let Some(c) = &options.capture {
             app.apply(Command::OpenCapture(c.display().to_string()));
         } else if options.load_demo {
@@ -113,7 +122,9 @@ impl StudioApp {
     pub fn update_state(&mut self) {
         self.poll_tasks();
         let dt = self.ctx.input(|i| i.stable_dt).min(0.1);
+        let from = self.timeline.current_frame();
         if self.timeline.tick(dt) {
+            self.hold_for_bake(from);
             self.pose_needed = true;
         }
         if self.timeline.playing {
@@ -128,6 +139,7 @@ impl StudioApp {
             self.request_pose();
         }
         if self.scene_dirty {
+            self.follow_root();
             self.scene = Arc::new(self.build_scene());
             self.scene_dirty = false;
             if !self.framed
@@ -159,6 +171,7 @@ impl eframe::App for StudioApp {
         self.apply_all(commands);
         self.frames_drawn += 1;
         self.after_frame();
+        self.report_first_playable();
         self.measure_playback();
         // While the view moves on a software renderer, the panels' text and widgets too are
         // painted by our shader (viewport/ui_meshes.rs); a still window is egui's.

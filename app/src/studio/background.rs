@@ -14,10 +14,11 @@ use std::time::Instant;
 
 impl StudioApp {
     pub(crate) fn poll_tasks(&mut self) {
-        if let Some(r) = self.tasks.capture.as_ref().and_then(|(_, t)| t.poll()) {
-            let (source, _) = self.tasks.capture.take().expect("polled above");
+        if let Some(r) = self.tasks.capture.as_ref().and_then(|c| c.task.poll()) {
+            let opening = self.tasks.capture.take().expect("polled above");
+            let source = opening.source;
             match r {
-                Ok(c) => self.capture_loaded(source, c),
+                Ok(c) => self.capture_loaded(source, c, opening.with_project),
                 Err(e) => {
                     let what = if source == DEMO {
                         "the demo capture".to_string()
@@ -80,7 +81,14 @@ impl StudioApp {
         self.poll_pose();
     }
 
-    fn capture_loaded(&mut self, source: String, capture: LoadedCapture) {
+    fn capture_loaded(&mut self, source: String, capture: LoadedCapture, with_project: bool) {
+        // Another capture is another person: the avatar of the one before is closed (a
+        // project's capture comes with its own avatar; reopening the same capture keeps it).
+        let closed = if with_project || self.capture_source.as_deref() == Some(source.as_str()) {
+            Ok(None)
+        } else {
+            self.close_avatar()
+        };
         self.thumbnails = capture
             .frames
             .iter()
@@ -124,7 +132,11 @@ impl StudioApp {
             capture.usable(),
             if flagged > 0 { format!(", {flagged} flagged") } else { String::new() }
         );
-        self.info(msg);
+        match closed {
+            Ok(Some(note)) => self.info(format!("{msg}; {note}")),
+            Ok(None) => self.info(msg),
+            Err(e) => self.fail(e),
+        }
         if source != DEMO {
             Settings::push_recent(&mut self.settings.recent_captures, &source);
         }
@@ -139,7 +151,9 @@ impl StudioApp {
         if let Some(cfg) = self.options.auto_fit.take() {
             self.apply(crate::studio::commands::Command::StartFit(cfg));
         }
-        self.error = None;
+        if !matches!(self.status, Some(crate::studio::state::Status::Error(_))) {
+            self.error = None;
+        }
         self.pose_needed = true;
         self.scene_dirty = true;
     }
@@ -221,23 +235,58 @@ impl StudioApp {
                 &self.timeline.clip_source,
                 self.timeline.frames(),
                 &self.timeline.offsets,
+                self.timeline.play_range(),
             ),
             posable,
         ))
     }
 
-    /// Bake the clip's poses for playback (in the background, once per posable and clip).
-    /// Nothing is baked while a fit runs: its partial result changes.
+    /// The frames of the current clip baked for what is shown now (first, count).
+    pub fn baked_spans(&self) -> Vec<(usize, usize)> {
+        self.current_bake().map(|(key, _)| self.bakes.baked_spans(&key)).unwrap_or_default()
+    }
+
+    /// Bake the clip's poses for playback (its range; in the background, once per posable,
+    /// clip and range). Nothing is baked while a fit runs: its partial result changes.
     pub(crate) fn start_bake(&mut self) {
         if self.job.is_some() {
             return;
         }
         let Some((key, posable)) = self.current_bake() else { return };
         let betas = self.betas();
-        let params =
-            (0..self.timeline.frames()).map(|f| self.timeline.params_at(f, &betas)).collect();
+        let (a, b) = self.timeline.play_range();
+        let params = (a..=b)
+            .take(crate::studio::playback::MAX_BAKED_FRAMES)
+            .map(|f| self.timeline.params_at(f, &betas))
+            .collect();
         let (body, wake) = (self.body(), self.wake());
-        self.bakes.start(key, posable.exact(), body, params, wake);
+        let from = self.timeline.current_frame();
+        self.bakes.start(key, from, posable.exact(), body, params, wake);
+    }
+
+    /// While the clip's bake runs, playback does not run ahead of it: from a baked frame (or
+    /// the one the bake makes next) the playhead goes no further than the last frame baked on
+    /// its way, so every frame played is baked and no live pose takes the cores from the bake.
+    /// `from` is the frame before the timeline advanced. The bake begins at the playhead
+    /// (`start_bake`), so playing from anywhere in the range plays at the bake's pace.
+    pub(crate) fn hold_for_bake(&mut self, from: usize) {
+        let Some((key, _)) = self.current_bake() else { return };
+        let Some(((first, count), Some(next))) = self.bakes.running_span(&key) else { return };
+        let f = self.timeline.current_frame();
+        let baked = |g: usize| self.bakes.frame(&key, g).is_some();
+        if !(first..first + count).contains(&f) || baked(f) || !(baked(from) || from == next) {
+            return;
+        }
+        // The frame before the bake's next, if it lies between `from` and `f` in play order.
+        let (a, b) = self.timeline.play_range();
+        let ahead = |x: usize, y: usize| (y + (b - a + 1) - x) % (b - a + 1);
+        let last = if next == a { b } else { next - 1 };
+        let hold = if from != next && baked(last) && ahead(from, last) < ahead(from, f) {
+            last
+        } else {
+            from
+        };
+        self.timeline.frame = hold as f32;
     }
 
     /// Show the baked mesh of the current frame, if it is baked (by a finished bake or the
@@ -270,6 +319,8 @@ impl StudioApp {
     fn poll_pose(&mut self) {
         if let Some(r) = self.poser.poll() {
             match r {
+                // A pose of an avatar closed since is dropped.
+                Ok(m) if m.id < self.pose_floor => {}
                 Ok(m) => {
                     self.last_pose_seconds = Some(m.seconds);
                     if m.id == self.poser.latest {

@@ -160,9 +160,15 @@ fn long_take_row(
     };
     let open_s = t.elapsed().as_secs_f64();
     let params = (0..timeline.frames()).map(|f| timeline.params_at(f, betas)).collect();
-    let key = BakeKey::new(posable, &timeline.clip_source, timeline.frames(), &timeline.offsets);
+    let key = BakeKey::new(
+        posable,
+        &timeline.clip_source,
+        timeline.frames(),
+        &timeline.offsets,
+        timeline.play_range(),
+    );
     let mut bakes = Bakes::default();
-    bakes.start(key.clone(), posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
+    bakes.start(key.clone(), 0, posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
     while bakes.frame(&key, 0).is_none() {
         if let Some(Err(e)) = bakes.poll() {
             return fail(e.to_string());
@@ -188,10 +194,16 @@ fn playback_rows(
 ) -> String {
     use crate::studio::playback::{BakeKey, Bakes};
     let params = (0..timeline.frames()).map(|f| timeline.params_at(f, betas)).collect();
-    let key = BakeKey::new(posable, &timeline.clip_source, timeline.frames(), &timeline.offsets);
+    let key = BakeKey::new(
+        posable,
+        &timeline.clip_source,
+        timeline.frames(),
+        &timeline.offsets,
+        timeline.play_range(),
+    );
     let mut bakes = Bakes::default();
     let t = Instant::now();
-    bakes.start(key, posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
+    bakes.start(key, 0, posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
     let baked = loop {
         match bakes.poll() {
             Some(Ok(b)) => break b,

@@ -2,6 +2,9 @@
 //! drawn (egui's panels and the viewport). Once the studio is idle (the capture open and, with
 //! `--quick-fit`, the avatar fitted and meshed) it presses Play; after the clip is baked it
 //! counts the frames drawn and the clip frames shown for 5 s, prints them and closes.
+//!
+//! With `--timing`, a motion file's time to its first playable frame: the file read (and
+//! resampled) when it is opened, then Play to the first baked frame drawn.
 
 use crate::studio::commands::Command;
 use crate::studio::state::{PlaybackMeasure, StudioApp};
@@ -12,6 +15,26 @@ use std::time::Instant;
 const SECONDS: f64 = 5.0;
 
 impl StudioApp {
+    /// With `--timing`: once Play was pressed on a motion file and a baked frame is drawn, print
+    /// the file's opening time and Play to that frame (called after every frame).
+    pub(crate) fn report_first_playable(&mut self) {
+        let Some((play, open_s)) = self.play_timing else { return };
+        if self.posed.as_ref().is_none_or(|p| p.id != 0) {
+            return; // a baked frame is shown (id 0)
+        }
+        let play_s = play.elapsed().as_secs_f64();
+        let c = &self.timeline.clip;
+        eprintln!(
+            "timing: motion {} ({} frames at {} fps, {} fps source): opened in {open_s:.3} s; Play to its first baked frame drawn {play_s:.3} s; first playable frame {:.3} s after the open began (Play at once)",
+            self.timeline.clip_source,
+            c.frames.len(),
+            c.fps,
+            (c.source_fps * 100.0).round() / 100.0,
+            open_s + play_s
+        );
+        self.play_timing = None;
+    }
+
     /// Called after every frame.
     pub(crate) fn measure_playback(&mut self) {
         if !self.options.measure_playback {

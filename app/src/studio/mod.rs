@@ -1,7 +1,8 @@
 //! The studio: an eframe (egui + wgpu) desktop app over the avatar crates.
 //!
 //! The state (`state`) is changed in one place (`commands`, from the [`commands::Command`]s the
-//! panels return); background work (`tasks`) is polled in one place (`background`); the
+//! panels return; `session` opens and closes the capture, avatar, motion and project for it);
+//! background work (`tasks`) is polled in one place (`background`); the
 //! viewport's scene is built from the state (`scene`). Modules: `app` (start-up and the
 //! frame), `panels` (the UI), `viewport` (the wgpu renderer: scene + camera in, pixels out),
 //! `camera`, `avatar` (what the studio needs from an avatar), `fit_config` (the fit settings),
@@ -29,6 +30,7 @@ pub mod project;
 pub mod scan;
 pub mod scene;
 pub mod screenshot;
+mod session;
 pub mod settings;
 pub mod state;
 pub mod style;

@@ -36,6 +36,9 @@ pub struct ViewState {
     /// The key light's direction in view space (towards the light).
     #[serde(default = "default_light")]
     pub light: [f32; 3],
+    /// The camera follows the posed body's root across the floor (root motion stays in view).
+    #[serde(default)]
+    pub follow_root: bool,
 }
 
 fn default_material() -> [f32; 3] {
@@ -57,6 +60,7 @@ impl Default for ViewState {
             selected_frame: 0,
             material: default_material(),
             light: default_light(),
+            follow_root: false,
         }
     }
 }
@@ -69,6 +73,9 @@ pub struct MotionState {
     pub speed: f32,
     #[serde(default)]
     pub offsets: Vec<[f32; 3]>,
+    /// The timeline's range (first, last frame) that plays, bakes and exports; none: the clip.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub range: Option<[usize; 2]>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -174,7 +181,13 @@ mod tests {
             Some(DEMO.into()),
             Some(avatar.clone()),
             ViewState::default(),
-            MotionState { clip: "walk".into(), frame: 7, speed: 0.5, offsets: vec![] },
+            MotionState {
+                clip: "walk".into(),
+                frame: 7,
+                speed: 0.5,
+                offsets: vec![],
+                range: Some([3, 40]),
+            },
         );
         let path = dir.path().join("session.studio.json");
         p.save(&path).unwrap();

@@ -24,6 +24,8 @@ pub enum Shown {
 const BODY_COLOR: [f32; 3] = [0.72, 0.62, 0.55];
 const PREVIEW_COLOR: [f32; 3] = [0.80, 0.62, 0.40];
 const SKELETON_COLOR: [f32; 3] = [1.0, 0.62, 0.18];
+/// The floor grid's spacing (m).
+const GRID_STEP: f32 = 0.25;
 
 impl StudioApp {
     /// The rule: the partial result while a fit runs (or until the avatar's mesh is ready),
@@ -107,9 +109,31 @@ impl StudioApp {
         }
         let (lo, hi) =
             s.bounds().unwrap_or((Vec3::new(-0.5, -1.0, -0.5), Vec3::new(0.5, 1.0, 0.5)));
-        let center = (lo + hi) * 0.5;
-        s.add_grid(Vec3::new(center.x, 0.0, center.z), lo.y - 0.01, 1.5, 0.25);
+        let mut center = (lo + hi) * 0.5;
+        if self.following() {
+            // Lines fixed on the floor: the body is seen to travel over them.
+            center = (center / GRID_STEP).round() * GRID_STEP;
+        }
+        s.add_grid(Vec3::new(center.x, 0.0, center.z), lo.y - 0.01, 1.5, GRID_STEP);
         s
+    }
+
+    /// The camera follows the root now: the toggle is on and the posed body is shown.
+    fn following(&self) -> bool {
+        self.view.follow_root && self.view.mode == ViewMode::Posed && self.posed.is_some()
+    }
+
+    /// With the follow toggle on, the camera's target moves over the floor to the posed body's
+    /// root (the pelvis), keeping its height, direction and distance: root motion cannot walk
+    /// the body out of view.
+    pub fn follow_root(&mut self) {
+        if self.following()
+            && let Some(p) = &self.posed
+        {
+            let root = p.joints[0];
+            self.view.camera.target[0] = root.x;
+            self.view.camera.target[2] = root.z;
+        }
     }
 
     /// The open avatar's refined fitting of a capture frame given `params` (pose refinement).

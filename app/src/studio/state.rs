@@ -13,7 +13,7 @@ use crate::studio::posing::{PoseWorker, PosedMesh};
 use crate::studio::project::ViewState;
 use crate::studio::settings::{Dialogs, Settings};
 use crate::studio::tasks::Task;
-use crate::studio::timeline::Timeline;
+use crate::studio::timeline::{LoadedClips, Timeline};
 use crate::studio::viewport::Scene;
 use avatar_core::body::{BodyModel, open_body_ref};
 use eframe::egui;
@@ -89,12 +89,21 @@ impl JobView {
     }
 }
 
+/// A capture being opened.
+pub struct CaptureOpening {
+    /// "demo" or a folder path.
+    pub source: String,
+    /// Opened by a project, with its avatar: the avatar is not closed when it opens.
+    pub with_project: bool,
+    pub task: Task<LoadedCapture>,
+}
+
 /// The background tasks the studio waits for, by name (fit, pose and bake have their own
 /// wrappers: `FitJob`, `PoseWorker`, `Bakes`).
 #[derive(Default)]
 pub struct Tasks {
     /// Opening a capture ("demo" or a folder).
-    pub capture: Option<(String, Task<LoadedCapture>)>,
+    pub capture: Option<CaptureOpening>,
     /// Opening or meshing an avatar.
     pub avatar: Option<Task<AvatarReady>>,
     /// Writing the animated glTF, and its last progress (frames made of all).
@@ -137,11 +146,15 @@ pub struct StudioApp {
     pub(crate) pose_needed: bool,
     pub last_pose_seconds: Option<f64>,
     pub(crate) pose_failed: Option<u64>,
+    /// Poses requested before this id were for an avatar since closed: not shown.
+    pub(crate) pose_floor: u64,
     pub(crate) pose_requested_at: Option<Instant>,
     pub last_request_to_mesh: Option<f64>,
     pub bakes: Bakes,
     // Timeline and view.
     pub timeline: Timeline,
+    /// Motion files opened in the session (the clip list keeps them).
+    pub loaded_clips: LoadedClips,
     pub view: ViewState,
     pub(crate) scene: Arc<Scene>,
     pub(crate) scene_dirty: bool,
@@ -156,6 +169,10 @@ pub struct StudioApp {
     /// software renderer).
     pub ui_meshes_painted: bool,
     pub(crate) playback_measure: Option<PlaybackMeasure>,
+    /// `--timing`: the last motion file's opening time (s), and when Play was pressed on it
+    /// with that time (`measure::report_first_playable`).
+    pub(crate) motion_open_s: Option<f64>,
+    pub(crate) play_timing: Option<(Instant, f64)>,
     /// The shortcuts window (?) is open.
     pub show_shortcuts: bool,
     // Messages and the rest.
@@ -171,6 +188,8 @@ pub struct StudioApp {
     pub(crate) pending_view: Option<ViewState>,
     /// Where P saves screenshots.
     pub screenshot_dir: PathBuf,
+    /// Where an avatar never saved is kept when it is closed (another capture opens).
+    pub autosave_dir: PathBuf,
     /// The capture panel's path field (for systems without a file dialog portal).
     pub path_field: String,
     /// The project file last saved or opened (Ctrl+S saves there).
@@ -229,7 +248,7 @@ impl StudioApp {
 
     /// "Opening the demo…" while a capture loads.
     pub fn loading(&self) -> Option<&str> {
-        self.tasks.capture.as_ref().map(|(s, _)| s.as_str())
+        self.tasks.capture.as_ref().map(|c| c.source.as_str())
     }
 
     pub fn meshing(&self) -> bool {

@@ -71,5 +71,8 @@ fn a_long_take_plays_while_it_bakes_and_stop_keeps_what_was_baked() {
     let label = h.query_all_by_label_contains("120 fps source at 30").count();
     assert_eq!(label, 1, "the source rate is shown");
     h.state_mut().status = None; // it names the number of frames kept
+    // The frames kept vary with the machine's speed: none on the timeline's strip in the image.
+    h.state_mut().bakes.clear();
+    h.step();
     snap(&mut h, "long_take_stopped", &tolerant(200));
 }

@@ -320,7 +320,9 @@ fn private_demo() -> tempfile::TempDir {
     dir
 }
 
+mod capture_switch;
 mod dialogs_and_scans;
 mod face;
 mod jobs_and_playback;
 mod long_take;
+mod timeline;

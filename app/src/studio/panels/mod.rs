@@ -6,6 +6,7 @@
 
 mod capture;
 mod side;
+mod timeline;
 mod viewport;
 
 use crate::studio::camera::Preset;
@@ -14,7 +15,6 @@ use crate::studio::project::{DEMO, ViewMode};
 use crate::studio::settings::PathPurpose;
 use crate::studio::state::{Status, StudioApp};
 use crate::studio::style::{ACCENT, ERROR};
-use crate::studio::timeline::timeline_bar;
 use crate::studio::viewport::Shading;
 use eframe::egui;
 use std::path::PathBuf;
@@ -47,42 +47,7 @@ fn draw_panels(app: &mut StudioApp, ui: &mut egui::Ui) -> Vec<Command> {
     out.extend(dropped.into_iter().map(Command::OpenPath));
     egui::Panel::top("menu").show(ui, |ui| menu_bar(app, ui, &mut out));
     egui::Panel::bottom("status").show(ui, |ui| status_bar(app, ui));
-    egui::Panel::bottom("timeline").show(ui, |ui| {
-        ui.add_space(3.0);
-        let was_playing = app.timeline.playing;
-        let a = timeline_bar(ui, &mut app.timeline);
-        if app.timeline.playing != was_playing {
-            app.timeline.playing = was_playing;
-            out.push(Command::TogglePlay);
-        }
-        if a.changed {
-            out.push(Command::PoseChanged);
-        }
-        if let Some(name) = a.library {
-            out.push(Command::LoadMotion(name));
-        }
-        if a.open_file {
-            out.push(Command::AskPath(PathPurpose::OpenMotion));
-        }
-        if let Some((done, n)) = app.bakes.progress {
-            ui.horizontal(|ui| {
-                let stop = ui.button("Stop").on_hover_text(
-                    "Stop baking: the frames baked so far play, the rest are posed live",
-                );
-                if stop.clicked() {
-                    out.push(Command::StopBake);
-                }
-                ui.add(
-                    egui::ProgressBar::new(done as f32 / n.max(1) as f32)
-                        .text(format!(
-                            "Baking the clip for playback: {done} / {n} frames (baked frames play)"
-                        ))
-                        .desired_height(14.0),
-                );
-            });
-        }
-        ui.add_space(1.0);
-    });
+    egui::Panel::bottom("timeline").show(ui, |ui| timeline::timeline_panel(app, ui, &mut out));
     egui::Panel::left("capture").resizable(true).default_size(214.0).max_size(420.0).show(
         ui,
         |ui| {
@@ -100,9 +65,10 @@ fn draw_panels(app: &mut StudioApp, ui: &mut egui::Ui) -> Vec<Command> {
 }
 
 /// The keyboard shortcuts: (keys, what they do).
-pub const SHORTCUTS: [(&str, &str); 12] = [
+pub const SHORTCUTS: [(&str, &str); 13] = [
     ("Space", "Play / pause"),
     (", and .", "Previous / next frame"),
+    ("I and O", "The range starts / ends at the current frame"),
     ("F", "Frame the subject"),
     ("1 2 3 4", "Front, side, back, top view"),
     ("T", "Turntable on / off"),
@@ -134,6 +100,16 @@ fn keys(app: &mut StudioApp, ctx: &egui::Context, out: &mut Vec<Command>) {
         for (key, delta) in [(egui::Key::Comma, -1), (egui::Key::Period, 1)] {
             if i.consume_key(none, key) {
                 app.timeline.step(delta);
+                out.push(Command::PoseChanged);
+            }
+        }
+        for (key, set_in) in [(egui::Key::I, true), (egui::Key::O, false)] {
+            if i.consume_key(none, key) {
+                if set_in {
+                    app.timeline.set_in()
+                } else {
+                    app.timeline.set_out()
+                }
                 out.push(Command::PoseChanged);
             }
         }
@@ -258,6 +234,10 @@ fn menu_bar(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) {
                 }
             }
             ui.checkbox(&mut app.turntable, "Turntable (T)");
+            let mut follow = app.view.follow_root;
+            if ui.checkbox(&mut follow, "Follow the root").changed() {
+                out.push(Command::FollowRoot(follow));
+            }
         });
         ui.menu_button("Help", |ui| {
             if ui.button("Shortcuts (?)").clicked() {

@@ -331,6 +331,14 @@ fn export_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Command>) 
             out.push(Command::AskPath(PathPurpose::ExportObj));
         }
     });
+    let t = &app.timeline;
+    let what = match t.range() {
+        Some((a, b)) => {
+            format!("glTF: {} frames {a}–{b} of {} (the timeline's range)", t.clip.name, t.frames())
+        }
+        None => format!("glTF: the whole clip {} ({} frames)", t.clip.name, t.frames()),
+    };
+    ui.label(egui::RichText::new(what).small().weak());
     if app.exporting() {
         match app.tasks.export_progress {
             Some(p) if p.total > 0 => {

@@ -75,6 +75,14 @@ pub fn viewport_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comm
                 if ui.button("Frame").on_hover_text("Frame the subject (F)").clicked() {
                     out.push(Command::FrameSubject);
                 }
+                let follow = app.view.follow_root;
+                if ui
+                    .selectable_label(follow, "Follow")
+                    .on_hover_text("The camera follows the body's root over the floor (posed view)")
+                    .clicked()
+                {
+                    out.push(Command::FollowRoot(!follow));
+                }
             });
         });
     // Info over the viewport's lower left corner.
