@@ -58,11 +58,6 @@ impl BakeKey {
             && self.clip_frames == other.clip_frames
             && self.offsets == other.offsets
     }
-
-    /// The first frame baked.
-    pub fn first(&self) -> usize {
-        self.first
-    }
 }
 
 /// Frames of a clip, posed: `frames[i]` is clip frame `first + i`.
@@ -278,6 +273,7 @@ impl Bakes {
 
     /// Cancel the running bake (another clip or avatar is shown): its frames are dropped.
     pub fn cancel(&mut self) {
+        self.stopped = None; // a bake stopped by hand and not yet ended keeps nothing either
         if let Some(r) = &mut self.running {
             r.task.cancel();
             r.made.iter_mut().for_each(|m| *m = None);
