@@ -19,13 +19,7 @@ fn fingerprint() -> u64 {
 /// The studio's cache folder: `$XDG_CACHE_HOME/avatar-studio` or `~/.cache/avatar-studio`,
 /// else the temporary folder.
 pub fn cache_dir() -> PathBuf {
-    if let Some(x) = std::env::var_os("XDG_CACHE_HOME").filter(|v| !v.is_empty()) {
-        return PathBuf::from(x).join("avatar-studio");
-    }
-    if let Some(h) = std::env::var_os("HOME").filter(|v| !v.is_empty()) {
-        return PathBuf::from(h).join(".cache").join("avatar-studio");
-    }
-    std::env::temp_dir().join("avatar-studio")
+    crate::cache::cache_dir().unwrap_or_else(|| std::env::temp_dir().join("avatar-studio"))
 }
 
 /// The demo capture folder, written (atomically, file by file) if missing.
