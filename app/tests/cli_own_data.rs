@@ -2,9 +2,11 @@
 //! lists it and names each bad item, a tiny `meta-train` skips them and says how many, and
 //! `fit --model` fine-tunes from the trained prior, which the avatar and `check` name.
 
+use std::ffi::OsStr;
+use std::path::Path;
 use std::process::{Command, Output};
 
-fn studio(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
+fn studio(args: &[&dyn AsRef<OsStr>]) -> Output {
     let mut c = Command::new(env!("CARGO_BIN_EXE_avatar-studio"));
     for a in args {
         c.arg(a);
@@ -105,64 +107,45 @@ fn own_data_is_listed_trained_on_and_fitted_from() {
     assert!(err.contains("7 samples in 2 groups; the items are unchanged"), "{err}");
 
     let model = run.join("meta-model.bin");
+    // A two-step fit of the walk from the meta-model file `from` into `out`.
+    let walk = outfit.join("walk");
+    let fit = |from: &Path, out: &Path, extra: &[&str]| {
+        let mut args: Vec<&dyn AsRef<OsStr>> = vec![
+            &"fit",
+            &walk,
+            &"--frames",
+            &"3",
+            &"--steps",
+            &"2",
+            &"--model",
+            &from,
+            &"--out",
+            &out,
+        ];
+        args.extend(extra.iter().map(|e| e as &dyn AsRef<OsStr>));
+        studio(&args)
+    };
+    let names_the_prior = |avatar: &Path| {
+        let (out, _) = ok(&studio(&[&"check", &avatar]));
+        assert!(
+            out.contains("fine-tuned from the prior") && out.contains("meta-train seed 0"),
+            "{out}"
+        );
+    };
     let avatar = dir.path().join("a.avatar");
-    let (out, _) = ok(&studio(&[
-        &"fit",
-        &outfit.join("walk"),
-        &"--frames",
-        &"3",
-        &"--steps",
-        &"2",
-        &"--refine-poses",
-        &"off",
-        &"--model",
-        &model,
-        &"--out",
-        &avatar,
-    ]));
+    let (out, _) = ok(&fit(&model, &avatar, &["--refine-poses", "off"]));
     assert!(out.contains("from the prior") && out.contains("meta-model.bin"), "{out}");
-    let (out, _) = ok(&studio(&[&"check", &avatar]));
-    assert!(
-        out.contains("fine-tuned from the prior") && out.contains("meta-train seed 0"),
-        "{out}"
-    );
+    names_the_prior(&avatar);
 
     // The static SDF started from that prior's static SDF names it too.
     let fixed = dir.path().join("s.avatar");
-    let (out, _) = ok(&studio(&[
-        &"fit",
-        &outfit.join("walk"),
-        &"--frames",
-        &"3",
-        &"--steps",
-        &"2",
-        &"--static",
-        &"--model",
-        &model,
-        &"--out",
-        &fixed,
-    ]));
+    let (out, _) = ok(&fit(&model, &fixed, &["--static"]));
     assert!(out.contains("static SDF") && out.contains("meta-model.bin"), "{out}");
-    let (out, _) = ok(&studio(&[&"check", &fixed]));
-    assert!(
-        out.contains("fine-tuned from the prior") && out.contains("meta-train seed 0"),
-        "{out}"
-    );
+    names_the_prior(&fixed);
 
     // A model file that is not a meta-model is refused by name; nothing is written.
     let again = dir.path().join("b.avatar");
-    let o = studio(&[
-        &"fit",
-        &outfit.join("walk"),
-        &"--frames",
-        &"3",
-        &"--steps",
-        &"2",
-        &"--model",
-        &avatar,
-        &"--out",
-        &again,
-    ]);
+    let o = fit(&avatar, &again, &[]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         !o.status.success() && err.contains("a.avatar") && err.contains("not a meta-model"),
