@@ -229,16 +229,7 @@ impl StudioApp {
         &self,
     ) -> Option<(crate::studio::playback::BakeKey, crate::studio::posing::Posable)> {
         let posable = self.posable()?;
-        Some((
-            crate::studio::playback::BakeKey::new(
-                &posable,
-                &self.timeline.clip_source,
-                self.timeline.frames(),
-                &self.timeline.offsets,
-                self.timeline.play_range(),
-            ),
-            posable,
-        ))
+        Some((crate::studio::playback::BakeKey::of_timeline(&posable, &self.timeline), posable))
     }
 
     /// The frames of the current clip baked for what is shown now (first, count).
@@ -253,12 +244,7 @@ impl StudioApp {
             return;
         }
         let Some((key, posable)) = self.current_bake() else { return };
-        let betas = self.betas();
-        let (a, b) = self.timeline.play_range();
-        let params = (a..=b)
-            .take(crate::studio::playback::MAX_BAKED_FRAMES)
-            .map(|f| self.timeline.params_at(f, &betas))
-            .collect();
+        let params = crate::studio::playback::range_params(&self.timeline, &self.betas());
         let (body, wake) = (self.body(), self.wake());
         let from = self.timeline.current_frame();
         self.bakes.start(key, from, posable.exact(), body, params, wake);

@@ -143,7 +143,7 @@ fn long_take_row(
     body: &Arc<avatar_core::body::BodyModel>,
     betas: &[f32],
 ) -> String {
-    use crate::studio::playback::{BakeKey, Bakes};
+    use crate::studio::playback::{BakeKey, Bakes, range_params};
     let fail = |e: String| format!("| long take: first playable frame | | {e} |\n");
     let file = std::env::temp_dir().join(format!("avatar-bench-take-{}.bvh", std::process::id()));
     let written = avatar_core::motion::bvh_write::long_take("take", 2752, 120.0)
@@ -159,14 +159,7 @@ fn long_take_row(
         Err(e) => return fail(e.to_string()),
     };
     let open_s = t.elapsed().as_secs_f64();
-    let params = (0..timeline.frames()).map(|f| timeline.params_at(f, betas)).collect();
-    let key = BakeKey::new(
-        posable,
-        &timeline.clip_source,
-        timeline.frames(),
-        &timeline.offsets,
-        timeline.play_range(),
-    );
+    let (key, params) = (BakeKey::of_timeline(posable, &timeline), range_params(&timeline, betas));
     let mut bakes = Bakes::default();
     bakes.start(key.clone(), 0, posable.clone().exact(), body.clone(), params, Arc::new(|| {}));
     while bakes.frame(&key, 0).is_none() {
@@ -192,15 +185,8 @@ fn playback_rows(
     timeline: &Timeline,
     betas: &[f32],
 ) -> String {
-    use crate::studio::playback::{BakeKey, Bakes};
-    let params = (0..timeline.frames()).map(|f| timeline.params_at(f, betas)).collect();
-    let key = BakeKey::new(
-        posable,
-        &timeline.clip_source,
-        timeline.frames(),
-        &timeline.offsets,
-        timeline.play_range(),
-    );
+    use crate::studio::playback::{BakeKey, Bakes, range_params};
+    let (key, params) = (BakeKey::of_timeline(posable, timeline), range_params(timeline, betas));
     let mut bakes = Bakes::default();
     let t = Instant::now();
     bakes.start(key, 0, posable.clone().exact(), body.clone(), params, Arc::new(|| {}));

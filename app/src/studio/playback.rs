@@ -9,6 +9,7 @@
 use crate::error::StudioError;
 use crate::studio::posing::{Posable, PoseRequest, PosedMesh, pose};
 use crate::studio::tasks::{Task, Wake};
+use crate::studio::timeline::Timeline;
 use avatar_core::body::{BodyModel, BodyParams};
 use std::sync::Arc;
 
@@ -17,6 +18,13 @@ const CACHED: usize = 3;
 /// The most frames baked for one clip and held by all bakes together: 1,200 frames (40 s at
 /// 30 fps) of a 13,380-vertex avatar are about 480 MB. Frames past it are posed live.
 pub const MAX_BAKED_FRAMES: usize = 1200;
+
+/// The poses of the frames a bake of `timeline`'s play range holds (at most
+/// [`MAX_BAKED_FRAMES`]), for the body shaped by `betas`.
+pub fn range_params(timeline: &Timeline, betas: &[f32]) -> Vec<BodyParams> {
+    let (a, b) = timeline.play_range();
+    (a..=b).take(MAX_BAKED_FRAMES).map(|f| timeline.params_at(f, betas)).collect()
+}
 
 /// What a bake depends on: the canonical mesh posed (by identity), the clip and the joint
 /// offsets (bit patterns, so that the key is exact), and the frames it bakes (the timeline's
@@ -49,6 +57,17 @@ impl BakeKey {
             first: range.0,
             count: (range.1 + 1).saturating_sub(range.0).min(MAX_BAKED_FRAMES),
         }
+    }
+
+    /// The bake of `timeline`'s play range for `posable`.
+    pub fn of_timeline(posable: &Posable, timeline: &Timeline) -> BakeKey {
+        BakeKey::new(
+            posable,
+            &timeline.clip_source,
+            timeline.frames(),
+            &timeline.offsets,
+            timeline.play_range(),
+        )
     }
 
     /// The same mesh, clip and offsets (any frames).
