@@ -20,6 +20,7 @@
 //! ([`BodyWrap::own_weights`]).
 
 use super::fold_guard::FoldGuard;
+use super::garment_sheet::{GarmentSheet, SheetGridOptions};
 use crate::body::{BodyModel, Weights, interpolate_weights};
 use crate::mesh::TriMesh;
 use crate::mesh::barycentric;
@@ -72,6 +73,9 @@ pub struct WrapOptions {
     /// (eyelids, nostrils, the ear's folds) that ball is millimetres wide, where a depth camera
     /// sees nothing finer than a centimetre.
     pub crease_share: f32,
+    /// Loose pieces that hang round the body (a skirt, a coat's tails, a cape) are remade as
+    /// one whole sheet (`canonical::garment_sheet`) instead of kept as extracted.
+    pub remesh_loose: bool,
 }
 
 impl Default for WrapOptions {
@@ -92,6 +96,7 @@ impl Default for WrapOptions {
             max_hole: 0.3,
             thin: 0.03,
             crease_share: 0.8,
+            remesh_loose: true,
         }
     }
 }
@@ -128,6 +133,8 @@ pub struct BodyWrap {
     reach_out: Vec<f32>,
     reach_in: Vec<f32>,
     guard: FoldGuard,
+    /// The grid loose cloth is remade on.
+    pub sheet: GarmentSheet,
     pub options: WrapOptions,
 }
 
@@ -166,6 +173,7 @@ impl BodyWrap {
             reach_in,
             rest_area: rest.surface_area(),
             guard: FoldGuard::new(&rest),
+            sheet: GarmentSheet::around(&rest, SheetGridOptions::default()),
             rest,
             normals,
             thickness,
@@ -243,8 +251,14 @@ impl BodyWrap {
     /// farther than `options.far` from it: the wrapped body's vertices first, in the body's
     /// order, then the pieces'. Each piece's border vertices within `options.seam` of the
     /// wrapped body are put on it; pieces under `options.min_piece_share` of the body's area are
-    /// dropped.
-    pub fn with_loose_pieces(&self, wrapped: &TriMesh, extracted: &TriMesh) -> TriMesh {
+    /// dropped. What hangs round the body is remade as one sheet (`options.remesh_loose`;
+    /// `sdf`: the surface's signed distance, as for [`BodyWrap::wrap`]).
+    pub fn with_loose_pieces(
+        &self,
+        wrapped: &TriMesh,
+        extracted: &TriMesh,
+        sdf: impl Fn(&[Vec3]) -> Vec<f32>,
+    ) -> TriMesh {
         let o = &self.options;
         let bvh = Bvh::build(wrapped);
         let far = faces_far_from(&bvh, extracted, o.far);
@@ -256,6 +270,10 @@ impl BodyWrap {
         );
         let chosen = close_short_holes(&chosen, o.max_hole).0;
         let mut pieces = self.clothing_pieces(&chosen, &bvh);
+        if o.remesh_loose {
+            pieces =
+                self.sheet.remesh(&pieces, sdf, |p| bvh.closest_point_within(p, o.far).is_none());
+        }
         // Border edges (one face) of the pieces: their vertices go onto the body nearby.
         let mut border: Vec<u32> = edge_use(&pieces.faces)
             .iter()

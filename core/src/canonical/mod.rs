@@ -7,6 +7,7 @@ pub mod cache;
 pub mod canonicalize;
 pub mod field;
 pub mod fold_guard;
+pub mod garment_sheet;
 pub mod garment_skinning;
 pub mod normalise;
 pub mod offset_smoothing;
@@ -21,6 +22,7 @@ pub use canonicalize::{
     CanonicalFrame, REPROJECTION_THRESHOLD, canonicalize_points, choose_by_agreement,
     choose_nearest, forward_skin_mesh,
 };
+pub use garment_sheet::{GarmentSheet, SheetGridOptions};
 pub use field::{FIELD_CELLS, FieldOptions, SkinningField};
 pub use garment_skinning::{
     GarmentSkinner, GarmentSkinning, field_weights, forward_skin_with_weights, garment_weights,

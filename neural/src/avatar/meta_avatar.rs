@@ -330,6 +330,7 @@ impl MetaAvatar {
                 Ok(self.wrap.with_loose_pieces(
                     &self.wrapped_surface(&sdf, self.wrap.options.tight_outside),
                     &extracted,
+                    |p| sdf.sdf(p),
                 ))
             }
             _ => self.extracted_surface(&sdf, resolution),

@@ -85,7 +85,7 @@ fn a_skirt_comes_beside_the_body_and_meets_it() {
     let sdf = |p: &Vec3| tight(p).min(brim(p));
     let w = wrap.wrap_within(|ps| ps.iter().map(sdf).collect(), wrap.options.tight_outside);
     let extracted = extract(|ps: &[Vec3]| ps.iter().map(sdf).collect(), &opts).unwrap().mesh;
-    let merged = wrap.with_loose_pieces(&w.mesh, &extracted);
+    let merged = wrap.with_loose_pieces(&w.mesh, &extracted, |ps| ps.iter().map(sdf).collect());
     let n = wrap.vertex_count();
     // The body's vertices first, on the tight cloth (or on the body where the brim's root
     // swallowed them).
@@ -133,7 +133,7 @@ fn the_body_and_a_pieces_seam_take_the_bodys_own_weights() {
     let sdf = |p: &Vec3| tight(p).min(brim(p));
     let w = wrap.wrap_within(|ps| ps.iter().map(sdf).collect(), wrap.options.tight_outside);
     let extracted = extract(|ps: &[Vec3]| ps.iter().map(sdf).collect(), &opts).unwrap().mesh;
-    let merged = wrap.with_loose_pieces(&w.mesh, &extracted);
+    let merged = wrap.with_loose_pieces(&w.mesh, &extracted, |ps| ps.iter().map(sdf).collect());
     let n = wrap.vertex_count();
     // "Field" weights: all on joint 2, so any vertex that took the body's shows it.
     let mut field = [0.0; crate::body::NUM_JOINTS];
@@ -179,7 +179,7 @@ fn a_blob_round_a_finger_is_no_loose_piece_but_a_brim_is() {
     let opts = ExtractOptions::new(Vec3::splat(-0.25), Vec3::splat(0.25), 96);
     let w = wrap.wrap_within(|ps| ps.iter().map(sdf).collect(), wrap.options.tight_outside);
     let extracted = extract(|ps: &[Vec3]| ps.iter().map(sdf).collect(), &opts).unwrap().mesh;
-    let merged = wrap.with_loose_pieces(&w.mesh, &extracted);
+    let merged = wrap.with_loose_pieces(&w.mesh, &extracted, |ps| ps.iter().map(sdf).collect());
     let pieces = &merged.positions[wrap.vertex_count()..];
     assert!(pieces.iter().any(|p| p.x < -0.2), "the brim is kept");
     assert!(
@@ -213,13 +213,13 @@ fn a_fragment_of_cloth_is_dropped_and_a_flap_is_kept() {
         extracted.positions.iter().filter(|p| p.y > 0.15).count() > 20,
         "the fragment is extracted"
     );
-    let merged = wrap.with_loose_pieces(&w.mesh, &extracted);
+    let merged = wrap.with_loose_pieces(&w.mesh, &extracted, |ps| ps.iter().map(sdf).collect());
     let pieces = &merged.positions[wrap.vertex_count()..];
     assert_eq!(pieces.iter().filter(|p| p.y > 0.14).count(), 0, "the fragment is dropped");
     assert!(pieces.iter().filter(|p| p.y < -0.14).count() > 20, "the flap is kept");
     let mut smaller = body();
     smaller.options.min_piece_share = 0.005;
-    let merged = smaller.with_loose_pieces(&w.mesh, &extracted);
+    let merged = smaller.with_loose_pieces(&w.mesh, &extracted, |ps| ps.iter().map(sdf).collect());
     assert!(
         merged.positions[wrap.vertex_count()..].iter().any(|p| p.y > 0.14),
         "kept at a lower share"

@@ -1,0 +1,164 @@
+//! A garment sheet's cells: rows up the body, columns round it (the columns wrap round), each
+//! cell covered by cloth or not, with the cloth's distance from the axis. The operations are
+//! those of a binary image: closing, filling enclosed holes, dropping small islands, and
+//! filling unknown values from their neighbours.
+
+/// Cells `rows x columns`, row-major; column `columns - 1` neighbours column 0.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shape {
+    pub rows: usize,
+    pub columns: usize,
+}
+
+impl Shape {
+    pub fn len(&self) -> usize {
+        self.rows * self.columns
+    }
+
+    pub fn index(&self, row: usize, column: usize) -> usize {
+        row * self.columns + column % self.columns
+    }
+
+    /// The four edge neighbours of a cell (fewer at the first and last rows).
+    pub fn neighbours(&self, cell: usize) -> impl Iterator<Item = usize> + use<> {
+        let (r, c, shape) = (cell / self.columns, cell % self.columns, *self);
+        let left = shape.index(r, c + shape.columns - 1);
+        let right = shape.index(r, c + 1);
+        let down = (r > 0).then(|| shape.index(r - 1, c));
+        let up = (r + 1 < shape.rows).then(|| shape.index(r + 1, c));
+        [Some(left), Some(right), down, up].into_iter().flatten()
+    }
+}
+
+/// `mask` grown by one cell then shrunk by one (4-neighbourhood): notches and one-cell gaps
+/// in the cloth close, its outline stays where it was.
+pub fn close(shape: Shape, mask: &[bool]) -> Vec<bool> {
+    let grown: Vec<bool> =
+        (0..shape.len()).map(|i| mask[i] || shape.neighbours(i).any(|n| mask[n])).collect();
+    (0..shape.len()).map(|i| grown[i] && shape.neighbours(i).all(|n| grown[n])).collect()
+}
+
+/// The 4-connected pieces of the cells where `mask` is `value`: each cell's label
+/// (`u32::MAX` elsewhere) and the pieces' sizes.
+pub fn pieces(shape: Shape, mask: &[bool], value: bool) -> (Vec<u32>, Vec<usize>) {
+    let mut label = vec![u32::MAX; shape.len()];
+    let mut sizes = Vec::new();
+    let mut stack = Vec::new();
+    for start in 0..shape.len() {
+        if mask[start] != value || label[start] != u32::MAX {
+            continue;
+        }
+        let id = sizes.len() as u32;
+        let mut size = 0;
+        label[start] = id;
+        stack.push(start);
+        while let Some(cell) = stack.pop() {
+            size += 1;
+            for n in shape.neighbours(cell) {
+                if mask[n] == value && label[n] == u32::MAX {
+                    label[n] = id;
+                    stack.push(n);
+                }
+            }
+        }
+        sizes.push(size);
+    }
+    (label, sizes)
+}
+
+/// `mask` with every hole filled: a piece of uncovered cells that touches neither the first
+/// nor the last row is enclosed by cloth on every side (a tear through a skirt's front), while
+/// the open space round a garment (above a skirt's waist, below its hem, in front of a cape)
+/// reaches the first or the last row.
+pub fn fill_enclosed(shape: Shape, mask: &[bool]) -> Vec<bool> {
+    let (label, sizes) = pieces(shape, mask, false);
+    let mut open = vec![false; sizes.len()];
+    for c in 0..shape.columns {
+        for r in [0, shape.rows - 1] {
+            let l = label[shape.index(r, c)];
+            if l != u32::MAX {
+                open[l as usize] = true;
+            }
+        }
+    }
+    (0..shape.len()).map(|i| mask[i] || !open[label[i] as usize]).collect()
+}
+
+/// `mask` without its pieces of fewer than `min_cells` cells.
+pub fn drop_islands(shape: Shape, mask: &[bool], min_cells: usize) -> Vec<bool> {
+    let (label, sizes) = pieces(shape, mask, true);
+    (0..shape.len()).map(|i| mask[i] && sizes[label[i] as usize] >= min_cells).collect()
+}
+
+/// Each cell of `mask` without a value in `known` takes the mean of its neighbours' (a
+/// discrete Laplace equation: the values fill a hole as a membrane spans a frame), by
+/// Gauss-Seidel sweeps from the neighbours' mean. Cells left without any known value in reach
+/// stay `None`.
+pub fn fill_values(
+    shape: Shape,
+    mask: &[bool],
+    known: &[Option<f32>],
+    sweeps: usize,
+) -> Vec<Option<f32>> {
+    let mut value: Vec<Option<f32>> =
+        (0..shape.len()).map(|i| if mask[i] { known[i] } else { None }).collect();
+    let unknown: Vec<usize> = (0..shape.len()).filter(|&i| mask[i] && known[i].is_none()).collect();
+    // Seed: repeatedly give unknown cells the mean of their set neighbours, so sweeps start
+    // near the answer (a wide hole fills from its rim inward).
+    let mut pending = unknown.clone();
+    while !pending.is_empty() {
+        let seeded: Vec<(usize, f32)> = pending
+            .iter()
+            .filter_map(|&i| {
+                let (sum, n) = shape
+                    .neighbours(i)
+                    .filter(|&n| mask[n])
+                    .filter_map(|n| value[n])
+                    .fold((0.0, 0), |(s, k), v| (s + v, k + 1));
+                (n > 0).then(|| (i, sum / n as f32))
+            })
+            .collect();
+        if seeded.is_empty() {
+            break;
+        }
+        for &(i, v) in &seeded {
+            value[i] = Some(v);
+        }
+        pending.retain(|&i| value[i].is_none());
+    }
+    for _ in 0..sweeps {
+        for &i in &unknown {
+            let (sum, n) = shape
+                .neighbours(i)
+                .filter(|&n| mask[n])
+                .filter_map(|n| value[n])
+                .fold((0.0, 0), |(s, k), v| (s + v, k + 1));
+            if n > 0 {
+                value[i] = Some(sum / n as f32);
+            }
+        }
+    }
+    value
+}
+
+/// The median of the known values among a cell's eight neighbours (the columns wrapping).
+pub fn neighbour_median(shape: Shape, known: &[Option<f32>], cell: usize) -> Option<f32> {
+    let (r, c) = ((cell / shape.columns) as isize, cell % shape.columns);
+    let mut values: Vec<f32> = Vec::with_capacity(8);
+    for dr in -1isize..=1 {
+        for dc in [shape.columns - 1, 0, 1] {
+            let rr = r + dr;
+            if (dr == 0 && dc == 0) || rr < 0 || rr >= shape.rows as isize {
+                continue;
+            }
+            if let Some(v) = known[shape.index(rr as usize, c + dc)] {
+                values.push(v);
+            }
+        }
+    }
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f32::total_cmp);
+    Some(values[values.len() / 2])
+}

@@ -1,0 +1,161 @@
+use super::*;
+use crate::mesh::extract::{ExtractOptions, extract};
+use crate::mesh::holes::{border_loops, loop_length};
+use crate::mesh::integrity::integrity;
+use glam::Vec2;
+
+/// A capsule standing on the y axis (radius 10 cm, from y = -0.6 to 0.6): the body.
+fn body() -> TriMesh {
+    let capsule = |p: &Vec3| {
+        let y = p.y.clamp(-0.5, 0.5);
+        (*p - Vec3::new(0.0, y, 0.0)).length() - 0.1
+    };
+    let opts = ExtractOptions::new(Vec3::new(-0.2, -0.7, -0.2), Vec3::new(0.2, 0.7, 0.2), 48);
+    extract(|ps: &[Vec3]| ps.iter().map(capsule).collect(), &opts).unwrap().mesh
+}
+
+/// A flared skirt round the capsule: a cone from 12 cm at y = 0.2 to 25 cm at y = -0.3.
+fn skirt_radius(y: f32) -> f32 {
+    0.12 + (0.2 - y) * 0.26
+}
+
+fn radial(p: &Vec3) -> f32 {
+    Vec2::new(p.x, p.z).length()
+}
+
+/// Farther than 1.5 cm from the capsule.
+fn loose(p: Vec3) -> bool {
+    radial(&p) > 0.115
+}
+
+/// The skirt as a slab `thickness` thick (its outer side on the cone), with or without a hole
+/// of 4 cm radius through its front (+z) at y = -0.05.
+fn skirt_sdf(thickness: f32, hole: bool) -> impl Fn(&Vec3) -> f32 + Copy {
+    move |p: &Vec3| {
+        let r = skirt_radius(p.y.clamp(-0.3, 0.2));
+        let slab = (radial(p) - (r - 0.5 * thickness)).abs() - 0.5 * thickness;
+        let bounded = slab.max(p.y - 0.2).max(-0.3 - p.y);
+        let hole_centre = Vec3::new(0.0, -0.05, skirt_radius(-0.05));
+        if hole { bounded.max(0.04 - (*p - hole_centre).length()) } else { bounded }
+    }
+}
+
+fn extracted(sdf: impl Fn(&Vec3) -> f32 + Sync, cells: usize) -> TriMesh {
+    let opts =
+        ExtractOptions::new(Vec3::new(-0.35, -0.4, -0.35), Vec3::new(0.35, 0.3, 0.35), cells);
+    extract(|ps: &[Vec3]| ps.iter().map(&sdf).collect(), &opts).unwrap().mesh
+}
+
+#[test]
+fn a_torn_skirt_comes_out_one_whole_sheet_on_its_cone() {
+    let sheet = GarmentSheet::around(&body(), SheetGridOptions::default());
+    let sdf = skirt_sdf(0.006, true);
+    // 6 mm of cloth on 1.5 cm cells: the extraction keeps scraps of it, and a hole.
+    let pieces = extracted(sdf, 48);
+    let torn = integrity(&pieces);
+    let remade = sheet.remesh(&pieces, |ps| ps.iter().map(sdf).collect(), loose);
+    let whole = integrity(&remade);
+    assert_eq!(whole.pieces, 1, "extracted: {torn:?}, remade: {whole:?}");
+    assert_eq!(whole.non_manifold_edges, 0);
+    // Its border is the waist and the hem, nothing else.
+    let loops = border_loops(&remade);
+    assert_eq!(
+        loops.len(),
+        2,
+        "border loops {:?}",
+        loops.iter().map(|l| loop_length(&remade, l)).collect::<Vec<_>>()
+    );
+    let truth = TAU * (skirt_radius(0.2) + skirt_radius(-0.3));
+    assert!(
+        whole.boundary_length_m < 1.25 * truth && whole.boundary_length_m > 0.8 * truth,
+        "border {} m, the waist and the hem {truth} m",
+        whole.boundary_length_m
+    );
+    // Every vertex lies on the cloth, the hole's included (the membrane across it is the cone
+    // there; at the hole's rim the search may find the slab's far side, 6 mm in).
+    for p in &remade.positions {
+        let off = radial(p) - skirt_radius(p.y.clamp(-0.3, 0.2));
+        assert!(off.abs() < 0.01, "{p} is {off} m off the cone");
+    }
+    let hole = Vec3::new(0.0, -0.05, skirt_radius(-0.05));
+    assert!(remade.positions.iter().any(|p| p.distance(hole) < 0.01), "the hole stays open");
+}
+
+#[test]
+fn the_sheet_faces_out_and_has_even_triangles() {
+    let sheet = GarmentSheet::around(&body(), SheetGridOptions::default());
+    let sdf = skirt_sdf(0.02, false);
+    let remade = sheet.remesh(&extracted(sdf, 64), |ps| ps.iter().map(sdf).collect(), loose);
+    assert!(remade.signed_volume().is_finite());
+    let normals = remade.face_normals();
+    for (f, n) in normals.iter().enumerate() {
+        let [a, b, c] = remade.triangle(f);
+        let centre = (a + b + c) / 3.0;
+        let out = Vec3::new(centre.x, 0.0, centre.z).normalize();
+        assert!(n.dot(out) > 0.5, "face {f} faces {n}");
+    }
+    let longest = remade
+        .faces
+        .iter()
+        .flat_map(|f| [(f[0], f[1]), (f[1], f[2]), (f[2], f[0])])
+        .map(|(u, v)| remade.positions[u as usize].distance(remade.positions[v as usize]))
+        .fold(0f32, f32::max);
+    assert!(longest < 0.025, "an edge of {longest} m");
+}
+
+#[test]
+fn pieces_no_ray_reaches_first_are_kept_as_they_were() {
+    let sheet = GarmentSheet::around(&body(), SheetGridOptions::default());
+    // A flat brim round the capsule at y = 0.3 (3 cm thick, out to 30 cm): rays run along it,
+    // never into its face, so it is kept; and the skirt below it.
+    let skirt = skirt_sdf(0.02, false);
+    let brim = |p: &Vec3| (p.y - 0.3).abs().max(radial(p) - 0.3).max(0.1 - radial(p)) - 0.015;
+    let sdf = move |p: &Vec3| skirt(p).min(brim(p));
+    // Extracted apart (an extraction keeps its largest piece) and put together.
+    let mut pieces = extracted(skirt, 64);
+    let opts = ExtractOptions::new(Vec3::new(-0.35, 0.2, -0.35), Vec3::new(0.35, 0.4, 0.35), 64);
+    let brim_mesh = extract(|ps: &[Vec3]| ps.iter().map(brim).collect(), &opts).unwrap().mesh;
+    let base = pieces.positions.len() as u32;
+    pieces.positions.extend(brim_mesh.positions);
+    pieces.faces.extend(brim_mesh.faces.iter().map(|f| f.map(|v| v + base)));
+    let remade = sheet.remesh(&pieces, |ps| ps.iter().map(sdf).collect(), loose);
+    let on_brim =
+        remade.positions.iter().filter(|p| (p.y - 0.3).abs() < 0.02 && radial(p) > 0.2).count();
+    assert!(on_brim > 50, "{on_brim} vertices on the brim");
+    assert!(
+        remade.positions.iter().any(|p| p.y < -0.25 && radial(p) > 0.24),
+        "the skirt's hem is gone"
+    );
+}
+
+#[test]
+fn the_grid_fills_holes_and_keeps_open_space() {
+    use grid::*;
+    let shape = Shape { rows: 6, columns: 8 };
+    // Cloth on rows 1-4, a hole at (2, 3) and a notch at (1, 0) open to row 0? No: row 0 is
+    // open space below the hem, row 5 above the waist.
+    let mut mask = vec![false; shape.len()];
+    for r in 1..5 {
+        for c in 0..8 {
+            mask[shape.index(r, c)] = true;
+        }
+    }
+    mask[shape.index(2, 3)] = false;
+    mask[shape.index(3, 3)] = false;
+    let filled = fill_enclosed(shape, &mask);
+    assert!(filled[shape.index(2, 3)] && filled[shape.index(3, 3)]);
+    assert!(!filled[shape.index(0, 3)] && !filled[shape.index(5, 3)]);
+    // The column wraps: cell (2, 7) neighbours (2, 0).
+    assert!(shape.neighbours(shape.index(2, 7)).any(|n| n == shape.index(2, 0)));
+    // Values across the hole: a membrane between known rows 1 and 4.
+    let known: Vec<Option<f32>> = (0..shape.len())
+        .map(|i| (filled[i] && mask[i]).then(|| (i / shape.columns) as f32))
+        .collect();
+    let value = fill_values(shape, &filled, &known, 200);
+    assert!((value[shape.index(2, 3)].unwrap() - 2.0).abs() < 0.05);
+    assert!((value[shape.index(3, 3)].unwrap() - 3.0).abs() < 0.05);
+    // A lone cell goes.
+    let mut speck = vec![false; shape.len()];
+    speck[shape.index(3, 5)] = true;
+    assert!(!drop_islands(shape, &speck, 2).iter().any(|&m| m));
+}
