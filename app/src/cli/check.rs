@@ -25,6 +25,10 @@ pub struct Args {
     /// faces seen from behind in orange, open borders in blue.
     #[arg(long)]
     head_sheet: Option<PathBuf>,
+    /// Also write the whole avatar beside the naked body (PNG), from the front, the side and
+    /// the back, coloured as the head's close-up.
+    #[arg(long)]
+    sheet: Option<PathBuf>,
 }
 
 /// SMPL joints of the parts reported on their own.
@@ -87,6 +91,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         100.0 * share(&HANDS).1,
         100.0 * share(&FEET).1
     );
+    if let Some(path) = &args.sheet {
+        Inputs::new().file(&args.avatar).check_file(path, &["png"])?;
+        let views = [Vec3::new(0.0, 0.1, 1.0), Vec3::new(1.0, 0.1, 0.3), Vec3::new(0.0, 0.1, -1.0)];
+        write_view_sheet_from(path, &[naked.clone(), mesh.clone()], &views, 3.2)?;
+        println!("  wrote {}", path.display());
+    }
     if let Some(path) = &args.head_sheet {
         Inputs::new().file(&args.avatar).check_file(path, &["png"])?;
         let neck = body.pose(&rest).bones.posed_joints()[joint::NECK].y - 0.02;
