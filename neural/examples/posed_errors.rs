@@ -13,6 +13,8 @@
 //! RESOLUTION=N meshes the avatar on N cells. TEMPLATE=1 poses as the exporter does (the rest
 //! surface moved to each pose: `PoseTemplate`), TEMPLATE_POSE=K the same from capture frame
 //! K's surface.
+//! AS_EXTRACTED=1 keeps the loose pieces as extracted; SHEET_THIN, SHEET_SEARCH (metres) set the garment
+//! sheet's options.
 //! LOOPS=1 prints each frame's border loops; LOOSE_SHEET=PREFIX draws every piece but the
 //! largest close up.
 use avatar_core::canonical::FieldCache;
@@ -50,6 +52,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // `LOOSE_RESOLUTION`).
     if let Ok(r) = std::env::var("RESOLUTION") {
         avatar.resolution = r.parse()?;
+    }
+    // AS_EXTRACTED=1: loose pieces as extracted; SHEET_THIN=m, SHEET_SEARCH=m: the
+    // garment sheet's options (`canonical::garment_sheet`).
+    if let Some(wrap) = avatar.wrap_mut() {
+        let number = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f32>().ok());
+        if std::env::var("AS_EXTRACTED").is_ok() {
+            wrap.options.remesh_loose = false;
+        }
+        let sheet = &mut wrap.sheet.options;
+        sheet.thin = number("SHEET_THIN").unwrap_or(sheet.thin);
+        sheet.search = number("SHEET_SEARCH").unwrap_or(sheet.search);
+    }
+    // SKIN_LOOSE=a,b: where loose cloth's weights start to be inpainted, and are wholly.
+    if let Ok(v) = std::env::var("SKIN_LOOSE") {
+        let (a, b) = v.split_once(',').ok_or("SKIN_LOOSE=a,b")?;
+        avatar.garment_skinning_mut().loose = (a.parse()?, b.parse()?);
     }
     // AT_REST=1: the rest pose's canonical surface at every pose.
     let at_rest = std::env::var("AT_REST").is_ok();

@@ -22,8 +22,8 @@ use crate::siren_eval::{MetricSdf, SirenEval};
 use crate::weights_file;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, Weights};
 use avatar_core::canonical::{
-    BodyWrap, FieldCache, GarmentSkinner, Normalisation, SkinningField, SurfaceChoice,
-    field_weights, forward_skin_with_weights,
+    BodyWrap, FieldCache, GarmentSkinner, GarmentSkinning, Normalisation, SkinningField,
+    SurfaceChoice, field_weights, forward_skin_with_weights,
 };
 use avatar_core::mesh::TriMesh;
 use avatar_core::mesh::extract::extract;
@@ -377,6 +377,17 @@ impl MetaAvatar {
                 SurfaceChoice::WrappedWithLoose
             },
         )
+    }
+
+    /// How the surface is wrapped and its loose cloth remade, to change before the avatar is
+    /// shared (`None` once it is; examples measure variants with it).
+    pub fn wrap_mut(&mut self) -> Option<&mut BodyWrap> {
+        Arc::get_mut(&mut self.wrap)
+    }
+
+    /// How loose cloth is skinned (examples measure variants with it).
+    pub fn garment_skinning_mut(&mut self) -> &mut GarmentSkinning {
+        &mut self.skinner.options
     }
 
     /// The zero pose with the avatar's shape: where the surface kind is decided and where the

@@ -61,10 +61,12 @@ fn a_skirts_weights_are_inpainted_along_it_and_tight_cloth_keeps_the_fields() {
             "{w:?}"
         );
     }
-    // Where the waist ring lies on the body (within 2 cm): the field's weights, untouched.
+    // Where the waist ring lies on the body (nearer than the inpainting starts): the field's
+    // weights, untouched.
     let distance = SignedDistance::new(&body.mesh(rest.clone()));
-    let on_body: Vec<usize> =
-        (0..48).filter(|&v| distance.at(mesh.positions[v]).unwrap() <= 0.02).collect();
+    let on_body: Vec<usize> = (0..48)
+        .filter(|&v| distance.at(mesh.positions[v]).unwrap() <= skinner.options.loose.0)
+        .collect();
     assert!(on_body.len() >= 24, "{} waist vertices on the body", on_body.len());
     for v in on_body {
         assert_eq!(weights[v], field_weights[v], "waist vertex {v}");
@@ -202,10 +204,10 @@ fn a_skirt_between_the_legs_follows_no_shin_but_a_wide_trouser_leg_does() {
             "{w:?}"
         );
     }
-    // Where the skirt lies on the body (within 2 cm of it) nothing changes.
+    // Where the skirt lies on the body (nearer than the inpainting starts) nothing changes.
     let distance = SignedDistance::new(&body.mesh(rest.clone()));
     let on_body: Vec<usize> = (0..mesh.positions.len())
-        .filter(|&v| distance.at(mesh.positions[v]).unwrap() <= 0.02)
+        .filter(|&v| distance.at(mesh.positions[v]).unwrap() <= GarmentSkinning::default().loose.0)
         .collect();
     assert!(on_body.len() >= 24);
     for v in on_body {
