@@ -38,6 +38,8 @@ pub struct Exported {
     pub refined_frames: usize,
     /// The most frame meshes held at once while exporting (bounded, whatever the clip's length).
     pub peak_frames_held: usize,
+    /// Projections made and interpolation checked (`export::keyframes`).
+    pub keyframes: super::keyframes::KeyStats,
 }
 
 /// Keep quaternions on one hemisphere from key to key so LINEAR slerp takes the short path.
@@ -226,6 +228,7 @@ fn export_with(
         basis_frames: streamed.basis_frames,
         refined_frames: streamed.refined_frames,
         peak_frames_held: streamed.peak_frames_held,
+        keyframes: streamed.keys,
     })
 }
 
