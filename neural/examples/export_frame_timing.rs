@@ -38,6 +38,7 @@ fn main() {
     let frames: Vec<usize> =
         (0..count).map(|i| i * (clip.len() - 1) / (count - 1).max(1)).collect();
     let mut time = [0f64; 6];
+    let mut skin = 0f64;
     let mut moving = [0usize; PROJECTION_STEPS];
     let mut deltas = Vec::new();
     for &f in &frames {
@@ -54,8 +55,14 @@ fn main() {
             *m += sdf.sdf(&x).iter().filter(|v| v.abs() >= on_surface).count();
         }
         let t = Instant::now();
-        let _ = avatar.project(&p, rest, PROJECTION_STEPS).unwrap();
+        let mut raw = avatar.project(&p, rest, PROJECTION_STEPS).unwrap();
         time[2] += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        maker.finish(&mut raw);
+        time[5] += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let _ = maker.delta_of(&clip.frames[f], &raw);
+        skin += t.elapsed().as_secs_f64();
         let t = Instant::now();
         let (delta, _) = maker.delta(&clip.frames[f]).unwrap();
         time[3] += t.elapsed().as_secs_f64();
@@ -93,10 +100,8 @@ fn main() {
         "  a whole frame (FrameMaker::delta: sdf_at, projection, smoothing, skinning, un-skinning): {:.1} ms",
         ms(time[3])
     );
-    println!(
-        "    so smoothing + skinning + un-skinning ~ {:.1} ms",
-        ms(time[3] - time[0] - time[2])
-    );
+    println!("    of which the smoothing (FrameMaker::finish): {:.1} ms", ms(time[5]));
+    println!("    and skinning + un-skinning (FrameMaker::delta_of): {:.1} ms", ms(skin));
     println!(
         "  morph projection + error ({} components): {:.1} ms; basis fit on {} frames {:.2} s",
         basis.components.len(),

@@ -99,13 +99,26 @@ impl<'a> Keyframes<'a> {
 
     /// The delta and posed mesh (`FrameMaker::delta`) of each of `frames`.
     pub fn deltas(&self, frames: &[usize]) -> Result<Vec<(Vec<Vec3>, Vec<Vec3>)>> {
+        self.each(frames, |f, points| self.maker.delta_of(&self.clip.frames[f], &points))
+    }
+
+    /// The canonical surface (smoothed, not skinned: `FrameMaker::surface`) of each of
+    /// `frames`.
+    pub fn surfaces(&self, frames: &[usize]) -> Result<Vec<Vec<Vec3>>> {
+        self.each(frames, |_, points| points)
+    }
+
+    fn each<T: Send>(
+        &self,
+        frames: &[usize],
+        then: impl Fn(usize, Vec<Vec3>) -> T + Sync,
+    ) -> Result<Vec<T>> {
         let segments = self.segments_for(frames)?;
         frames
             .par_iter()
             .map(|&f| {
                 let segment = segments.iter().find(|s| s.start <= f && f <= s.end).expect("made");
-                let points = self.surface(segment, f)?;
-                Ok(self.maker.delta_of(&self.clip.frames[f], &points))
+                Ok(then(f, self.surface(segment, f)?))
             })
             .collect()
     }
@@ -125,7 +138,9 @@ impl<'a> Keyframes<'a> {
             }
             wanted.iter().copied().filter(|s| !cache.contains_key(s)).collect()
         };
-        let ends = |s: usize| (s * self.spacing, (s * self.spacing + self.spacing).min(self.clip.len() - 1));
+        let ends = |s: usize| {
+            (s * self.spacing, (s * self.spacing + self.spacing).min(self.clip.len() - 1))
+        };
         let to_project: Vec<usize> = missing
             .iter()
             .flat_map(|&s| [ends(s).0, ends(s).1])
@@ -245,8 +260,7 @@ impl<'a> Keyframes<'a> {
             let mut points = interpolate(segment, f);
             if !segment.projected.is_empty() {
                 let rest = &self.maker.rest.positions;
-                let some: Vec<Vec3> =
-                    segment.projected.iter().map(|&v| rest[v as usize]).collect();
+                let some: Vec<Vec3> = segment.projected.iter().map(|&v| rest[v as usize]).collect();
                 let p = self.maker.params(&self.clip.frames[f]);
                 let moved = self.maker.source.project(&p, &some, self.maker.steps())?;
                 for (&v, x) in segment.projected.iter().zip(moved) {

@@ -59,7 +59,7 @@ impl Default for ExportOptions {
             error_bound: 2e-3,
             refine_frames: 32,
             keyframe_spacing: 8,
-            interpolation_tolerance: 5e-4,
+            interpolation_tolerance: 1e-3,
         }
     }
 }

@@ -112,7 +112,8 @@ pub fn stream_frames(
             p(Progress { done, total });
         }
     };
-    let keys = Keyframes::new(maker, clip, options.keyframe_spacing, options.interpolation_tolerance);
+    let keys =
+        Keyframes::new(maker, clip, options.keyframe_spacing, options.interpolation_tolerance);
     let mut held: HashMap<usize, Held> = HashMap::with_capacity(sample.len());
     let mut peak = 0usize;
     let mut done = 0usize;
