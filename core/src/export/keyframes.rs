@@ -1,17 +1,19 @@
 //! Frames between keyframes: the reference vertices are projected onto the pose's surface (the
-//! costly part of a frame: the avatar's SDF and its gradient at every vertex, Newton steps) only
-//! at keyframes, every `ExportOptions::keyframe_spacing` frames; in between, each vertex's
-//! projection is interpolated linearly in time, and only the vertices where that is not good
-//! enough are projected:
+//! costly part of a frame: the avatar's SDF and its gradient at every vertex, Newton steps) in
+//! full only at keyframes, every `ExportOptions::keyframe_spacing` frames, and at the middle
+//! frame between two; elsewhere each vertex's projection is interpolated linearly in time, and
+//! only the vertices where that is not good enough are projected:
 //!
-//! 1. **Check.** At the segment's middle frame the SDF is evaluated at the interpolated points
-//!    (values only: a tenth of a projection's cost). A vertex whose interpolated point lies
-//!    further than half the tolerance from the pose's zero level (or is not a number) is
-//!    projected at every frame of the segment, as a frame without keyframes would be.
-//! 2. **Verify.** Every `VERIFY_EVERY`-th segment's middle frame is also made in full (every
-//!    vertex projected) and compared with its interpolated surface; a segment off by more than
-//!    `ExportOptions::interpolation_tolerance` is made in full at every frame. The largest
-//!    error found is reported ([`KeyStats::max_verified_error`]).
+//! 1. **Check.** The middle frame's projection is compared, vertex by vertex, with the
+//!    keyframes' interpolated there. A vertex off by more than half the tolerance (or not a
+//!    number) is projected at every frame of the segment, as it would be without keyframes;
+//!    the others are interpolated from the keyframe to the middle frame and on to the next
+//!    keyframe (the middle frame being a keyframe too).
+//! 2. **Verify.** In one segment in `VERIFY_EVERY`, the frame halfway from its first keyframe to
+//!    its middle frame is also made in full and compared with the interpolated one (after the
+//!    avatar's smoothing); a segment off by more than `ExportOptions::interpolation_tolerance`
+//!    is made in full at every frame. The largest error found is reported
+//!    ([`KeyStats::max_verified_error`]).
 //!
 //! Everything after the projection (the avatar's smoothing, the skinning) is done at every
 //! frame. Which vertices are projected depends only on the segment's own frames, so a frame
@@ -26,13 +28,13 @@ use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 
-/// One segment in this many is verified against a full projection of its middle frame.
+/// One segment in this many is verified against a full projection of one of its frames.
 pub const VERIFY_EVERY: usize = 4;
 
-/// Segments kept at once, the least recently used dropped (each: a keyframe's projection, the
-/// next one shared with the next segment, and a list of vertices; about 160 KB at 13,000
-/// vertices): an export's two passes over a clip of up to 1,024 frames project each keyframe
-/// once.
+/// Segments kept at once, the least recently used dropped (each: two projections, its first
+/// keyframe's and its middle frame's, the last shared with the next segment, and a list of
+/// vertices: about 320 KB at 13,000 vertices): an export's two passes over a clip of up to
+/// 128 segments (1,024 frames at the default spacing) project each keyframe once.
 pub const CACHED_SEGMENTS: usize = 128;
 
 /// The frames from one keyframe to the next.
@@ -41,6 +43,8 @@ struct Segment {
     end: usize,
     first: Arc<Vec<Vec3>>,
     last: Arc<Vec<Vec3>>,
+    /// The middle frame's projection (none in a segment of two frames).
+    middle: Option<Vec<Vec3>>,
     /// Vertices projected at every frame in between (the check's).
     projected: Vec<u32>,
     /// The verification failed: every frame is made in full.
@@ -197,8 +201,8 @@ impl<'a> Keyframes<'a> {
         f.min(last.saturating_sub(1)) / self.spacing
     }
 
-    /// A segment from its keyframes' projections: the check, and the verification of one in
-    /// `VERIFY_EVERY`.
+    /// A segment from its keyframes' projections: its middle frame and the check, and the
+    /// verification of one in `VERIFY_EVERY`.
     fn make_segment(
         &self,
         s: usize,
@@ -207,23 +211,26 @@ impl<'a> Keyframes<'a> {
         first: Arc<Vec<Vec3>>,
         last: Arc<Vec<Vec3>>,
     ) -> Result<Segment> {
-        let mut segment = Segment { start, end, first, last, projected: Vec::new(), full: false };
+        let mut segment =
+            Segment { start, end, first, last, middle: None, projected: Vec::new(), full: false };
         if end - start < 2 {
             return Ok(segment);
         }
-        let mut stats = KeyStats::default();
+        let mut stats = KeyStats { full_projections: 1, ..KeyStats::default() };
         let mid = (start + end) / 2;
-        let p = self.maker.params(&self.clip.frames[mid]);
-        let values = self.maker.source.sdf(&p, &interpolate(&segment, mid))?;
-        segment.projected = values
-            .iter()
+        let middle = self.raw(mid)?;
+        let t = (mid - start) as f32 / (end - start) as f32;
+        segment.projected = (segment.first.par_iter().zip(segment.last.par_iter()))
+            .zip(&middle)
             .enumerate()
-            .filter(|(_, v)| !(v.abs() <= 0.5 * self.tolerance))
+            .filter(|(_, ((a, b), m))| !(a.lerp(**b, t).distance(**m) <= 0.5 * self.tolerance))
             .map(|(i, _)| i as u32)
             .collect();
-        if s % VERIFY_EVERY == 0 {
-            let exact = self.maker.surface(&self.clip.frames[mid])?;
-            let made = self.surface(&segment, mid)?;
+        segment.middle = Some(middle);
+        let quarter = (start + mid) / 2;
+        if s % VERIFY_EVERY == 0 && quarter != start {
+            let exact = self.maker.surface(&self.clip.frames[quarter])?;
+            let made = self.surface(&segment, quarter)?;
             let error = exact.iter().zip(&made).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
             stats.full_projections += 1;
             stats.verified = 1;
@@ -233,10 +240,11 @@ impl<'a> Keyframes<'a> {
                 stats.failed = 1;
             }
         }
+        let between = end - start - 2;
         if segment.full {
-            stats.full_projections += end - start - 1;
+            stats.full_projections += between;
         } else {
-            stats.vertex_projections += segment.projected.len() * (end - start - 1);
+            stats.vertex_projections += segment.projected.len() * between;
         }
         self.count(stats);
         Ok(segment)
@@ -250,33 +258,46 @@ impl<'a> Keyframes<'a> {
 
     /// Frame `f`'s canonical surface (smoothed), `f` in the segment.
     fn surface(&self, segment: &Segment, f: usize) -> Result<Vec<Vec3>> {
-        let mut points = if f == segment.start {
-            segment.first.to_vec()
-        } else if f == segment.end {
-            segment.last.to_vec()
-        } else if segment.full {
-            self.raw(f)?
-        } else {
-            let mut points = interpolate(segment, f);
-            if !segment.projected.is_empty() {
-                let rest = &self.maker.rest.positions;
-                let some: Vec<Vec3> = segment.projected.iter().map(|&v| rest[v as usize]).collect();
-                let p = self.maker.params(&self.clip.frames[f]);
-                let moved = self.maker.source.project(&p, &some, self.maker.steps())?;
-                for (&v, x) in segment.projected.iter().zip(moved) {
-                    points[v as usize] = x;
+        let mid = (segment.start + segment.end) / 2;
+        let mut points = match &segment.middle {
+            _ if f == segment.start => segment.first.to_vec(),
+            _ if f == segment.end => segment.last.to_vec(),
+            Some(middle) if f == mid => middle.clone(),
+            Some(_) if segment.full => self.raw(f)?,
+            Some(middle) => {
+                let mut points = if f < mid {
+                    interpolate(
+                        &segment.first,
+                        middle,
+                        (f - segment.start) as f32 / (mid - segment.start) as f32,
+                    )
+                } else {
+                    interpolate(
+                        middle,
+                        &segment.last,
+                        (f - mid) as f32 / (segment.end - mid) as f32,
+                    )
+                };
+                if !segment.projected.is_empty() {
+                    let rest = &self.maker.rest.positions;
+                    let some: Vec<Vec3> =
+                        segment.projected.iter().map(|&v| rest[v as usize]).collect();
+                    let p = self.maker.params(&self.clip.frames[f]);
+                    let moved = self.maker.source.project(&p, &some, self.maker.steps())?;
+                    for (&v, x) in segment.projected.iter().zip(moved) {
+                        points[v as usize] = x;
+                    }
                 }
+                points
             }
-            points
+            None => unreachable!("a segment of two frames has none in between"),
         };
         self.maker.finish(&mut points);
         Ok(points)
     }
 }
 
-/// The segment's keyframe projections interpolated linearly at frame `f` (a point that is not
-/// a number at either end stays so: the check then projects it).
-fn interpolate(segment: &Segment, f: usize) -> Vec<Vec3> {
-    let t = (f - segment.start) as f32 / (segment.end - segment.start) as f32;
-    segment.first.par_iter().zip(segment.last.par_iter()).map(|(a, b)| a.lerp(*b, t)).collect()
+/// `a` and `b` (projections of the same vertices) interpolated linearly at `t`.
+fn interpolate(a: &[Vec3], b: &[Vec3], t: f32) -> Vec<Vec3> {
+    a.par_iter().zip(b.par_iter()).map(|(a, b)| a.lerp(*b, t)).collect()
 }
