@@ -228,7 +228,7 @@ impl<'a> Keyframes<'a> {
             .collect();
         segment.middle = Some(middle);
         let quarter = (start + mid) / 2;
-        if s % VERIFY_EVERY == 0 && quarter != start {
+        if s.is_multiple_of(VERIFY_EVERY) && quarter != start {
             let exact = self.maker.surface(&self.clip.frames[quarter])?;
             let made = self.surface(&segment, quarter)?;
             let error = exact.iter().zip(&made).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
