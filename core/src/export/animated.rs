@@ -22,9 +22,11 @@ pub struct Exported {
     pub joints: Vec<[u8; 4]>,
     pub weights: Vec<[f32; 4]>,
     pub morphs: MorphTargets,
-    /// The studio's posed mesh of every frame (forward skinning of the projected surface with
-    /// the avatar's full skinning weights): what the file must reproduce. Kept by
-    /// [`export_glb`] only; empty from [`export_glb_streaming`].
+    /// The posed mesh of every exported frame (forward skinning of the projected surface with
+    /// the avatar's full skinning weights; between keyframes the interpolated projection,
+    /// `export::keyframes`, within `ExportOptions::interpolation_tolerance` of the studio's):
+    /// what the morph targets compress. Kept by [`export_glb`] only; empty from
+    /// [`export_glb_streaming`].
     pub posed: Vec<Vec<Vec3>>,
     pub frames: usize,
     pub fps: f32,
