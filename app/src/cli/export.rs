@@ -219,7 +219,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
             let k = exported.keyframes;
             println!(
-                "keyframes: {} full projections and {:.1} frames' worth of vertices projected between them for {} frames; {} segments verified, largest interpolation error {:.2} mm (tolerance {:.1} mm){}",
+                "keyframes: {} full projections and {:.1} frames' worth of vertices projected between them for {} frames; verified on {} frames, largest interpolation error {:.2} mm (tolerance {:.1} mm){}",
                 k.full_projections,
                 k.vertex_projections as f64 / exported.rest.positions.len().max(1) as f64,
                 exported.frames,
