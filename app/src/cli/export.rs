@@ -217,10 +217,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 },
                 t.elapsed().as_secs_f64()
             );
-            if exported.max_compression_error > options.error_bound {
+            let k = exported.keyframes;
+            println!(
+                "keyframes: {} full projections and {:.1} frames' worth of vertices projected between them for {} frames; verified on {} frames, largest interpolation error {:.2} mm (tolerance {:.1} mm){}",
+                k.full_projections,
+                k.vertex_projections as f64 / exported.rest.positions.len().max(1) as f64,
+                exported.frames,
+                k.verified,
+                k.max_verified_error * 1000.0,
+                options.interpolation_tolerance * 1000.0,
+                match k.failed {
+                    0 => String::new(),
+                    f => format!(", {f} of them over it and made in full"),
+                }
+            );
+            if exported.max_compression_error > options.compression_bound() {
                 eprintln!(
-                    "note: the largest compression error is over the {:.1} mm bound: raise --targets",
-                    options.error_bound * 1000.0
+                    "note: the largest compression error is over its {:.1} mm bound: raise --targets",
+                    options.compression_bound() * 1000.0
                 );
             }
         }

@@ -177,25 +177,37 @@ impl SurfaceSmoother {
         }
         let n = &self.neighbours;
         // Each sweep: a vertex's offset becomes the mean of its own and its neighbours' among the
-        // vertices that take part (loose cloth neither gives nor takes).
+        // vertices that take part (loose cloth neither gives nor takes). Those neighbours are
+        // listed once (compressed rows in the order of `neighbours`), not tested every sweep.
         let mut smoothed: Vec<f32> =
             offsets.iter().enumerate().map(|(v, d)| d.map_or(0.0, |d| d - from(v))).collect();
-        let mut next = smoothed.clone();
+        let taking: Vec<u32> =
+            (0..share.len() as u32).filter(|&v| share[v as usize] > 0.0).collect();
+        let mut rows = Vec::with_capacity(taking.len() + 1);
+        let mut around: Vec<u32> = Vec::with_capacity(n.indices.len());
+        rows.push(0);
+        for &v in &taking {
+            let v = v as usize;
+            around.extend(
+                n.indices[n.offsets[v]..n.offsets[v + 1]]
+                    .iter()
+                    .filter(|&&u| share[u as usize] > 0.0),
+            );
+            rows.push(around.len());
+        }
+        let mut next = vec![0f32; taking.len()];
         for _ in 0..self.options.sweeps {
-            next.par_iter_mut().enumerate().for_each(|(v, out)| {
-                if share[v] == 0.0 {
-                    return;
+            next.par_iter_mut().with_min_len(1024).enumerate().for_each(|(i, out)| {
+                let mut sum = smoothed[taking[i] as usize];
+                let row = &around[rows[i]..rows[i + 1]];
+                for &u in row {
+                    sum += smoothed[u as usize];
                 }
-                let (mut sum, mut count) = (smoothed[v], 1.0f32);
-                for &u in &n.indices[n.offsets[v]..n.offsets[v + 1]] {
-                    if share[u as usize] > 0.0 {
-                        sum += smoothed[u as usize];
-                        count += 1.0;
-                    }
-                }
-                *out = sum / count;
+                *out = sum / (row.len() + 1) as f32;
             });
-            std::mem::swap(&mut smoothed, &mut next);
+            for (&v, x) in taking.iter().zip(&next) {
+                smoothed[v as usize] = *x;
+            }
         }
         positions.par_iter_mut().enumerate().for_each(|(v, x)| {
             if let (Some(d), Some((_, normal))) = (offsets[v], self.anchors[v]) {

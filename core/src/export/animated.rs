@@ -22,9 +22,11 @@ pub struct Exported {
     pub joints: Vec<[u8; 4]>,
     pub weights: Vec<[f32; 4]>,
     pub morphs: MorphTargets,
-    /// The studio's posed mesh of every frame (forward skinning of the projected surface with
-    /// the avatar's full skinning weights): what the file must reproduce. Kept by
-    /// [`export_glb`] only; empty from [`export_glb_streaming`].
+    /// The posed mesh of every exported frame (forward skinning of the projected surface with
+    /// the avatar's full skinning weights; between keyframes the interpolated projection,
+    /// `export::keyframes`, within `ExportOptions::interpolation_tolerance` of the studio's):
+    /// what the morph targets compress. Kept by [`export_glb`] only; empty from
+    /// [`export_glb_streaming`].
     pub posed: Vec<Vec<Vec3>>,
     pub frames: usize,
     pub fps: f32,
@@ -38,6 +40,8 @@ pub struct Exported {
     pub refined_frames: usize,
     /// The most frame meshes held at once while exporting (bounded, whatever the clip's length).
     pub peak_frames_held: usize,
+    /// Projections made and interpolation checked (`export::keyframes`).
+    pub keyframes: super::keyframes::KeyStats,
 }
 
 /// Keep quaternions on one hemisphere from key to key so LINEAR slerp takes the short path.
@@ -226,6 +230,7 @@ fn export_with(
         basis_frames: streamed.basis_frames,
         refined_frames: streamed.refined_frames,
         peak_frames_held: streamed.peak_frames_held,
+        keyframes: streamed.keys,
     })
 }
 

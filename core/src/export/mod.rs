@@ -2,7 +2,9 @@
 //! clothing, joint and morph-weight animation) and OBJ/PLY sequences. See docs/export.md.
 
 pub mod animated;
+mod frame;
 pub mod glb;
+pub mod keyframes;
 pub mod morph;
 mod options;
 pub mod source;

@@ -23,6 +23,26 @@ pub struct ExportOptions {
     pub error_bound: f32,
     /// At most this many frames join the sample in that pass.
     pub refine_frames: usize,
+    /// The reference vertices are projected onto the pose's surface every this many frames
+    /// and interpolated in between where that is close enough (`export::keyframes`); 1: every
+    /// frame projected.
+    pub keyframe_spacing: usize,
+    /// How far (metres) an interpolated frame's canonical surface may be from its own
+    /// projection: the part of `error_bound` the keyframes may take (the compression gets the
+    /// rest, [`ExportOptions::compression_bound`]).
+    pub interpolation_tolerance: f32,
+}
+
+impl ExportOptions {
+    /// The error bound left to the morph targets' compression: `error_bound` less the
+    /// keyframes' tolerance when frames are interpolated, so that the file stays within
+    /// `error_bound` of every frame's own projection.
+    pub fn compression_bound(&self) -> f32 {
+        match self.keyframe_spacing {
+            0 | 1 => self.error_bound,
+            _ => (self.error_bound - self.interpolation_tolerance).max(0.0),
+        }
+    }
 }
 
 /// A neutral skin-like base colour (linear RGB), the material's default.
@@ -38,6 +58,8 @@ impl Default for ExportOptions {
             sample_frames: 256,
             error_bound: 2e-3,
             refine_frames: 32,
+            keyframe_spacing: 8,
+            interpolation_tolerance: 1e-3,
         }
     }
 }

@@ -1,26 +1,28 @@
 //! Frames made one bounded chunk at a time, so that memory does not grow with the clip:
 //!
+//! Frames are made through keyframes (`export::keyframes`: the projection interpolated between
+//! keyframes, checked); then
 //! 1. the deltas of a bounded sample of frames, spread evenly over the clip
 //!    (`ExportOptions::sample_frames`; every frame when the clip is shorter: exact PCA), give
 //!    the morph targets' basis ([`Basis::fit`]);
 //! 2. every frame is then made again in order (the sampled ones are kept, not remade), projected
 //!    onto the basis (its coefficients are all that is kept of it) and its reconstruction error
 //!    measured; the worst frames' deltas are kept, at most `refine_frames`;
-//! 3. if a frame outside the sample is rebuilt worse than `error_bound`, the worst frames join
+//! 3. if a frame outside the sample is rebuilt worse than the compression's share of the error
+//!    bound (`ExportOptions::compression_bound`), the worst frames join
 //!    the sample, the basis is fitted again and every frame projected again (one more pass).
 //!
 //! At most `sample_frames + refine_frames` deltas and one chunk of frames in the making are
 //! held at once ([`Streamed::peak_frames_held`] counts them).
 
+pub use super::frame::FrameMaker;
+use super::keyframes::{KeyStats, Keyframes};
 use super::morph::Basis;
-use super::options::{ExportOptions, top4};
-use crate::avatar::AvatarSource;
-use crate::body::{BodyParams, Weights, blend_transform};
-use crate::canonical::SurfaceSmoother;
+use super::options::ExportOptions;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::motion::MotionClip;
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -51,74 +53,6 @@ impl Control<'_> {
 
 /// The message of a cancelled export.
 pub const CANCELLED: &str = "the export was cancelled";
-
-/// The fixed pieces every frame is made from: the reference mesh, its weights (the avatar's
-/// full ones and the file's 4), the smoother.
-pub struct FrameMaker<'a> {
-    pub source: &'a dyn AvatarSource,
-    pub rest: TriMesh,
-    pub full_weights: Vec<Weights>,
-    pub joints: Vec<[u8; 4]>,
-    pub weights: Vec<[f32; 4]>,
-    smoother: Option<SurfaceSmoother>,
-    betas: Vec<f32>,
-    steps: usize,
-}
-
-impl<'a> FrameMaker<'a> {
-    pub fn new(source: &'a dyn AvatarSource, steps: usize) -> Result<Self> {
-        let betas = source.betas().to_vec();
-        let rest = source.canonical_mesh(&source.reference_params())?;
-        if rest.positions.is_empty() || rest.faces.is_empty() {
-            return Err(Error::invalid("the avatar's canonical mesh is empty"));
-        }
-        let full_weights = source.mesh_skinning_weights(&rest);
-        let smoother = source.surface_smoother(&rest);
-        let (joints, weights) = full_weights.iter().map(top4).unzip();
-        Ok(FrameMaker { source, rest, full_weights, joints, weights, smoother, betas, steps })
-    }
-
-    /// A clip frame with the avatar's shape.
-    pub fn params(&self, p: &BodyParams) -> BodyParams {
-        BodyParams { betas: self.betas.clone(), ..p.clone() }
-    }
-
-    /// The studio's posed mesh at a pose: the reference vertices projected onto the pose's
-    /// surface, smoothed, skinned with the avatar's full weights.
-    pub fn posed(&self, p: &BodyParams) -> Result<(Vec<Vec3>, [Mat4; crate::body::NUM_JOINTS])> {
-        let p = self.params(p);
-        let mut points = self.source.project(&p, &self.rest.positions, self.steps)?;
-        if let Some(s) = &self.smoother {
-            s.smooth(&mut points);
-        }
-        let bones = self.source.body().pose(&p).bones.transforms;
-        let posed = points
-            .par_iter()
-            .zip(&self.full_weights)
-            .map(|(v, w)| blend_transform(&bones, w).transform_point3(*v))
-            .collect();
-        Ok((posed, bones))
-    }
-
-    /// The posed mesh and its delta in bind space *with the file's 4-weight skinning*: the
-    /// morph targets then also absorb the truncation to 4 influences.
-    pub fn delta(&self, p: &BodyParams) -> Result<(Vec<Vec3>, Vec<Vec3>)> {
-        let (posed, bones) = self.posed(p)?;
-        let delta = posed
-            .par_iter()
-            .zip(self.joints.par_iter().zip(&self.weights))
-            .zip(&self.rest.positions)
-            .map(|((y, (j, w)), r)| {
-                let mut m = Mat4::ZERO;
-                for k in 0..4 {
-                    m += bones[j[k] as usize] * w[k];
-                }
-                m.inverse().transform_point3(*y) - *r
-            })
-            .collect();
-        Ok((delta, posed))
-    }
-}
 
 /// `count` frame indices spread evenly over `n` frames (all of them when `n <= count`).
 pub fn even_sample(n: usize, count: usize) -> Vec<usize> {
@@ -153,6 +87,8 @@ pub struct Streamed {
     pub peak_frames_held: usize,
     /// The posed mesh of every frame, when asked for (`keep_posed`): grows with the clip.
     pub posed: Vec<Vec<Vec3>>,
+    /// What the keyframes cost and how close the verified frames came (`export::keyframes`).
+    pub keys: KeyStats,
 }
 
 struct Held {
@@ -176,6 +112,8 @@ pub fn stream_frames(
             p(Progress { done, total });
         }
     };
+    let keys =
+        Keyframes::new(maker, clip, options.keyframe_spacing, options.interpolation_tolerance);
     let mut held: HashMap<usize, Held> = HashMap::with_capacity(sample.len());
     let mut peak = 0usize;
     let mut done = 0usize;
@@ -184,8 +122,7 @@ pub fn stream_frames(
         if control.cancelled() {
             return Err(Error::invalid(CANCELLED));
         }
-        let made: Vec<(Vec<Vec3>, Vec<Vec3>)> =
-            chunk.par_iter().map(|&f| maker.delta(&clip.frames[f])).collect::<Result<_>>()?;
+        let made = keys.deltas(chunk)?;
         peak = peak.max(held.len() + made.len());
         for (&f, (delta, posed)) in chunk.iter().zip(made) {
             held.insert(f, Held { delta, posed: keep_posed.then_some(posed) });
@@ -207,13 +144,13 @@ pub fn stream_frames(
     loop {
         let collect = keep_posed && refined == 0;
         let pass =
-            project_all(maker, clip, &basis, &held, options, control, (&mut done, total), collect)?;
+            project_all(&keys, n, &basis, &held, options, control, (&mut done, total), collect)?;
         peak = peak.max(held.len() + pass.peak_extra);
         if collect {
             posed_all = pass.posed;
         }
         let over: Vec<(f32, usize, Vec<Vec3>)> =
-            pass.worst.into_iter().filter(|w| w.0 > options.error_bound).collect();
+            pass.worst.into_iter().filter(|w| w.0 > options.compression_bound()).collect();
         // The refined basis is kept only where it rebuilds the worst frame better.
         if let Some((old_basis, old)) =
             previous.take().filter(|(_, o)| o.max_error < pass.max_error)
@@ -228,6 +165,7 @@ pub fn stream_frames(
                 refined_frames: 0,
                 peak_frames_held: peak,
                 posed: posed_all,
+                keys: keys.stats(),
             });
         }
         if refined > 0 || over.is_empty() || options.refine_frames == 0 {
@@ -241,6 +179,7 @@ pub fn stream_frames(
                 refined_frames: refined,
                 peak_frames_held: peak,
                 posed: posed_all,
+                keys: keys.stats(),
             });
         }
         // Pass 3: the worst frames join the sample; every frame is projected again.
@@ -269,8 +208,8 @@ struct Pass {
 /// Every frame in order: its delta (held or made), its coefficients and error.
 #[allow(clippy::too_many_arguments)]
 fn project_all(
-    maker: &FrameMaker,
-    clip: &MotionClip,
+    keys: &Keyframes,
+    n: usize,
     basis: &Basis,
     held: &HashMap<usize, Held>,
     options: &ExportOptions,
@@ -278,7 +217,6 @@ fn project_all(
     (done, total): (&mut usize, usize),
     collect_posed: bool,
 ) -> Result<Pass> {
-    let n = clip.len();
     let mut pass = Pass {
         coefficients: Vec::with_capacity(n),
         max_error: 0.0,
@@ -294,13 +232,12 @@ fn project_all(
         if control.cancelled() {
             return Err(Error::invalid(CANCELLED));
         }
+        let fresh: Vec<usize> = chunk.iter().copied().filter(|f| !held.contains_key(f)).collect();
+        let mut fresh_made = keys.deltas(&fresh)?.into_iter();
         let made: Vec<Option<(Vec<Vec3>, Vec<Vec3>)>> = chunk
-            .par_iter()
-            .map(|&f| match held.contains_key(&f) {
-                true => Ok(None),
-                false => maker.delta(&clip.frames[f]).map(Some),
-            })
-            .collect::<Result<_>>()?;
+            .iter()
+            .map(|f| if held.contains_key(f) { None } else { fresh_made.next() })
+            .collect();
         let fresh = made.iter().filter(|m| m.is_some()).count();
         pass.peak_extra = pass.peak_extra.max(fresh + pass.worst.len());
         let scored: Vec<(Vec<f64>, (f32, f32))> = chunk
@@ -319,7 +256,7 @@ fn project_all(
             error_sum += mean as f64;
             if let Some((delta, posed)) = m {
                 pass.max_unsampled = pass.max_unsampled.max(max);
-                if options.refine_frames > 0 && max > options.error_bound {
+                if options.refine_frames > 0 && max > options.compression_bound() {
                     keep_worst(&mut pass.worst, (max, f, delta), options.refine_frames);
                 }
                 if collect_posed {
