@@ -84,12 +84,6 @@ pub fn fill_enclosed(shape: Shape, mask: &[bool]) -> Vec<bool> {
     (0..shape.len()).map(|i| mask[i] || !open[label[i] as usize]).collect()
 }
 
-/// `mask` without its pieces of fewer than `min_cells` cells.
-pub fn drop_islands(shape: Shape, mask: &[bool], min_cells: usize) -> Vec<bool> {
-    let (label, sizes) = pieces(shape, mask, true);
-    (0..shape.len()).map(|i| mask[i] && sizes[label[i] as usize] >= min_cells).collect()
-}
-
 /// Each cell of `mask` without a value in `known` takes the mean of its neighbours' (a
 /// discrete Laplace equation: the values fill a hole as a membrane spans a frame), by
 /// Gauss-Seidel sweeps from the neighbours' mean. Cells left without any known value in reach
