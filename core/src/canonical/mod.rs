@@ -22,8 +22,8 @@ pub use canonicalize::{
     CanonicalFrame, REPROJECTION_THRESHOLD, canonicalize_points, choose_by_agreement,
     choose_nearest, forward_skin_mesh,
 };
-pub use garment_sheet::{GarmentSheet, SheetGridOptions};
 pub use field::{FIELD_CELLS, FieldOptions, SkinningField};
+pub use garment_sheet::{GarmentSheet, SheetGridOptions};
 pub use garment_skinning::{
     GarmentSkinner, GarmentSkinning, field_weights, forward_skin_with_weights, garment_weights,
     inpaint_loose_weights,
