@@ -160,7 +160,10 @@ impl GarmentSheet {
                 radius[cell] = r;
             }
         }
-        let sheet = self.triangulate(&mask, &radius);
+        // Cells joined only at a corner give triangles that share a single vertex, so a pinch
+        // can cut a bit off the sheet (a piece of its own, joined by no edge); small bits go.
+        let sheet =
+            drop_small_pieces(&self.triangulate(&mask, &radius), self.options.min_piece_area);
         if sheet.faces.is_empty() {
             return pieces.clone();
         }
