@@ -35,9 +35,10 @@ use std::f32::consts::TAU;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SheetGridOptions {
-    /// Directions round the body (180: 1.1 cm apart at a skirt's 30 cm from the axis).
+    /// Directions round the body (180: 1.05 cm apart at a skirt's 30 cm from the axis), and
+    /// the height of a row (metres). Both are read when the grid is made
+    /// ([`GarmentSheet::around`]).
     pub columns: usize,
-    /// Height of a row (metres).
     pub row_step: f32,
     /// A ray meets cloth where a face's normal points back along it by at least this cosine
     /// (a ray grazing a hem's rim or an edge on meets no cloth there).
@@ -45,8 +46,8 @@ pub struct SheetGridOptions {
     /// A hit farther (metres) from its neighbours' median radius is a stray layer (an inner
     /// wall's remnant seen through a tear) and its radius is taken from the neighbours.
     pub outlier: f32,
-    /// How far (metres) either side of a neighbour's radius the SDF is searched for the cloth
-    /// (where the extraction missed it, or a hole was filled), and the step of that search.
+    /// How far (metres) either side of a filled hole's membrane the SDF is searched for the
+    /// cloth, and the step of that search.
     pub search: f32,
     pub search_step: f32,
     /// Along a filled cell's ray, an SDF minimum under this (metres) without a crossing is
