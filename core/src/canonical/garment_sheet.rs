@@ -150,13 +150,14 @@ impl GarmentSheet {
             })
             .collect();
         mask = grid::fill_enclosed(shape, &grid::close(shape, &mask));
-        mask = self.drop_small_pieces(&mask, &known);
+        mask = self.drop_small_islands(&mask, &known);
         let mut radius = grid::fill_values(shape, &mask, &known, 60);
-        let filled: Vec<usize> =
-            (0..shape.len()).filter(|&i| mask[i] && known[i].is_none()).collect();
-        let starts: Vec<Option<f32>> = filled.iter().map(|&c| radius[c]).collect();
-        let found = self.search_rays(&filled, &starts, &sdf);
-        for (&cell, r) in filled.iter().zip(found) {
+        // The filled cells, at their membrane's radius.
+        let filled: Vec<(usize, f32)> = (0..shape.len())
+            .filter(|&i| mask[i] && known[i].is_none())
+            .filter_map(|i| Some((i, radius[i]?)))
+            .collect();
+        for (&(cell, _), r) in filled.iter().zip(self.search_rays(&filled, &sdf)) {
             if r.is_some() {
                 radius[cell] = r;
             }
@@ -202,7 +203,7 @@ impl GarmentSheet {
 
     /// `mask` without pieces under `min_piece_area` (cells' areas at their radius, or at the
     /// median radius where unknown).
-    fn drop_small_pieces(&self, mask: &[bool], radius: &[Option<f32>]) -> Vec<bool> {
+    fn drop_small_islands(&self, mask: &[bool], radius: &[Option<f32>]) -> Vec<bool> {
         let (label, sizes) = grid::pieces(self.shape, mask, true);
         let mut known: Vec<f32> = radius.iter().flatten().copied().collect();
         known.sort_by(f32::total_cmp);
@@ -220,13 +221,12 @@ impl GarmentSheet {
     }
 
     /// Where the SDF shows cloth along each cell's ray within `search` of its start radius
-    /// (`starts`, one per cell; a filled hole's membrane): its outermost crossing from outside
+    /// (`cells`: each with its start, a filled hole's membrane): its outermost crossing from outside
     /// in, else a minimum under `thin`; nothing where the start itself is farther than `thin`
     /// from the SDF's surface (a hole the SDF has too keeps its membrane).
     fn search_rays(
         &self,
-        cells: &[usize],
-        starts: &[Option<f32>],
+        cells: &[(usize, f32)],
         sdf: &impl Fn(&[Vec3]) -> Vec<f32>,
     ) -> Vec<Option<f32>> {
         let o = &self.options;
@@ -235,21 +235,16 @@ impl GarmentSheet {
         let offsets: Vec<f32> = (-half..=half).rev().map(|k| k as f32 * o.search_step).collect();
         let probes: Vec<Vec3> = cells
             .iter()
-            .zip(starts)
-            .flat_map(|(&c, &r)| {
-                let r = r.unwrap_or(0.0);
-                offsets.iter().map(move |&t| self.point(c, (r + t).max(0.0)))
-            })
+            .flat_map(|&(c, r)| offsets.iter().map(move |&t| self.point(c, (r + t).max(0.0))))
             .collect();
         if probes.is_empty() {
             return Vec::new();
         }
         let values = sdf(&probes);
-        starts
+        cells
             .iter()
             .zip(values.chunks(offsets.len()))
-            .map(|(&start, f)| {
-                let start = start?;
+            .map(|(&(_, start), f)| {
                 // No cloth at the start (a hole the SDF has too): nothing to move onto.
                 if f[half as usize] > o.thin {
                     return None;
