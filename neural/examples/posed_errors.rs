@@ -15,6 +15,9 @@
 //! K's surface.
 //! AS_EXTRACTED=1 keeps the loose pieces as extracted; SHEET_THIN, SHEET_SEARCH (metres) set the garment
 //! sheet's options.
+//! A simulated outfit's truth at a library clip is its garment simulated through the clip, as
+//! the evaluation's; RIGID_TRUTH=1 scores the generator's rule-posed garment against it
+//! instead of the avatar (how far the cloth's own motion lies from any rule of the pose).
 //! LOOPS=1 prints each frame's border loops; LOOSE_SHEET=PREFIX draws every piece but the
 //! largest close up.
 use avatar_core::canonical::FieldCache;
@@ -170,10 +173,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .map(|(i, frame)| (i, query(frame, &betas)))
                 .collect()
         };
+        // Simulated outfits: the truth is the garment simulated through the clip, as the
+        // evaluation scores it.
+        let clip = library_clip(name).ok();
+        let outfit_truth = clip.as_ref().map(|c| {
+            avatar_core::eval::truth::OutfitTruth::new(
+                &capture.body,
+                &template,
+                subject,
+                &betas,
+                &[c],
+            )
+        });
         let mut rows = Vec::new();
         for (i, pose) in poses {
-            let truth = ground_truth_mesh(&capture.body, &template, &pose, subject);
-            let predicted = if let Some(t) = &seen_template {
+            let truth = match &outfit_truth {
+                Some(t) => t.mesh(name, i, &pose)?,
+                None => ground_truth_mesh(&capture.body, &template, &pose, subject),
+            };
+            // RIGID_TRUTH=1: score the generator's rule-posed garment (no simulation) instead
+            // of the avatar: how far a simulated garment lies from any rule of the pose.
+            let predicted = if std::env::var("RIGID_TRUTH").is_ok() {
+                ground_truth_mesh(&capture.body, &template, &pose, subject)
+            } else if let Some(t) = &seen_template {
                 t.posed_mesh(&avatar, &pose)?
             } else if std::env::var("TEMPLATE").is_ok() {
                 exporter.posed_mesh(&avatar, &pose)?

@@ -1,6 +1,7 @@
 //! A vertical slice of an avatar's canonical SDF (zero pose) as a PNG: inside dark, outside
 //! light, the zero level black, 1 pixel = 5 mm. Shows how thick a garment's walls are.
-//!   cargo run --example sdf_slice -- AVATAR OUT.png [z|x] [OFFSET_M]
+//!   cargo run --example sdf_slice -- AVATAR OUT.png [z|x] [OFFSET_M] [CAPTURE FRAME]
+//! With CAPTURE and FRAME: the SDF conditioned on that frame's pose (a training pose) instead.
 use avatar_core::body::BodyParams;
 use avatar_core::canonical::FieldCache;
 use avatar_neural::MetaAvatar;
@@ -16,7 +17,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let avatar = MetaAvatar::load(&args[1], &field_cache())?;
     let axis = args.get(3).map_or("z", |s| s.as_str());
     let offset: f32 = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(0.0);
-    let params = BodyParams { betas: avatar.header.betas.clone(), ..Default::default() };
+    let params = match (args.get(5), args.get(6)) {
+        (Some(capture), Some(frame)) => {
+            let capture = avatar_core::capture::Capture::open(capture)?;
+            let frame: usize = frame.parse()?;
+            BodyParams {
+                betas: avatar.header.betas.clone(),
+                ..capture.frames[frame].params.clone()
+            }
+        }
+        _ => BodyParams { betas: avatar.header.betas.clone(), ..Default::default() },
+    };
     let sdf = avatar.sdf_at(&params);
     let centre = avatar.header.normalisation.centre;
     let (w, h, px) = (240usize, 400usize, 0.005f32);

@@ -2,6 +2,9 @@
 //! evaluation subjects, the unseen outfit or the held-out clips), each posed along the training
 //! clips, with the exact pose-dependent canonical clothed surface of the generator sampled into
 //! oriented points (MetaAvatar's stages 1 and 2 also train on ground-truth canonical points).
+//! Simulated outfits (`eval::dataset::SIMULATED_TRAIN_OUTFITS`, only when asked for) have no
+//! canonical surface of their own: their garment is simulated through training clips and each
+//! chosen frame's clothed surface is canonicalized by inverse skinning, as a scan's is.
 //!
 //! On disk (`--data DIR`): `meta-data.json` (what was generated, from which seed) and
 //! `samples.bin` (float32: per sample 72 pose values, then points x (position, normal)).
@@ -11,10 +14,10 @@ use crate::error::{Error, Result};
 use crate::pose_sample::PoseSample;
 use avatar_core::body::{BodyModel, BodyParams};
 use avatar_core::canonical::Normalisation;
-use avatar_core::eval::dataset::{TRAIN_OUTFITS, TRAIN_SUBJECT_SEEDS};
+use avatar_core::eval::dataset::{SIMULATED_TRAIN_OUTFITS, TRAIN_OUTFITS, TRAIN_SUBJECT_SEEDS};
 use avatar_core::eval::sampling::sample_surface_with_normals;
 use avatar_core::mesh::TriMesh;
-use avatar_core::motion::library_split;
+use avatar_core::motion::{MotionClip, library_split};
 use avatar_core::synth::{ClothedTemplate, Outfit, PoseFeatures, canonical_surface, subject_betas};
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
@@ -146,11 +149,15 @@ impl MetaData {
             .iter()
             .map(|n| Outfit::from_name(n))
             .collect::<avatar_core::Result<_>>()?;
-        if let Some(o) = outfits.iter().find(|o| !TRAIN_OUTFITS.contains(o)) {
+        if let Some(o) = outfits
+            .iter()
+            .find(|o| !TRAIN_OUTFITS.contains(o) && !SIMULATED_TRAIN_OUTFITS.contains(o))
+        {
             return Err(Error::invalid(format!(
-                "outfit {} is reserved for evaluation; meta-training uses {:?}",
+                "outfit {} is reserved for evaluation; meta-training uses {:?} and the simulated {:?}",
                 o.name(),
-                TRAIN_OUTFITS.map(|o| o.name())
+                TRAIN_OUTFITS.map(|o| o.name()),
+                SIMULATED_TRAIN_OUTFITS.map(|o| o.name())
             )));
         }
         let subjects: Vec<u64> = TRAIN_SUBJECT_SEEDS.take(config.subjects).collect();
@@ -179,7 +186,24 @@ impl MetaData {
                 let norm = Normalisation::from_body(&rest);
                 let rest_joints = body.regress_joints(&rest);
                 let (mut poses, mut pts, mut nrm) = (Vec::new(), Vec::new(), Vec::new());
-                for _ in 0..config.poses_per_group {
+                if outfit.is_simulated() {
+                    let samples = simulated_samples(
+                        body,
+                        &template,
+                        subject,
+                        &train_clips,
+                        config,
+                        &mut rng,
+                    )?;
+                    for (mut params, p, n) in samples {
+                        pts.push(p.into_iter().map(|q| norm.to_unit(q)).collect());
+                        nrm.push(n);
+                        params.betas.clear();
+                        params.trans = Vec3::ZERO;
+                        poses.push(params);
+                    }
+                }
+                for _ in 0..config.poses_per_group * usize::from(!outfit.is_simulated()) {
                     let mut params = all_poses[rng.random_range(0..all_poses.len())].clone();
                     params.betas = betas.clone();
                     params.trans = Vec3::ZERO;
@@ -358,4 +382,80 @@ impl MetaData {
             free_space: Vec::new(),
         }
     }
+}
+/// Training clips a simulated outfit's group is simulated through (each from its first frame):
+/// a few, so that the garment's lag and swing come from more than one motion.
+const SIMULATED_CLIPS_PER_GROUP: usize = 3;
+
+/// A simulated outfit's samples for one subject: `config.poses_per_group` frames drawn from
+/// a few training clips, the garment simulated through each clip up to its last drawn frame,
+/// each frame's clothed surface sampled into oriented points and canonicalized by inverse
+/// skinning with the subject's diffused field (metres, body space), as a scan's points are.
+/// Points without a root or beyond the reprojection filter are left out and the rest repeated
+/// to the config's count.
+fn simulated_samples(
+    body: &BodyModel,
+    template: &ClothedTemplate,
+    subject: u64,
+    train_clips: &[MotionClip],
+    config: &MetaDataConfig,
+    rng: &mut ChaCha8Rng,
+) -> Result<Vec<(BodyParams, Vec<Vec3>, Vec<Vec3>)>> {
+    use avatar_core::canonical::{Canonicalizer, FieldOptions};
+    use avatar_core::synth::cloth::{ClothConfig, simulate_garment, with_garment};
+    let betas = subject_betas(body, subject);
+    let canonicalizer = Canonicalizer::new(body, &betas, &FieldOptions::default(), None)?;
+    let clips: Vec<&MotionClip> = train_clips.iter().filter(|c| !c.frames.is_empty()).collect();
+    if clips.is_empty() {
+        return Err(Error::invalid("no training clip to simulate a garment through"));
+    }
+    // Which clip and frame each sample is: a few distinct clips, frames drawn in each.
+    let mut chosen: Vec<usize> = Vec::new();
+    while chosen.len() < SIMULATED_CLIPS_PER_GROUP.min(clips.len()) {
+        let c = rng.random_range(0..clips.len());
+        if !chosen.contains(&c) {
+            chosen.push(c);
+        }
+    }
+    let picks: Vec<(usize, usize)> = (0..config.poses_per_group)
+        .map(|k| {
+            let c = chosen[k % chosen.len()];
+            (c, rng.random_range(0..clips[c].frames.len()))
+        })
+        .collect();
+    let mut out = Vec::with_capacity(picks.len());
+    for &c in &chosen {
+        let Some(last) = picks.iter().filter(|p| p.0 == c).map(|p| p.1).max() else { continue };
+        let clip = clips[c];
+        let poses: Vec<BodyParams> = clip.frames[..=last]
+            .iter()
+            .map(|p| avatar_core::eval::truth::query(p, &betas))
+            .collect();
+        let track =
+            simulate_garment(body, template, &poses, clip.fps, subject, ClothConfig::default());
+        for &(_, frame) in picks.iter().filter(|p| p.0 == c) {
+            let garment = track.frames.get(frame).ok_or_else(|| {
+                Error::invalid(format!("the simulation of clip {} stopped early", clip.name))
+            })?;
+            let params = &poses[frame];
+            let posed = TriMesh::new(
+                with_garment(body, template, params, subject, garment),
+                template.faces.clone(),
+            );
+            let (p, n) = sample_surface_with_normals(&posed, config.points_per_pose * 3 / 2, rng)?;
+            let canonical = canonicalizer.posed_points(params, &p, &n);
+            if canonical.points.is_empty() {
+                return Err(Error::invalid(format!(
+                    "subject {subject}, {}: no point of frame {frame} of {} canonicalized",
+                    template.outfit.name(),
+                    clip.name
+                )));
+            }
+            let take = |v: &[Vec3]| -> Vec<Vec3> {
+                v.iter().cycle().take(config.points_per_pose).copied().collect()
+            };
+            out.push((params.clone(), take(&canonical.points), take(&canonical.normals)));
+        }
+    }
+    Ok(out)
 }

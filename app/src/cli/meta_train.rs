@@ -43,6 +43,10 @@ pub struct Args {
     /// Training subjects (seeds 1..=N) when generating data.
     #[arg(long, default_value_t = 24)]
     subjects: usize,
+    /// Outfits when generating data (comma-separated): the default four, and optionally the
+    /// simulated sim_skirt and sim_cape, which the shipped prior holds out.
+    #[arg(long, value_delimiter = ',', default_values_t = avatar_core::eval::dataset::TRAIN_OUTFITS.map(|o| o.name().to_string()))]
+    outfits: Vec<String>,
     /// Poses per subject and outfit when generating data.
     #[arg(long, default_value_t = 12)]
     poses: usize,
@@ -285,6 +289,7 @@ fn load_data(args: &Args, own: bool) -> anyhow::Result<Option<MetaData>> {
         let data_config = MetaDataConfig {
             subjects: args.subjects,
             poses_per_group: args.poses,
+            outfits: args.outfits.clone(),
             seed: args.seed,
             ..MetaDataConfig::default()
         };
