@@ -101,6 +101,19 @@ fn interpolated_frames_stay_within_the_bound_of_full_projection() {
     for f in [n - 1, 13, 3, 40] {
         assert_eq!(again.surfaces(&[f]).unwrap()[0], made[f], "frame {f}");
     }
+    // The posed sequence `pose` and OBJ/PLY export write: every frame in order, within the
+    // error bound of the studio's posed mesh.
+    let mut sequence = Vec::new();
+    avatar_core::export::for_each_posed(&maker, &clip, &options, Control::default(), |f, mesh| {
+        sequence.push((f, mesh.positions));
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(sequence.iter().map(|s| s.0).collect::<Vec<_>>(), (0..n).collect::<Vec<_>>());
+    for (f, positions) in &sequence {
+        let e = largest(positions, &maker.skin(&clip.frames[*f], &full[*f]).0);
+        assert!(e <= options.error_bound, "posed frame {f} is {e} m off");
+    }
     // Spacing 1: every frame projected in full, as before keyframes.
     let exact = Keyframes::new(&maker, &clip, 1, options.interpolation_tolerance);
     assert_eq!(exact.surfaces(&[5, 6]).unwrap(), vec![full[5].clone(), full[6].clone()]);

@@ -263,7 +263,7 @@ pub(super) fn write_frames(
     name: impl Fn(usize) -> PathBuf,
 ) -> avatar_core::Result<usize> {
     let mut written = 0;
-    let r = for_each_posed(maker, clip, control, |f, mesh| {
+    let r = for_each_posed(maker, clip, &ExportOptions::default(), control, |f, mesh| {
         avatar_core::mesh::io::write_mesh(name(f), &mesh)?;
         written += 1;
         Ok(())

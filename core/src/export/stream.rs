@@ -294,22 +294,30 @@ fn keep_worst(worst: &mut Vec<(f32, usize, Vec<Vec3>)>, item: (f32, usize, Vec<V
 }
 
 /// The posed mesh of every frame, one chunk at a time, handed to `sink` in order (OBJ/PLY
-/// sequences, `pose`): nothing is kept.
+/// sequences, `pose`): nothing is kept. The projection onto each pose's surface is made at
+/// keyframes and interpolated between them as the exporter's is (`options.keyframe_spacing`,
+/// within `options.interpolation_tolerance`: `export::keyframes`); spacing 1 projects every
+/// frame in full.
 pub fn for_each_posed(
     maker: &FrameMaker,
     clip: &MotionClip,
+    options: &ExportOptions,
     control: Control,
     mut sink: impl FnMut(usize, TriMesh) -> Result<()>,
 ) -> Result<()> {
+    let keys =
+        Keyframes::new(maker, clip, options.keyframe_spacing, options.interpolation_tolerance);
     let frames: Vec<usize> = (0..clip.len()).collect();
     for chunk in frames.chunks(CHUNK) {
         if control.cancelled() {
             return Err(Error::invalid(CANCELLED));
         }
+        let surfaces = keys.surfaces(chunk)?;
         let made: Vec<Vec<Vec3>> = chunk
-            .par_iter()
-            .map(|&f| maker.posed(&clip.frames[f]).map(|p| p.0))
-            .collect::<Result<_>>()?;
+            .iter()
+            .zip(surfaces)
+            .map(|(&f, surface)| maker.skin(&clip.frames[f], &surface).0)
+            .collect();
         for (&f, positions) in chunk.iter().zip(made) {
             sink(f, TriMesh::new(positions, maker.rest.faces.clone()))?;
         }
