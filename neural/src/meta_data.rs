@@ -387,6 +387,9 @@ impl MetaData {
 /// a few, so that the garment's lag and swing come from more than one motion.
 const SIMULATED_CLIPS_PER_GROUP: usize = 3;
 
+/// One pose and its canonical points and unit normals (metres, body space).
+type OrientedSample = (BodyParams, Vec<Vec3>, Vec<Vec3>);
+
 /// A simulated outfit's samples for one subject: `config.poses_per_group` frames drawn from
 /// a few training clips, the garment simulated through each clip up to its last drawn frame,
 /// each frame's clothed surface sampled into oriented points and canonicalized by inverse
@@ -400,7 +403,7 @@ fn simulated_samples(
     train_clips: &[MotionClip],
     config: &MetaDataConfig,
     rng: &mut ChaCha8Rng,
-) -> Result<Vec<(BodyParams, Vec<Vec3>, Vec<Vec3>)>> {
+) -> Result<Vec<OrientedSample>> {
     use avatar_core::canonical::{Canonicalizer, FieldOptions};
     use avatar_core::synth::cloth::{ClothConfig, simulate_garment, with_garment};
     let betas = subject_betas(body, subject);
