@@ -26,6 +26,10 @@ pub struct FramePoints {
     pub params: BodyParams,
     pub points: Vec<Vec3>,
     pub normals: Vec<Vec3>,
+    /// Whether root finding found each point more than one root (`CanonicalFrame::ambiguous`;
+    /// empty: not known, every point counts as ambiguous). Pose refinement's rounds solve the
+    /// others from their root for the given pose.
+    pub ambiguous: Vec<bool>,
     /// Free-space evidence (normalised canonical space): points on the camera rays in front
     /// of the measured depth, which must be outside the avatar.
     pub free_space: Vec<Vec3>,
@@ -218,6 +222,7 @@ impl CapturePoints {
                 params: f.params.clone(),
                 points: c.points.iter().map(|p| norm.to_unit(*p)).collect(),
                 normals: c.normals,
+                ambiguous: c.ambiguous,
                 free_space,
                 shells: Vec::new(),
             });

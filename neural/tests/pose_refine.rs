@@ -88,6 +88,7 @@ fn capture_with_error(
             params: given,
             points: c.points.iter().map(|p| norm.to_unit(*p)).collect(),
             normals: c.normals,
+            ambiguous: c.ambiguous,
             free_space: Vec::new(),
             shells: Vec::new(),
         });

@@ -87,6 +87,23 @@ pub fn find_roots(
     roots
 }
 
+/// The root Broyden's method reaches from the canonical point `x0` (a root for a nearby pose:
+/// pose refinement's warm start); its `start_bone` is the bone of largest weight at `x0`.
+pub fn find_root_from(
+    field: &SkinningField,
+    bones: &[Mat4; NUM_JOINTS],
+    posed: Vec3,
+    x0: Vec3,
+    options: &RootOptions,
+) -> Option<Root> {
+    if !x0.is_finite() {
+        return None;
+    }
+    let w = field.weights_at(x0);
+    let start = (0..NUM_JOINTS).max_by(|&a, &b| w[a].total_cmp(&w[b])).unwrap_or(0);
+    broyden_from(field, bones, posed, x0, start, options)
+}
+
 fn broyden(
     field: &SkinningField,
     bones: &[Mat4; NUM_JOINTS],
@@ -94,7 +111,25 @@ fn broyden(
     start: usize,
     options: &RootOptions,
 ) -> Option<Root> {
-    let mut x = bones[start].inverse().transform_point3(posed);
+    broyden_from(
+        field,
+        bones,
+        posed,
+        bones[start].inverse().transform_point3(posed),
+        start,
+        options,
+    )
+}
+
+fn broyden_from(
+    field: &SkinningField,
+    bones: &[Mat4; NUM_JOINTS],
+    posed: Vec3,
+    x0: Vec3,
+    start: usize,
+    options: &RootOptions,
+) -> Option<Root> {
+    let mut x = x0;
     let residual = |x: Vec3| forward_point(field, bones, x) - posed;
     let mut g = residual(x);
     // Initial inverse Jacobian: the inverse of the blended linear part at the start point

@@ -175,6 +175,9 @@ struct Frame {
     /// Depth points and normals (world, metres).
     posed: Vec<Vec3>,
     posed_normals: Vec<Vec3>,
+    /// Whether root finding found each depth point more than one root (all `true` when not
+    /// known): those are searched in full each round, the others solved from their root.
+    ambiguous: Vec<bool>,
     /// Their current canonical points (metres).
     canonical: Vec<Vec3>,
     /// The frame's outside constraints (world, metres) and their current canonical points:
@@ -269,12 +272,18 @@ impl<'a> PoseRefiner<'a> {
                             .transform_point3(x)
                     })
                     .collect();
+                let ambiguous = if f.ambiguous.len() == f.points.len() {
+                    f.ambiguous.clone()
+                } else {
+                    vec![true; f.points.len()]
+                };
                 Frame {
                     given: f.params.clone(),
                     correction,
                     anchor: correction,
                     posed,
                     posed_normals,
+                    ambiguous,
                     canonical,
                     free_posed,
                     free_canonical,
