@@ -97,12 +97,14 @@ fn capture_with_error(
     let rest_sdf = std::sync::Arc::new(avatar_core::mesh::signed_distance::SignedDistance::new(
         &body.mesh(rest.clone()),
     ));
+    let rest_sign = avatar_neural::capture_points::rest_sign_grid(&body.mesh(rest.clone()));
     let capture = CapturePoints {
         body,
         body_file: None,
         betas: Vec::new(),
         rest,
         rest_sdf,
+        rest_sign,
         field,
         field_cells: 48,
         normalisation: norm,
