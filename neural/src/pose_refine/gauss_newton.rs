@@ -93,7 +93,11 @@ impl PoseRefiner<'_> {
                 .for_each(|(_, v)| *v = 0.0);
             self.frames[k].correction.add(&step);
         }
-        // The residual after the last step (one more evaluation).
+        // The residual after the last step (one more evaluation), when it is asked for.
+        if !self.measure_after && self.lines.is_none() {
+            let before = before.unwrap_or(f32::NAN);
+            return RoundReport { residual_before: before, residual_after: f32::NAN };
+        }
         let frame = &self.frames[k];
         let bones = frame.correction.bones(&self.rest_joints, &frame.given);
         let xc: Vec<Vec3> = weights

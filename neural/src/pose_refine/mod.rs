@@ -187,7 +187,8 @@ struct Frame {
     shells_from: usize,
 }
 
-/// What one round did: the mean |SDF| of the round's points before and after (metres).
+/// What one round did: the mean |SDF| of the round's points before and after (metres; after:
+/// NaN when the refiner does not measure it, [`PoseRefiner::measure_after`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RoundReport {
     pub residual_before: f32,
@@ -205,6 +206,10 @@ pub struct PoseRefiner<'a> {
     /// Where the trace's lines go (`PoseTrace::lines`; none: the errors are not written).
     lines: Option<TraceLines>,
     rounds_done: usize,
+    /// Whether each round measures the residual after its last step (one more SDF evaluation
+    /// of every frame's points: a third of a round against the avatar's SDF). On by default; a
+    /// fit that reads no report turns it off (a trace measures it regardless).
+    pub measure_after: bool,
 }
 
 /// Which of a frame's points a Gauss-Newton round takes.
@@ -299,6 +304,7 @@ impl<'a> PoseRefiner<'a> {
             truth: None,
             lines: None,
             rounds_done: 0,
+            measure_after: true,
         }
     }
 
