@@ -173,7 +173,7 @@ pub fn canonicalize_points_from(
             let blend = blend_transform(&bones.transforms, &field.weights_at(x));
             // Normals transform by the inverse transpose; going back, by the transpose.
             let nc = (Mat3::from_mat4(blend).transpose() * n).normalize_or_zero();
-            let reprojected = forward_point(field, &bones.transforms, x);
+            let reprojected = blend.transform_point3(x);
             Some((x, nc, (reprojected - p).length() <= REPROJECTION_THRESHOLD, ambiguous))
         })
         .collect();

@@ -130,11 +130,17 @@ fn broyden_from(
     options: &RootOptions,
 ) -> Option<Root> {
     let mut x = x0;
-    let residual = |x: Vec3| forward_point(field, bones, x) - posed;
-    let mut g = residual(x);
+    // The field's weights at a point, their blend and the residual there (each point's
+    // weights are looked up once: the lookup is most of a step).
+    let eval = |x: Vec3| {
+        let w = field.weights_at(x);
+        let blend = blend_transform(bones, &w);
+        (w, blend, blend.transform_point3(x) - posed)
+    };
+    let (mut w, blend, mut g) = eval(x);
     // Initial inverse Jacobian: the inverse of the blended linear part at the start point
     // (the derivative of the weights is neglected, as in SNARF's initialisation).
-    let a = Mat3::from_mat4(blend_transform(bones, &field.weights_at(x)));
+    let a = Mat3::from_mat4(blend);
     if a.determinant().abs() < 1e-8 {
         return None;
     }
@@ -148,14 +154,14 @@ fn broyden_from(
             return field.contains(x).then(|| Root {
                 canonical: x,
                 start_bone: start,
-                agreement: field.weights_at(x)[start],
+                agreement: w[start],
                 residual: r,
                 steps: step,
             });
         }
         let dx = -(j_inv * g);
         let x_new = x + dx;
-        let g_new = residual(x_new);
+        let (w_new, _, g_new) = eval(x_new);
         let dg = g_new - g;
         // "Good" Broyden update of the inverse Jacobian.
         let denom = dx.dot(j_inv * dg);
@@ -166,12 +172,13 @@ fn broyden_from(
         }
         x = x_new;
         g = g_new;
+        w = w_new;
     }
     let r = g.length();
     (r < options.tolerance && field.contains(x)).then(|| Root {
         canonical: x,
         start_bone: start,
-        agreement: field.weights_at(x)[start],
+        agreement: w[start],
         residual: r,
         steps: options.max_steps,
     })

@@ -27,19 +27,18 @@ impl PoseRefiner<'_> {
     ) -> RoundReport {
         let field = &self.capture.field;
         let frame = &self.frames[k];
-        let mut idx = self.subset(
-            k,
-            if points == RoundPoints::All {
-                self.options.points_per_frame
-            } else {
-                self.options.prealign_points_per_frame
-            },
-        );
-        if points != RoundPoints::All {
-            idx.retain(|&i| points.takes(&field.weights_at(frame.canonical[i])));
-        }
-        // The skinning weights of the round's points, held fixed.
-        let weights: Vec<_> = idx.iter().map(|&i| field.weights_at(frame.canonical[i])).collect();
+        let count = if points == RoundPoints::All {
+            self.options.points_per_frame
+        } else {
+            self.options.prealign_points_per_frame
+        };
+        // The round's points and their skinning weights, held fixed.
+        let (idx, weights): (Vec<usize>, Vec<_>) = self
+            .subset(k, count)
+            .into_iter()
+            .map(|i| (i, field.weights_at(frame.canonical[i])))
+            .filter(|(_, w)| points.takes(w))
+            .unzip();
         let posed: Vec<Vec3> = idx.iter().map(|&i| frame.posed[i]).collect();
         let mut before = None;
         for _ in 0..iterations.max(1) {
