@@ -110,10 +110,10 @@ impl<'a> Canonicalizer<'a> {
         )
     }
 
-    /// Of several roots, the one nearest the rest body's surface (PINA keeps the root of
-    /// smallest SDF; before the avatar exists, the body's is the SDF there is). Where a
-    /// squat or a bend presses the thigh to the belly, the other roots lie tens of
-    /// centimetres off the body, and a fit grows sheets through them.
+    /// The distance from the rest body's surface by which a point's roots are chosen: of
+    /// several, the nearest (PINA keeps the root of smallest SDF; before the avatar exists, the
+    /// body's is the SDF there is). Where a squat or a bend presses the thigh to the belly, the
+    /// other roots lie tens of centimetres off the body, and a fit grows sheets through them.
     fn distance_to_body(&self, x: Vec3) -> f32 {
         self.rest_surface.closest_point(x).map_or(f32::INFINITY, |h| h.distance)
     }
