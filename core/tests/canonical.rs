@@ -257,3 +257,95 @@ fn roots_of_a_squat_and_a_bend_stay_on_the_body() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn warm_started_roots_after_a_small_pose_change_are_the_full_search_roots() {
+    use avatar_core::capture::Capture;
+    use avatar_core::mesh::bvh::Bvh;
+    use avatar_core::motion::MotionClip;
+    use avatar_core::synth::{Outfit, SynthJob, generate_capture};
+    let frames: Vec<BodyParams> = ["squat", "walk"]
+        .iter()
+        .map(|n| clip_by_name(n).unwrap())
+        .map(|c| c.frames[c.len() / 2].clone())
+        .collect();
+    let dir = std::env::temp_dir().join(format!("canonical-warm-{}", std::process::id()));
+    let mut job = SynthJob::new(1002, Outfit::Dress, MotionClip::new("warm", 30.0, frames));
+    job.write_ground_truth = false;
+    generate_capture(&dir, open_body_ref(), &job).unwrap();
+    let capture = Capture::open(&dir).unwrap();
+    let body = open_body_ref();
+    let c =
+        Canonicalizer::new(body, &capture.frames[0].params.betas, &FieldOptions::default(), None)
+            .unwrap();
+    let rest_surface = Bvh::build(&body.mesh(c.rest.clone()));
+    let distance = |x: Vec3| rest_surface.closest_point(x).map_or(f32::INFINITY, |h| h.distance);
+    for frame in &capture.frames {
+        let given = c.frame(frame);
+        assert_eq!(given.ambiguous.len(), given.points.len());
+        let unambiguous = given.ambiguous.iter().filter(|a| !**a).count();
+        assert!(
+            unambiguous as f32 > 0.75 * given.points.len() as f32,
+            "frame {}: {unambiguous} of {} points unambiguous",
+            frame.index,
+            given.points.len()
+        );
+        // A refinement round's correction: a degree about a different axis at every joint and
+        // 5 mm of translation.
+        let mut params = frame.params.clone();
+        for (j, r) in params.pose.iter_mut().enumerate() {
+            let axis = Vec3::new((j % 3) as f32 - 1.0, 1.0, (j % 2) as f32).normalize();
+            *r = (glam::Quat::from_scaled_axis(*r)
+                * glam::Quat::from_axis_angle(axis, 1f32.to_radians()))
+            .to_scaled_axis();
+        }
+        params.trans += Vec3::new(0.005, -0.003, 0.002);
+        let posed = body.pose(&params);
+        let points: Vec<Vec3> = given.source.iter().map(|&i| frame.points[i]).collect();
+        let normals: Vec<Vec3> = given.source.iter().map(|&i| frame.normals[i]).collect();
+        let warm: Vec<Option<Vec3>> =
+            given.points.iter().zip(&given.ambiguous).map(|(&x, &a)| (!a).then_some(x)).collect();
+        let solve = |warm: &[Option<Vec3>]| {
+            canonicalize_points_from(
+                &c.field,
+                &posed.bones,
+                &posed.vertices,
+                &body.weights,
+                &points,
+                &normals,
+                warm,
+                &c.options,
+                RootPick::Nearest(&distance),
+            )
+        };
+        let (full, warmed) = (solve(&[]), solve(&warm));
+        // The roots moved with the pose (the warm start is not simply kept)...
+        let moved = full
+            .points
+            .iter()
+            .zip(&full.source)
+            .filter(|(x, i)| (**x - given.points[**i]).length() > 1e-3)
+            .count();
+        assert!(moved * 2 > full.points.len(), "{moved} of {} roots moved", full.points.len());
+        // ...and the warm starts found the roots the search from every start bone picks.
+        let same = |a: &CanonicalFrame, b: &CanonicalFrame| {
+            let mut at = vec![None; points.len()];
+            a.source.iter().zip(&a.points).for_each(|(&i, &x)| at[i] = Some(x));
+            b.source
+                .iter()
+                .zip(&b.points)
+                .filter(|(i, x)| at[**i].is_some_and(|y: Vec3| (y - **x).length() < 1e-4))
+                .count()
+        };
+        let agree = same(&full, &warmed);
+        assert!(
+            agree as f32 >= 0.998 * full.points.len() as f32
+                && warmed.points.len().abs_diff(full.points.len()) * 500 <= full.points.len(),
+            "frame {}: {agree} of {} roots agree ({} kept warm)",
+            frame.index,
+            full.points.len(),
+            warmed.points.len()
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -88,6 +88,7 @@ fn capture_with_error(
             params: given,
             points: c.points.iter().map(|p| norm.to_unit(*p)).collect(),
             normals: c.normals,
+            ambiguous: c.ambiguous,
             free_space: Vec::new(),
             shells: Vec::new(),
         });
@@ -96,12 +97,14 @@ fn capture_with_error(
     let rest_sdf = std::sync::Arc::new(avatar_core::mesh::signed_distance::SignedDistance::new(
         &body.mesh(rest.clone()),
     ));
+    let rest_sign = avatar_neural::capture_points::rest_sign_grid(&body.mesh(rest.clone()));
     let capture = CapturePoints {
         body,
         body_file: None,
         betas: Vec::new(),
         rest,
         rest_sdf,
+        rest_sign,
         field,
         field_cells: 48,
         normalisation: norm,

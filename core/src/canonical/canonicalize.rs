@@ -2,7 +2,9 @@
 //! choosing one root, and the 2 cm reprojection filter.
 
 use super::field::SkinningField;
-use super::root_finding::{Root, RootOptions, find_roots, forward_point, start_bones};
+use super::root_finding::{
+    Root, RootOptions, find_root_from, find_roots, forward_point, start_bones,
+};
 use crate::body::{Bones, NUM_JOINTS, blend_transform};
 use crate::mesh::TriMesh;
 use crate::mesh::point_index::PointIndex;
@@ -23,6 +25,10 @@ pub struct CanonicalFrame {
     pub unsolved: usize,
     /// Points dropped by the 2 cm reprojection filter.
     pub dropped: usize,
+    /// Whether the search found more than one root for each kept point (several bones could
+    /// have carried it there: near joints, between the thighs). A point with one root keeps it
+    /// under a small change of the pose ([`canonicalize_points_from`]).
+    pub ambiguous: Vec<bool>,
     pub bones: Bones,
 }
 
@@ -43,8 +49,37 @@ pub fn choose_by_agreement(roots: &[Root]) -> usize {
 /// The root nearest a surface (`distance` of a canonical point to it): the rest body's, before
 /// an avatar exists (`Canonicalizer`, and pose refinement's rounds).
 pub fn choose_nearest(roots: &[Root], distance: impl Fn(Vec3) -> f32) -> usize {
+    nearest_with_gap(roots, distance).0
+}
+
+/// [`choose_nearest`]'s pick and how much farther the runner-up is (infinite for one root).
+fn nearest_with_gap(roots: &[Root], distance: impl Fn(Vec3) -> f32) -> (usize, f32) {
+    if roots.len() < 2 {
+        return (0, f32::INFINITY);
+    }
     let d: Vec<f32> = roots.iter().map(|r| distance(r.canonical)).collect();
-    (0..roots.len()).min_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap_or(0)
+    let best = (0..roots.len()).min_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap_or(0);
+    let runner_up =
+        (0..roots.len()).filter(|&i| i != best).map(|i| d[i]).fold(f32::INFINITY, f32::min);
+    (best, runner_up - d[best])
+}
+
+/// A point whose runner-up root lies less than this much farther from the surface than the
+/// root picked ([`RootPick::Nearest`]) is ambiguous (metres): a small change of the pose may
+/// swap them.
+pub const NEAREST_TIE: f32 = 0.05;
+
+/// How a point's root is picked among several.
+#[derive(Clone, Copy)]
+pub enum RootPick<'a> {
+    /// The root whose field weights best agree with the bone it started from
+    /// ([`choose_by_agreement`]); a point with several roots is ambiguous.
+    Agreement,
+    /// The caller's choice; a point with several roots is ambiguous.
+    Chooser(RootChooser<'a>),
+    /// The root nearest a surface ([`choose_nearest`], `distance`: of a canonical point to the
+    /// surface); a point is ambiguous when its runner-up is within [`NEAREST_TIE`] of it.
+    Nearest(&'a (dyn Fn(Vec3) -> f32 + Sync)),
 }
 
 /// Canonicalize posed points (with normals) of one frame. `posed_body` and `body_weights` are
@@ -60,34 +95,86 @@ pub fn canonicalize_points(
     options: &RootOptions,
     chooser: Option<RootChooser>,
 ) -> CanonicalFrame {
-    let index = PointIndex::new(posed_body).ok();
-    let results: Vec<Option<(Vec3, Vec3, bool)>> = points
+    let pick = match chooser {
+        Some(c) => RootPick::Chooser(c),
+        None => RootPick::Agreement,
+    };
+    canonicalize_points_from(
+        field,
+        bones,
+        posed_body,
+        body_weights,
+        points,
+        normals,
+        &[],
+        options,
+        pick,
+    )
+}
+
+/// [`canonicalize_points`] with the roots picked by `pick`, and warm starts for a pose that
+/// differs little from one the points were canonicalized for before (pose refinement's
+/// rounds): a point with `warm[i] = Some(x)` (its canonical point before, where the search
+/// found it unambiguous: [`CanonicalFrame::ambiguous`]) is solved by Broyden's method from `x`
+/// alone, and searched from every start bone only when that does not converge. Points without
+/// a warm start (`warm` shorter than `points`, or `None`) are searched in full.
+#[allow(clippy::too_many_arguments)]
+pub fn canonicalize_points_from(
+    field: &SkinningField,
+    bones: &Bones,
+    posed_body: &[Vec3],
+    body_weights: &[[f32; NUM_JOINTS]],
+    points: &[Vec3],
+    normals: &[Vec3],
+    warm: &[Option<Vec3>],
+    options: &RootOptions,
+    pick: RootPick,
+) -> CanonicalFrame {
+    // Built only when some point needs the full search.
+    let index = std::sync::OnceLock::new();
+    let index = || index.get_or_init(|| PointIndex::new(posed_body).ok());
+    let results: Vec<Option<(Vec3, Vec3, bool, bool)>> = points
         .par_iter()
         .zip(normals.par_iter())
-        .map(|(&p, &n)| {
-            let near = match &index {
-                Some(ix) => body_weights[ix.nearest(p).0],
+        .enumerate()
+        .map(|(i, (&p, &n))| {
+            let warm_root = warm
+                .get(i)
+                .copied()
+                .flatten()
+                .and_then(|x0| find_root_from(field, &bones.transforms, p, x0, options));
+            let (x, ambiguous) = match warm_root {
+                Some(r) => (r.canonical, false),
                 None => {
-                    let mut w = [0.0; NUM_JOINTS];
-                    w[0] = 1.0;
-                    w
+                    let near = match index() {
+                        Some(ix) => body_weights[ix.nearest(p).0],
+                        None => {
+                            let mut w = [0.0; NUM_JOINTS];
+                            w[0] = 1.0;
+                            w
+                        }
+                    };
+                    let starts = start_bones(&near, options.max_starts);
+                    let roots = find_roots(field, &bones.transforms, p, &starts, options);
+                    if roots.is_empty() {
+                        return None;
+                    }
+                    let (best, ambiguous) = match pick {
+                        RootPick::Agreement => (choose_by_agreement(&roots), roots.len() > 1),
+                        RootPick::Chooser(c) => (c(&roots).min(roots.len() - 1), roots.len() > 1),
+                        RootPick::Nearest(distance) => {
+                            let (best, gap) = nearest_with_gap(&roots, distance);
+                            (best, gap < NEAREST_TIE)
+                        }
+                    };
+                    (roots[best].canonical, ambiguous)
                 }
             };
-            let starts = start_bones(&near, options.max_starts);
-            let roots = find_roots(field, &bones.transforms, p, &starts, options);
-            if roots.is_empty() {
-                return None;
-            }
-            let pick = match chooser {
-                Some(c) => c(&roots).min(roots.len() - 1),
-                None => choose_by_agreement(&roots),
-            };
-            let x = roots[pick].canonical;
             let blend = blend_transform(&bones.transforms, &field.weights_at(x));
             // Normals transform by the inverse transpose; going back, by the transpose.
             let nc = (Mat3::from_mat4(blend).transpose() * n).normalize_or_zero();
-            let reprojected = forward_point(field, &bones.transforms, x);
-            Some((x, nc, (reprojected - p).length() <= REPROJECTION_THRESHOLD))
+            let reprojected = blend.transform_point3(x);
+            Some((x, nc, (reprojected - p).length() <= REPROJECTION_THRESHOLD, ambiguous))
         })
         .collect();
     let mut frame = CanonicalFrame {
@@ -96,16 +183,18 @@ pub fn canonicalize_points(
         source: Vec::new(),
         unsolved: 0,
         dropped: 0,
+        ambiguous: Vec::new(),
         bones: bones.clone(),
     };
     for (i, r) in results.into_iter().enumerate() {
         match r {
             None => frame.unsolved += 1,
-            Some((_, _, false)) => frame.dropped += 1,
-            Some((x, n, true)) => {
+            Some((_, _, false, _)) => frame.dropped += 1,
+            Some((x, n, true, ambiguous)) => {
                 frame.points.push(x);
                 frame.normals.push(n);
                 frame.source.push(i);
+                frame.ambiguous.push(ambiguous);
             }
         }
     }

@@ -19,8 +19,8 @@ pub mod shell;
 pub use body_wrap::{BodyWrap, SurfaceChoice, WrapOptions, Wrapped};
 pub use cache::{FieldCache, cached_field};
 pub use canonicalize::{
-    CanonicalFrame, REPROJECTION_THRESHOLD, canonicalize_points, choose_by_agreement,
-    choose_nearest, forward_skin_mesh,
+    CanonicalFrame, NEAREST_TIE, REPROJECTION_THRESHOLD, RootPick, canonicalize_points,
+    canonicalize_points_from, choose_by_agreement, choose_nearest, forward_skin_mesh,
 };
 pub use field::{FIELD_CELLS, FieldOptions, SkinningField};
 pub use garment_sheet::{GarmentSheet, SheetGridOptions};
@@ -31,7 +31,7 @@ pub use garment_skinning::{
 pub use normalise::Normalisation;
 pub use offset_smoothing::{OffsetSmoothing, SurfaceSmoother, smooth_body_offsets};
 pub use pose_displacement::{DisplacementLimit, bound_moves};
-pub use root_finding::{Root, RootOptions, find_roots, forward_point, start_bones};
+pub use root_finding::{Root, RootOptions, find_root_from, find_roots, forward_point, start_bones};
 pub use sheets::{SheetOptions, open_inner_walls};
 pub use shell::{ShellOptions, shell_samples};
 
@@ -96,27 +96,26 @@ impl<'a> Canonicalizer<'a> {
         normals: &[Vec3],
     ) -> CanonicalFrame {
         let posed = self.body.pose(params);
-        let chooser = |roots: &[Root]| self.nearest_to_body(roots);
-        canonicalize_points(
+        let distance = |x: Vec3| self.distance_to_body(x);
+        canonicalize_points_from(
             &self.field,
             &posed.bones,
             &posed.vertices,
             &self.body.weights,
             points,
             normals,
+            &[],
             &self.options,
-            Some(&chooser),
+            RootPick::Nearest(&distance),
         )
     }
 
-    /// Of several roots, the one nearest the rest body's surface (PINA keeps the root of
-    /// smallest SDF; before the avatar exists, the body's is the SDF there is). Where a
-    /// squat or a bend presses the thigh to the belly, the other roots lie tens of
-    /// centimetres off the body, and a fit grows sheets through them.
-    fn nearest_to_body(&self, roots: &[Root]) -> usize {
-        choose_nearest(roots, |x| {
-            self.rest_surface.closest_point(x).map_or(f32::INFINITY, |h| h.distance)
-        })
+    /// The distance from the rest body's surface by which a point's roots are chosen: of
+    /// several, the nearest (PINA keeps the root of smallest SDF; before the avatar exists, the
+    /// body's is the SDF there is). Where a squat or a bend presses the thigh to the belly, the
+    /// other roots lie tens of centimetres off the body, and a fit grows sheets through them.
+    fn distance_to_body(&self, x: Vec3) -> f32 {
+        self.rest_surface.closest_point(x).map_or(f32::INFINITY, |h| h.distance)
     }
 
     /// Canonical positions of free-space samples of one frame (posed, world space): the
@@ -124,16 +123,17 @@ impl<'a> Canonicalizer<'a> {
     pub fn free_space(&self, frame: &CaptureFrame, samples: &[Vec3]) -> Vec<Vec3> {
         let posed = self.body.pose(&frame.params);
         let no_normals = vec![Vec3::Z; samples.len()];
-        let chooser = |roots: &[Root]| self.nearest_to_body(roots);
-        canonicalize_points(
+        let distance = |x: Vec3| self.distance_to_body(x);
+        canonicalize_points_from(
             &self.field,
             &posed.bones,
             &posed.vertices,
             &self.body.weights,
             samples,
             &no_normals,
+            &[],
             &self.options,
-            Some(&chooser),
+            RootPick::Nearest(&distance),
         )
         .points
     }

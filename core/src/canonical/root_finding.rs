@@ -87,6 +87,23 @@ pub fn find_roots(
     roots
 }
 
+/// The root Broyden's method reaches from the canonical point `x0` (a root for a nearby pose:
+/// pose refinement's warm start); its `start_bone` is the bone of largest weight at `x0`.
+pub fn find_root_from(
+    field: &SkinningField,
+    bones: &[Mat4; NUM_JOINTS],
+    posed: Vec3,
+    x0: Vec3,
+    options: &RootOptions,
+) -> Option<Root> {
+    if !x0.is_finite() {
+        return None;
+    }
+    let w = field.weights_at(x0);
+    let start = (0..NUM_JOINTS).max_by(|&a, &b| w[a].total_cmp(&w[b])).unwrap_or(0);
+    broyden_from(field, bones, posed, x0, start, options)
+}
+
 fn broyden(
     field: &SkinningField,
     bones: &[Mat4; NUM_JOINTS],
@@ -94,12 +111,36 @@ fn broyden(
     start: usize,
     options: &RootOptions,
 ) -> Option<Root> {
-    let mut x = bones[start].inverse().transform_point3(posed);
-    let residual = |x: Vec3| forward_point(field, bones, x) - posed;
-    let mut g = residual(x);
+    broyden_from(
+        field,
+        bones,
+        posed,
+        bones[start].inverse().transform_point3(posed),
+        start,
+        options,
+    )
+}
+
+fn broyden_from(
+    field: &SkinningField,
+    bones: &[Mat4; NUM_JOINTS],
+    posed: Vec3,
+    x0: Vec3,
+    start: usize,
+    options: &RootOptions,
+) -> Option<Root> {
+    let mut x = x0;
+    // The field's weights at a point, their blend and the residual there (each point's
+    // weights are looked up once: the lookup is most of a step).
+    let eval = |x: Vec3| {
+        let w = field.weights_at(x);
+        let blend = blend_transform(bones, &w);
+        (w, blend, blend.transform_point3(x) - posed)
+    };
+    let (mut w, blend, mut g) = eval(x);
     // Initial inverse Jacobian: the inverse of the blended linear part at the start point
     // (the derivative of the weights is neglected, as in SNARF's initialisation).
-    let a = Mat3::from_mat4(blend_transform(bones, &field.weights_at(x)));
+    let a = Mat3::from_mat4(blend);
     if a.determinant().abs() < 1e-8 {
         return None;
     }
@@ -113,14 +154,14 @@ fn broyden(
             return field.contains(x).then(|| Root {
                 canonical: x,
                 start_bone: start,
-                agreement: field.weights_at(x)[start],
+                agreement: w[start],
                 residual: r,
                 steps: step,
             });
         }
         let dx = -(j_inv * g);
         let x_new = x + dx;
-        let g_new = residual(x_new);
+        let (w_new, _, g_new) = eval(x_new);
         let dg = g_new - g;
         // "Good" Broyden update of the inverse Jacobian.
         let denom = dx.dot(j_inv * dg);
@@ -131,12 +172,13 @@ fn broyden(
         }
         x = x_new;
         g = g_new;
+        w = w_new;
     }
     let r = g.length();
     (r < options.tolerance && field.contains(x)).then(|| Root {
         canonical: x,
         start_bone: start,
-        agreement: field.weights_at(x)[start],
+        agreement: w[start],
         residual: r,
         steps: options.max_steps,
     })

@@ -7,6 +7,7 @@ pub mod integrity;
 pub mod io;
 mod marching_cubes;
 pub mod point_index;
+pub mod sdf_grid;
 pub mod signed_distance;
 pub mod smooth;
 pub mod topology;

@@ -40,6 +40,23 @@ impl SignedDistance {
         Some((if outside { h.distance } else { -h.distance }, h.point))
     }
 
+    /// The signed distance where the surface is within `reach` of `p` (else `None`), signed by
+    /// the vertex normals blended at the closest point: at an edge or a corner, where the
+    /// closest point is shared by faces looking different ways, the nearest face's normal (as
+    /// [`SignedDistance::at`] takes it) can call a point outside a sharp ridge inside.
+    pub fn within(&self, p: Vec3, reach: f32) -> Option<f32> {
+        let h = self.bvh.closest_point_within(p, reach)?;
+        let [a, b, c] = self.faces[h.face as usize].map(|i| i as usize);
+        let w =
+            super::barycentric(h.point, self.positions[a], self.positions[b], self.positions[c]);
+        let normal = w.x * self.vertex_normals[a]
+            + w.y * self.vertex_normals[b]
+            + w.z * self.vertex_normals[c];
+        let normal = normal.try_normalize().unwrap_or(self.face_normals[h.face as usize]);
+        let outside = (p - h.point).dot(normal) >= 0.0;
+        Some(if outside { h.distance } else { -h.distance })
+    }
+
     /// The offset of `p` from the mesh's *smooth* surface along that surface's normal, and the
     /// normal: the nearest face's point moved halfway onto its corners' tangent planes
     /// (Phong tessellation) and the corners' normals blended there. A flat face lies inside a curved

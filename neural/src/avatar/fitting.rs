@@ -232,6 +232,10 @@ pub(crate) fn fit_meta(
     };
     let refine = matches!(init, Init::MetaLearned(_)) && refine_options.enabled;
     let mut refiner = refine.then(|| PoseRefiner::new(capture, refine_options));
+    // The fit reads no round's residual after its steps: not measured.
+    if let Some(r) = refiner.as_mut() {
+        r.measure_after = false;
+    }
     if let (Some(r), Some(t)) = (refiner.as_mut(), trace) {
         r.trace_against(t);
     }

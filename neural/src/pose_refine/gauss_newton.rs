@@ -27,19 +27,18 @@ impl PoseRefiner<'_> {
     ) -> RoundReport {
         let field = &self.capture.field;
         let frame = &self.frames[k];
-        let mut idx = self.subset(
-            k,
-            if points == RoundPoints::All {
-                self.options.points_per_frame
-            } else {
-                self.options.prealign_points_per_frame
-            },
-        );
-        if points != RoundPoints::All {
-            idx.retain(|&i| points.takes(&field.weights_at(frame.canonical[i])));
-        }
-        // The skinning weights of the round's points, held fixed.
-        let weights: Vec<_> = idx.iter().map(|&i| field.weights_at(frame.canonical[i])).collect();
+        let count = if points == RoundPoints::All {
+            self.options.points_per_frame
+        } else {
+            self.options.prealign_points_per_frame
+        };
+        // The round's points and their skinning weights, held fixed.
+        let (idx, weights): (Vec<usize>, Vec<_>) = self
+            .subset(k, count)
+            .into_iter()
+            .map(|i| (i, field.weights_at(frame.canonical[i])))
+            .filter(|(_, w)| points.takes(w))
+            .unzip();
         let posed: Vec<Vec3> = idx.iter().map(|&i| frame.posed[i]).collect();
         let mut before = None;
         for _ in 0..iterations.max(1) {
@@ -53,7 +52,8 @@ impl PoseRefiner<'_> {
             let mean_abs = f.iter().map(|v| v.abs()).sum::<f32>() / f.len().max(1) as f32;
             before.get_or_insert(mean_abs);
             let huber = self.options.huber;
-            // Normal equations of the weighted residuals, summed over the points in parallel.
+            // Normal equations of the weighted residuals, summed over the points in parallel;
+            // only the lower triangle of `h`, the one `cholesky_solve` reads.
             let (h, b) = (0..xc.len())
                 .into_par_iter()
                 .fold(
@@ -67,11 +67,19 @@ impl PoseRefiner<'_> {
                         let a3 = Mat3::from_mat4(blends[p]);
                         let v = -(a3.inverse().transpose() * g[p]);
                         let cols = skinned_point_jacobian(&bones, &weights[p], xc[p]);
-                        let row: Vec<f64> = cols.iter().map(|c| v.dot(*c) as f64).collect();
-                        let nz: Vec<usize> = (0..POSE_DOF).filter(|&i| row[i] != 0.0).collect();
-                        for &i in &nz {
+                        let row: [f64; POSE_DOF] = std::array::from_fn(|i| v.dot(cols[i]) as f64);
+                        let mut nz = [0usize; POSE_DOF];
+                        let mut count = 0;
+                        for (i, value) in row.iter().enumerate() {
+                            if *value != 0.0 {
+                                nz[count] = i;
+                                count += 1;
+                            }
+                        }
+                        let nz = &nz[..count];
+                        for (k, &i) in nz.iter().enumerate() {
                             b[i] += rho as f64 * row[i] * r as f64;
-                            for &j in &nz {
+                            for &j in &nz[..=k] {
                                 h[i * POSE_DOF + j] += rho as f64 * row[i] * row[j];
                             }
                         }
@@ -93,7 +101,11 @@ impl PoseRefiner<'_> {
                 .for_each(|(_, v)| *v = 0.0);
             self.frames[k].correction.add(&step);
         }
-        // The residual after the last step (one more evaluation).
+        // The residual after the last step (one more evaluation), when it is asked for.
+        if !self.measure_after && self.lines.is_none() {
+            let before = before.unwrap_or(f32::NAN);
+            return RoundReport { residual_before: before, residual_after: f32::NAN };
+        }
         let frame = &self.frames[k];
         let bones = frame.correction.bones(&self.rest_joints, &frame.given);
         let xc: Vec<Vec3> = weights
@@ -147,8 +159,9 @@ impl PoseRefiner<'_> {
     }
 }
 
-/// Solve the symmetric positive definite system `h x = b` (row-major `n x n`) by Cholesky;
-/// `None` when it is not positive definite.
+/// Solve the symmetric positive definite system `h x = b` (row-major `n x n`, of which only
+/// the lower triangle, `h[i * n + j]` with `j <= i`, is read) by Cholesky; `None` when it is
+/// not positive definite.
 fn cholesky_solve(h: &[f64], b: &[f64], n: usize) -> Option<Vec<f64>> {
     let mut l = vec![0f64; n * n];
     for i in 0..n {

@@ -175,6 +175,9 @@ struct Frame {
     /// Depth points and normals (world, metres).
     posed: Vec<Vec3>,
     posed_normals: Vec<Vec3>,
+    /// Whether root finding found each depth point more than one root (all `true` when not
+    /// known): those are searched in full each round, the others solved from their root.
+    ambiguous: Vec<bool>,
     /// Their current canonical points (metres).
     canonical: Vec<Vec3>,
     /// The frame's outside constraints (world, metres) and their current canonical points:
@@ -184,7 +187,8 @@ struct Frame {
     shells_from: usize,
 }
 
-/// What one round did: the mean |SDF| of the round's points before and after (metres).
+/// What one round did: the mean |SDF| of the round's points before and after (metres; after:
+/// NaN when the refiner does not measure it, [`PoseRefiner::measure_after`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RoundReport {
     pub residual_before: f32,
@@ -202,6 +206,10 @@ pub struct PoseRefiner<'a> {
     /// Where the trace's lines go (`PoseTrace::lines`; none: the errors are not written).
     lines: Option<TraceLines>,
     rounds_done: usize,
+    /// Whether each round measures the residual after its last step (one more SDF evaluation
+    /// of every frame's points: a third of a round against the avatar's SDF). On by default; a
+    /// fit that reads no report turns it off (a trace measures it regardless).
+    pub measure_after: bool,
 }
 
 /// Which of a frame's points a Gauss-Newton round takes.
@@ -269,12 +277,18 @@ impl<'a> PoseRefiner<'a> {
                             .transform_point3(x)
                     })
                     .collect();
+                let ambiguous = if f.ambiguous.len() == f.points.len() {
+                    f.ambiguous.clone()
+                } else {
+                    vec![true; f.points.len()]
+                };
                 Frame {
                     given: f.params.clone(),
                     correction,
                     anchor: correction,
                     posed,
                     posed_normals,
+                    ambiguous,
                     canonical,
                     free_posed,
                     free_canonical,
@@ -290,6 +304,7 @@ impl<'a> PoseRefiner<'a> {
             truth: None,
             lines: None,
             rounds_done: 0,
+            measure_after: true,
         }
     }
 

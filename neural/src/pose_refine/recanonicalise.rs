@@ -9,29 +9,37 @@ use rayon::prelude::*;
 impl PoseRefiner<'_> {
     /// Frame `k`'s depth points canonicalised anew for its corrected pose, as the capture's
     /// were for the given one: root finding from the posed body's nearest bones, the root
-    /// nearest the rest body, the 2 cm reprojection filter. The fixed-point iterations of
+    /// nearest the rest body, the 2 cm reprojection filter. A point whose root was unambiguous
+    /// (`Frame::ambiguous`: one root, or every other root at least `NEAREST_TIE` farther from
+    /// the rest body) is solved from its current canonical point instead: the round's small
+    /// correction moves that root a little, and the search would pick it again (a point whose
+    /// warm start does not converge is searched in full). The fixed-point iterations of
     /// [`PoseRefiner::recanonicalise`] keep each point on the root it had under the given
     /// fitting; where that fitting chose another root (a skirt point between the thighs) the
     /// point stays there.
     pub(super) fn recanonicalise_fully(&mut self, k: usize) {
-        use avatar_core::canonical::{Root, RootOptions, canonicalize_points, choose_nearest};
+        use avatar_core::canonical::{RootOptions, RootPick, canonicalize_points_from};
         let capture = self.capture;
         let frame = &self.frames[k];
         let params = frame.correction.apply(&frame.given);
         let posed_body = capture.body.pose(&params);
-        let chooser = |roots: &[Root]| {
-            choose_nearest(roots, |x| capture.rest_sdf.at(x).map_or(f32::INFINITY, f32::abs))
-        };
-        let options = RootOptions::default();
-        let c = canonicalize_points(
+        let distance = |x: Vec3| capture.rest_sdf.at(x).map_or(f32::INFINITY, f32::abs);
+        let warm: Vec<Option<Vec3>> = frame
+            .canonical
+            .iter()
+            .zip(&frame.ambiguous)
+            .map(|(&x, &ambiguous)| (!ambiguous).then_some(x))
+            .collect();
+        let c = canonicalize_points_from(
             &capture.field,
             &posed_body.bones,
             &posed_body.vertices,
             &capture.body.weights,
             &frame.posed,
             &frame.posed_normals,
-            &options,
-            Some(&chooser),
+            &warm,
+            &RootOptions::default(),
+            RootPick::Nearest(&distance),
         );
         // A pose that loses most of the frame's points to the 2 cm filter is not trusted with
         // them: the points move by the fixed-point iterations instead.
@@ -42,6 +50,7 @@ impl PoseRefiner<'_> {
         frame.posed = c.source.iter().map(|&i| frame.posed[i]).collect();
         frame.posed_normals = c.source.iter().map(|&i| frame.posed_normals[i]).collect();
         frame.canonical = c.points;
+        frame.ambiguous = c.ambiguous;
         // The free-space samples and shells: the fixed-point iterations. Canonicalising them anew
         // too (those inside the body dropped, the shells drawn again) measured the same (quick
         // dress at 5 deg / 2 cm: Chamfer-L2 0.698 -> 0.699 cm) at twice the time.
