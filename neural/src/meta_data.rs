@@ -185,36 +185,43 @@ impl MetaData {
                 let rest = body.shaped_vertices(&betas);
                 let norm = Normalisation::from_body(&rest);
                 let rest_joints = body.regress_joints(&rest);
-                let (mut poses, mut pts, mut nrm) = (Vec::new(), Vec::new(), Vec::new());
-                if outfit.is_simulated() {
-                    let samples = simulated_samples(
+                // Each sample in metres (body space), then normalised like the captures.
+                let samples: Vec<OrientedSample> = if outfit.is_simulated() {
+                    simulated_samples(
                         body,
                         &template,
+                        &betas,
                         subject,
                         &train_clips,
                         config,
                         &mut rng,
-                    )?;
-                    for (mut params, p, n) in samples {
-                        pts.push(p.into_iter().map(|q| norm.to_unit(q)).collect());
-                        nrm.push(n);
-                        params.betas.clear();
-                        params.trans = Vec3::ZERO;
-                        poses.push(params);
-                    }
-                }
-                for _ in 0..config.poses_per_group * usize::from(!outfit.is_simulated()) {
-                    let mut params = all_poses[rng.random_range(0..all_poses.len())].clone();
-                    params.betas = betas.clone();
-                    params.trans = Vec3::ZERO;
-                    let bones = body.pose(&params).bones;
-                    let surface = canonical_surface(&template, &PoseFeatures::of(&bones), subject);
-                    let mesh = TriMesh::new(surface, template.faces.clone());
-                    let (p, n) =
-                        sample_surface_with_normals(&mesh, config.points_per_pose, &mut rng)?;
+                    )?
+                } else {
+                    (0..config.poses_per_group)
+                        .map(|_| {
+                            let mut params =
+                                all_poses[rng.random_range(0..all_poses.len())].clone();
+                            params.betas = betas.clone();
+                            params.trans = Vec3::ZERO;
+                            let bones = body.pose(&params).bones;
+                            let surface =
+                                canonical_surface(&template, &PoseFeatures::of(&bones), subject);
+                            let mesh = TriMesh::new(surface, template.faces.clone());
+                            let (p, n) = sample_surface_with_normals(
+                                &mesh,
+                                config.points_per_pose,
+                                &mut rng,
+                            )?;
+                            Ok((params, p, n))
+                        })
+                        .collect::<Result<_>>()?
+                };
+                let (mut poses, mut pts, mut nrm) = (Vec::new(), Vec::new(), Vec::new());
+                for (mut params, p, n) in samples {
                     pts.push(p.into_iter().map(|q| norm.to_unit(q)).collect());
                     nrm.push(n);
                     params.betas.clear();
+                    params.trans = Vec3::ZERO;
                     poses.push(params);
                 }
                 let group = Group {
@@ -383,6 +390,7 @@ impl MetaData {
         }
     }
 }
+
 /// Training clips a simulated outfit's group is simulated through (each from its first frame):
 /// a few, so that the garment's lag and swing come from more than one motion.
 const SIMULATED_CLIPS_PER_GROUP: usize = 3;
@@ -390,7 +398,7 @@ const SIMULATED_CLIPS_PER_GROUP: usize = 3;
 /// One pose and its canonical points and unit normals (metres, body space).
 type OrientedSample = (BodyParams, Vec<Vec3>, Vec<Vec3>);
 
-/// A simulated outfit's samples for one subject: `config.poses_per_group` frames drawn from
+/// A simulated outfit's samples for one subject (shaped by `betas`): `config.poses_per_group` frames drawn from
 /// a few training clips, the garment simulated through each clip up to its last drawn frame,
 /// each frame's clothed surface sampled into oriented points and canonicalized by inverse
 /// skinning with the subject's diffused field (metres, body space), as a scan's points are.
@@ -399,6 +407,7 @@ type OrientedSample = (BodyParams, Vec<Vec3>, Vec<Vec3>);
 fn simulated_samples(
     body: &BodyModel,
     template: &ClothedTemplate,
+    betas: &[f32],
     subject: u64,
     train_clips: &[MotionClip],
     config: &MetaDataConfig,
@@ -406,8 +415,7 @@ fn simulated_samples(
 ) -> Result<Vec<OrientedSample>> {
     use avatar_core::canonical::{Canonicalizer, FieldOptions};
     use avatar_core::synth::cloth::{ClothConfig, simulate_garment, with_garment};
-    let betas = subject_betas(body, subject);
-    let canonicalizer = Canonicalizer::new(body, &betas, &FieldOptions::default(), None)?;
+    let canonicalizer = Canonicalizer::new(body, betas, &FieldOptions::default(), None)?;
     let clips: Vec<&MotionClip> = train_clips.iter().filter(|c| !c.frames.is_empty()).collect();
     if clips.is_empty() {
         return Err(Error::invalid("no training clip to simulate a garment through"));
@@ -432,7 +440,7 @@ fn simulated_samples(
         let clip = clips[c];
         let poses: Vec<BodyParams> = clip.frames[..=last]
             .iter()
-            .map(|p| avatar_core::eval::truth::query(p, &betas))
+            .map(|p| avatar_core::eval::truth::query(p, betas))
             .collect();
         let track =
             simulate_garment(body, template, &poses, clip.fps, subject, ClothConfig::default());
