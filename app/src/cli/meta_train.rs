@@ -70,13 +70,15 @@ pub struct Args {
     hyper_outer_lr_encoder: Option<f64>,
     #[arg(long)]
     hyper_outer_lr_sdf: Option<f64>,
-    /// Alg. 1 tasks (posed frames) per outer iteration.
-    #[arg(long, default_value_t = 3)]
-    sdf_meta_batch: usize,
-    /// Alg. 2 tasks per outer iteration, their updates averaged (1: the paper's Reptile; give
-    /// a data-parallel run at least one per rank).
-    #[arg(long, default_value_t = 1)]
-    hyper_meta_batch: usize,
+    /// Alg. 1 tasks (posed frames) per outer iteration (default: 3, or one per rank when a
+    /// data-parallel run has more ranks).
+    #[arg(long)]
+    sdf_meta_batch: Option<usize>,
+    /// Alg. 2 tasks per outer iteration, their updates averaged (default: 1, the paper's
+    /// Reptile and the shipped model's, or one per rank when a data-parallel run has more
+    /// ranks). Give it to make runs on different numbers of ranks the same run.
+    #[arg(long)]
+    hyper_meta_batch: Option<usize>,
     #[command(flatten)]
     collective: super::collective::CollectiveArgs,
     #[command(flatten)]
@@ -99,7 +101,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.data.display()
         );
     }
-    if args.hyper_meta_batch == 0 || args.sdf_meta_batch == 0 {
+    if args.hyper_meta_batch == Some(0) || args.sdf_meta_batch == Some(0) {
         bail!("--sdf-meta-batch and --hyper-meta-batch must be at least 1");
     }
     args.collective.transport()?;
@@ -158,12 +160,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         sdf_iterations: args.sdf_iterations,
         hyper_iterations: args.hyper_iterations,
         sdf_outer_lr: args.sdf_outer_lr,
-        sdf_meta_batch: args.sdf_meta_batch,
-        hyper_meta_batch: args.hyper_meta_batch,
         seed: args.seed,
         compute,
         ..MetaOptions::default()
     };
+    options.sdf_meta_batch =
+        meta_batch(args.sdf_meta_batch, options.sdf_meta_batch, collective.world());
+    options.hyper_meta_batch =
+        meta_batch(args.hyper_meta_batch, options.hyper_meta_batch, collective.world());
     let inner = &mut options.hyper_inner;
     inner.lr_heads = args.hyper_inner_lr_heads.unwrap_or(inner.lr_heads);
     inner.lr_encoder = args.hyper_inner_lr_encoder.unwrap_or(inner.lr_encoder);
@@ -178,12 +182,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("meta-train: Alg. 1 skipped, static meta-SDF from {}", from.display());
     }
     eprintln!(
-        "meta-train: {} preset ({} hypernetwork parameters), {} samples, {} + {} iterations, output {}",
+        "meta-train: {} preset ({} hypernetwork parameters), {} samples, {} + {} iterations of {} + {} tasks on {} rank(s), output {}",
         args.preset,
         config.num_params(),
         data.len(),
         options.sdf_iterations,
         options.hyper_iterations,
+        options.sdf_meta_batch,
+        options.hyper_meta_batch,
+        collective.world(),
         out.display()
     );
     if collective.world() > options.sdf_meta_batch.min(options.hyper_meta_batch) {
@@ -222,6 +229,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         false => println!("rank {} done; rank 0 wrote {}", collective.rank(), path.display()),
     }
     Ok(())
+}
+
+/// Tasks an outer iteration: the one given, else the default raised to one task per rank, so
+/// that by default every rank of a data-parallel run has work (weak scaling). An explicit
+/// batch keeps the run the same on any number of ranks.
+fn meta_batch(given: Option<usize>, default: usize, world: usize) -> usize {
+    given.unwrap_or(default.max(world))
 }
 
 /// The data to train on: own data (found, checked, its samples prepared or reused from
@@ -296,4 +310,23 @@ fn load_data(args: &Args, own: bool) -> anyhow::Result<Option<MetaData>> {
         MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?
     };
     Ok(Some(data))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::meta_batch;
+
+    #[test]
+    fn the_default_meta_batch_gives_every_rank_a_task() {
+        // One process keeps the shipped model's batches (3 Alg. 1 tasks, 1 Alg. 2 task).
+        assert_eq!(meta_batch(None, 3, 1), 3);
+        assert_eq!(meta_batch(None, 1, 1), 1);
+        // More ranks than tasks: one task per rank.
+        assert_eq!(meta_batch(None, 1, 4), 4);
+        assert_eq!(meta_batch(None, 3, 2), 3);
+        assert_eq!(meta_batch(None, 3, 8), 8);
+        // A batch given is kept on any number of ranks.
+        assert_eq!(meta_batch(Some(2), 1, 8), 2);
+        assert_eq!(meta_batch(Some(5), 3, 1), 5);
+    }
 }
