@@ -69,3 +69,63 @@ fn bad_arguments_are_named() {
     assert!(e.contains("three numbers"), "{e}");
     assert!(!dir.path().join("x.glb").exists(), "nothing written");
 }
+
+/// Inputs beyond what is supported are refused before any work, naming the file and the
+/// limit: a take over the supported length, a frame rate out of range, a capture too large to
+/// hold in memory.
+#[test]
+fn limits_are_said_up_front_naming_the_file() {
+    use avatar_core::motion::bvh_write::{long_take, to_bvh_string};
+    let dir = tempfile::tempdir().unwrap();
+    let fails = |args: &[&std::ffi::OsStr]| {
+        let o = studio().args(args).output().unwrap();
+        assert!(!o.status.success(), "{args:?} succeeded");
+        String::from_utf8_lossy(&o.stderr).to_string()
+    };
+    let glb = dir.path().join("x.glb");
+    let take = to_bvh_string(&long_take("take", 4, 120.0).unwrap());
+    assert!(take.contains("Frames: 4"), "{take}");
+    let huge = dir.path().join("huge.bvh");
+    std::fs::write(&huge, take.replace("Frames: 4", "Frames: 100001")).unwrap();
+    let e = fails(&[
+        "export".as_ref(),
+        "--motion".as_ref(),
+        huge.as_os_str(),
+        "--out".as_ref(),
+        glb.as_os_str(),
+    ]);
+    assert!(e.contains("huge.bvh") && e.contains("100000"), "{e}");
+    let ok = dir.path().join("take.bvh");
+    std::fs::write(&ok, &take).unwrap();
+    let e = fails(&[
+        "export".as_ref(),
+        "--motion".as_ref(),
+        ok.as_os_str(),
+        "--fps".as_ref(),
+        "500".as_ref(),
+        "--out".as_ref(),
+        glb.as_os_str(),
+    ]);
+    assert!(e.contains("take.bvh") && e.contains("500") && e.contains("240"), "{e}");
+    assert!(!glb.exists(), "nothing written");
+
+    // 10 frames of 4096 x 4096 could hold 4.4 GiB of points: refused before a depth image is
+    // read (there is none here).
+    let capture = dir.path().join("big");
+    std::fs::create_dir_all(&capture).unwrap();
+    let demo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/demo/capture.json");
+    let mut m: serde_json::Value = serde_json::from_slice(&std::fs::read(demo).unwrap()).unwrap();
+    m["intrinsics"] = serde_json::json!({
+        "fx": 3000.0, "fy": 3000.0, "cx": 2048.0, "cy": 2048.0, "width": 4096, "height": 4096
+    });
+    let first = m["frames"][0].clone();
+    m["frames"] = (0..10).map(|_| first.clone()).collect();
+    std::fs::write(capture.join("capture.json"), serde_json::to_vec(&m).unwrap()).unwrap();
+    let ply = dir.path().join("c.ply");
+    let e =
+        fails(&["canonicalize".as_ref(), capture.as_os_str(), "--out".as_ref(), ply.as_os_str()]);
+    assert!(
+        e.contains("capture.json") && e.contains("too large to open whole") && e.contains("4 GiB"),
+        "{e}"
+    );
+}

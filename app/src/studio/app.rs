@@ -57,7 +57,7 @@ impl StudioApp {
             tasks: Tasks::default(),
             capture: None,
             capture_source: None,
-            thumbnails: Vec::new(),
+            frame_store: Default::default(),
             flat,
             body_rest: None,
             avatar: None,

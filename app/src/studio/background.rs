@@ -18,7 +18,18 @@ impl StudioApp {
             let opening = self.tasks.capture.take().expect("polled above");
             let source = opening.source;
             match r {
-                Ok(c) => self.capture_loaded(source, c, opening.with_project),
+                Ok(c) => {
+                    if self.options.timing {
+                        eprintln!(
+                            "timing: capture {} ({} frames, {} read) opened in {:.3} s",
+                            c.dir.display(),
+                            c.frames.len(),
+                            c.first_reads.len(),
+                            opening.started.elapsed().as_secs_f64()
+                        );
+                    }
+                    self.capture_loaded(source, c, opening.with_project)
+                }
                 Err(e) => {
                     let what = if source == DEMO {
                         "the demo capture".to_string()
@@ -79,9 +90,24 @@ impl StudioApp {
             None => {}
         }
         self.poll_pose();
+        self.poll_frames();
     }
 
-    fn capture_loaded(&mut self, source: String, capture: LoadedCapture, with_project: bool) {
+    /// Take the frames read on demand; in the depth view, ask for the shown frame's points.
+    fn poll_frames(&mut self) {
+        if self.frame_store.poll(&self.ctx) {
+            self.scene_dirty = true;
+        }
+        if let Some(e) = self.frame_store.failed.take() {
+            self.fail(format!("Could not read the capture's frames: {e}"));
+        }
+        if self.view.mode == crate::studio::project::ViewMode::Capture && self.capture.is_some() {
+            // Held, or asked for: the scene shows it once it is read.
+            let _ = self.frame_store.points(self.view.selected_frame);
+        }
+    }
+
+    fn capture_loaded(&mut self, source: String, mut capture: LoadedCapture, with_project: bool) {
         // Another capture is another person: the avatar of the one before is closed (a
         // project's capture comes with its own avatar; reopening the same capture keeps it).
         let closed = if with_project || self.capture_source.as_deref() == Some(source.as_str()) {
@@ -89,22 +115,16 @@ impl StudioApp {
         } else {
             self.close_avatar()
         };
-        self.thumbnails = capture
-            .frames
-            .iter()
-            .map(|f| {
-                f.thumbnail.clone().map(|img| {
-                    (
-                        self.ctx.load_texture(
-                            format!("thumb-{}-{}", capture.name, f.index),
-                            img.clone(),
-                            egui::TextureOptions::LINEAR,
-                        ),
-                        Arc::new(img),
-                    )
-                })
-            })
-            .collect();
+        // The previous capture's frames (and their reading thread) go first.
+        self.frame_store = Default::default();
+        self.frame_store = crate::studio::capture_frames::FrameStore::new(
+            &self.ctx,
+            &capture.name,
+            capture.frames.len(),
+            capture.source.clone(),
+            std::mem::take(&mut capture.first_reads),
+            self.wake(),
+        );
         self.body_rest = Some(Arc::new(body_canonical(&capture.body, &capture.betas)));
         match self.pending_view.take() {
             Some(v) => {
@@ -114,13 +134,21 @@ impl StudioApp {
                 self.framed = true;
             }
             None => {
-                self.view.selected_frame = capture.first_usable().unwrap_or(0);
+                self.view.selected_frame = capture.first_usable;
                 self.framed = false;
             }
         }
-        let flagged = capture.flagged();
+        let (checked, usable) = (self.frame_store.checked(), self.frame_store.usable());
+        let flagged = checked - usable;
+        let counts = if checked == capture.frames.len() {
+            format!("{usable} usable")
+        } else {
+            format!(
+                "{usable} of the {checked} checked usable, the others checked as they are shown"
+            )
+        };
         let msg = format!(
-            "Opened {}: {} frames, {} usable{}",
+            "Opened {}: {} frames, {counts}{}",
             if source == DEMO {
                 "the demo capture".to_string()
             } else if crate::studio::scan::is_scan(std::path::Path::new(&source)) {
@@ -129,7 +157,6 @@ impl StudioApp {
                 capture.dir.display().to_string()
             },
             capture.frames.len(),
-            capture.usable(),
             if flagged > 0 { format!(", {flagged} flagged") } else { String::new() }
         );
         match closed {

@@ -17,6 +17,7 @@ pub mod avatar_job;
 mod background;
 pub mod bench;
 pub mod camera;
+pub mod capture_frames;
 pub mod capture_view;
 pub mod commands;
 pub mod demo;

@@ -66,10 +66,13 @@ impl StudioApp {
         let body = self.body();
         match self.view.mode {
             ViewMode::Capture => {
-                if let Some(f) =
-                    self.capture.as_ref().and_then(|c| c.frames.get(self.view.selected_frame))
+                let i = self.view.selected_frame;
+                if let Some(f) = self.capture.as_ref().and_then(|c| c.frames.get(i))
+                    && self.frame_store.problem(i).is_none()
                 {
-                    s.add_lit_points(&f.points, &f.normals, [0.35, 0.85, 0.95], 1.0);
+                    if let Some(p) = self.frame_store.held_points(i) {
+                        s.add_lit_points(&p.points, &p.normals, [0.35, 0.85, 0.95], 1.0);
+                    }
                     if let Some(params) = &f.params {
                         // The fitting the avatar refined this frame to, when it did.
                         let params = self.refined_fitting(params).unwrap_or(params);

@@ -37,7 +37,8 @@ impl StudioApp {
                 load_capture(&dir)
             },
         );
-        self.tasks.capture = Some(CaptureOpening { source, with_project, task });
+        let started = std::time::Instant::now();
+        self.tasks.capture = Some(CaptureOpening { source, with_project, task, started });
     }
 
     /// Close the avatar and all that was made of it or for it: a running fit (cancelled), its

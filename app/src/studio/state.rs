@@ -96,6 +96,8 @@ pub struct CaptureOpening {
     /// Opened by a project, with its avatar: the avatar is not closed when it opens.
     pub with_project: bool,
     pub task: Task<LoadedCapture>,
+    /// When the opening began (`--timing`).
+    pub started: Instant,
 }
 
 /// The background tasks the studio waits for, by name (fit, pose and bake have their own
@@ -124,8 +126,8 @@ pub struct StudioApp {
     pub capture: Option<Arc<LoadedCapture>>,
     /// "demo" or a folder path.
     pub capture_source: Option<String>,
-    /// Each frame's thumbnail: egui's texture and its pixels (for `viewport::flat`).
-    pub(crate) thumbnails: Vec<Option<(egui::TextureHandle, Arc<egui::ColorImage>)>>,
+    /// The capture's frames as read on demand: thumbnails, points, checks (bounded).
+    pub frame_store: crate::studio::capture_frames::FrameStore,
     /// The panels' fill and the thumbnails are painted by `viewport::flat` (a software
     /// renderer), not by egui.
     pub(crate) flat: bool,
@@ -223,6 +225,7 @@ impl StudioApp {
             || self.bakes.baking()
             || self.pose_needed
             || self.poser.busy()
+            || self.frame_store.busy()
     }
 
     pub fn body(&self) -> Arc<BodyModel> {

@@ -14,10 +14,10 @@ fn frames_with_problems_are_flagged_with_the_reason() {
     settle(&mut h, "opening a capture with a bad frame");
     let c = h.state().capture.clone().expect("the capture opens");
     assert!(h.state().error.is_none());
-    let flagged: Vec<_> = c.frames.iter().filter(|f| f.problem.is_some()).collect();
-    assert_eq!(flagged.len(), 1);
-    assert_eq!(flagged[0].index, 3);
-    assert_eq!(c.usable(), c.frames.len() - 1);
+    let store = &h.state().frame_store;
+    let flagged: Vec<_> = store.flagged().map(|(i, _)| i).collect();
+    assert_eq!(flagged, [3]);
+    assert_eq!(store.usable(), c.frames.len() - 1);
     // The reason is listed in the capture panel, naming the file.
     let listed = h.query_all_by_label_contains("frame 3 (000003.png)").count();
     assert_eq!(listed, 1, "the flagged frame is listed with its file");

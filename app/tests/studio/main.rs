@@ -74,7 +74,8 @@ fn demo_fit_and_pose_snapshots() {
     {
         let app = h.state();
         let c = app.capture.as_ref().expect("the demo capture is open");
-        assert!(c.usable() >= 8, "the demo has usable frames");
+        assert_eq!(app.frame_store.checked(), c.frames.len(), "a short capture is checked whole");
+        assert!(app.frame_store.usable() >= 8, "the demo has usable frames");
         assert!(app.error.is_none(), "{:?}", app.error);
         assert!(app.posed.is_some(), "the body is posed");
     }
@@ -324,5 +325,6 @@ mod capture_switch;
 mod dialogs_and_scans;
 mod face;
 mod jobs_and_playback;
+mod long_capture;
 mod long_take;
 mod timeline;

@@ -72,11 +72,17 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
         })
         .strong(),
     );
+    let (checked, usable) = (app.frame_store.checked(), app.frame_store.usable());
+    let flagged_count = checked - usable;
+    let usable = if checked == c.frames.len() {
+        format!("{usable} usable")
+    } else {
+        format!("{usable} of {checked} checked usable")
+    };
     ui.label(
         egui::RichText::new(format!(
-            "{} frames · {} usable · {} × {} px · {:.0} fps",
+            "{} frames · {usable} · {} × {} px · {:.0} fps",
             c.frames.len(),
-            c.usable(),
             c.manifest.intrinsics.width,
             c.manifest.intrinsics.height,
             c.fps
@@ -84,9 +90,9 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
         .small()
         .weak(),
     );
-    if c.flagged() > 0 {
+    if flagged_count > 0 {
         ui.label(
-            egui::RichText::new(format!("{} frames flagged", c.flagged())).small().color(WARN),
+            egui::RichText::new(format!("{flagged_count} frames flagged")).small().color(WARN),
         );
     }
     ui.add_space(4.0);
@@ -102,9 +108,16 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
         for (i, f) in c.frames.iter().enumerate() {
             let selected = app.view.selected_frame == i;
             let (rect, resp) = ui.allocate_exact_size(egui::vec2(size, size), egui::Sense::click());
+            if (i + 1) % cols == 0 {
+                ui.end_row();
+            }
+            if !ui.is_rect_visible(rect) {
+                continue; // off screen: nothing read, nothing drawn
+            }
             let painter = ui.painter_at(rect);
             let mut covered = false; // by an opaque square image: only the box's rim shows
-            if let Some(Some((tex, pixels))) = app.thumbnails.get(i) {
+            let problem = app.frame_store.problem(i).map(str::to_string);
+            if let Some((tex, pixels)) = app.frame_store.thumbnail(i) {
                 let img_size = tex.size_vec2();
                 let scale = (size - 4.0) / img_size.x.max(img_size.y);
                 let r = egui::Rect::from_center_size(rect.center(), img_size * scale);
@@ -113,7 +126,7 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
                     flat_images.push(crate::studio::viewport::flat::FlatImage {
                         rect: r,
                         id: tex.id(),
-                        pixels: pixels.clone(),
+                        pixels,
                     });
                 } else {
                     painter.image(
@@ -137,7 +150,7 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
             } else {
                 egui::Shape::rect_filled(rect, 3.0, box_color)
             });
-            let border = if f.problem.is_some() {
+            let border = if problem.is_some() {
                 egui::Stroke::new(2.0, ERROR)
             } else if selected {
                 egui::Stroke::new(2.0, ACCENT)
@@ -152,7 +165,7 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
                 egui::FontId::monospace(10.0),
                 egui::Color32::from_white_alpha(200),
             );
-            if f.problem.is_some() {
+            if problem.is_some() {
                 painter.text(
                     rect.right_top() + egui::vec2(-4.0, 3.0),
                     egui::Align2::RIGHT_TOP,
@@ -161,15 +174,13 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
                     ERROR,
                 );
             }
-            let resp = match &f.problem {
-                Some(p) => resp.on_hover_text(format!("Frame {} is not used: {p}", f.index)),
-                None => resp.on_hover_text(format!("Frame {}: {} points", f.index, f.points.len())),
+            let resp = match (&problem, app.frame_store.verdict(i)) {
+                (Some(p), _) => resp.on_hover_text(format!("Frame {} is not used: {p}", f.index)),
+                (None, Some(Ok(n))) => resp.on_hover_text(format!("Frame {}: {n} points", f.index)),
+                (None, _) => resp.on_hover_text(format!("Frame {}: being read", f.index)),
             };
             if resp.clicked() {
                 out.push(Command::SelectFrame(i));
-            }
-            if (i + 1) % cols == 0 {
-                ui.end_row();
             }
         }
     });
@@ -180,15 +191,18 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
             crate::studio::viewport::flat::images(grid_painter.clip_rect(), flat_images),
         );
     }
-    let flagged: Vec<_> = c
-        .frames
-        .iter()
-        .filter_map(|f| f.problem.as_ref().map(|p| (f.index, f.file.clone(), p.clone())))
+    let flagged: Vec<_> = app
+        .frame_store
+        .flagged()
+        .filter_map(|(i, p)| c.frames.get(i).map(|f| (i, f.file.clone(), p.to_string())))
         .collect();
     if !flagged.is_empty() {
         ui.add_space(6.0);
         style::heading(ui, "Flagged frames");
-        for (i, file, p) in flagged {
+        // A long capture's list is cut (the thumbnails show every flagged frame).
+        const LISTED: usize = 50;
+        let more = flagged.len().saturating_sub(LISTED);
+        for (i, file, p) in flagged.into_iter().take(LISTED) {
             ui.label(
                 egui::RichText::new(format!(
                     "frame {i} ({}): {p}",
@@ -197,6 +211,9 @@ pub fn capture_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comma
                 .small()
                 .color(WARN),
             );
+        }
+        if more > 0 {
+            ui.label(egui::RichText::new(format!("and {more} more")).small().color(WARN));
         }
     }
 }

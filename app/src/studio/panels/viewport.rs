@@ -97,9 +97,8 @@ pub fn viewport_panel(app: &mut StudioApp, ui: &mut egui::Ui, out: &mut Vec<Comm
     if app.scene.is_empty() || (app.scene.indices.is_empty() && app.scene.points.is_empty()) {
         let flagged = (app.view.mode == ViewMode::Capture)
             .then(|| {
-                app.capture.as_ref().and_then(|c| c.frames.get(app.view.selected_frame)).and_then(
-                    |f| f.problem.as_ref().map(|p| format!("Frame {} is not used: {p}", f.index)),
-                )
+                let i = app.view.selected_frame;
+                app.frame_store.problem(i).map(|p| format!("Frame {i} is not used: {p}"))
             })
             .flatten();
         let msg = if app.loading().is_some() {
