@@ -72,7 +72,6 @@ fn training_configs_refuse_values_by_name() {
         "learning_rate",
         "above 0",
     );
-    refused(&FitOptions { free_space: 3000, ..Default::default() }, "free_space", "off_surface");
     let h = HyperFitOptions::default();
     refused(&HyperFitOptions { steps: 0, ..h.clone() }, "steps", "at least 1");
     refused(&HyperFitOptions { poses_per_step: 0, ..h.clone() }, "poses_per_step", "at least 1");

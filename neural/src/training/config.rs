@@ -2,7 +2,7 @@
 //! step needs one, rates and weights finite and not negative, and the options inside them.
 
 use crate::config::{Check, at_least, non_negative, positive};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::training::fit::FitOptions;
 use crate::training::hyper_fit::HyperFitOptions;
 use crate::training::loss::IgrWeights;
@@ -19,22 +19,12 @@ impl Check for IgrWeights {
     }
 }
 
-/// `part` (free-space points) of `whole` (off-surface points) a step.
-fn at_most(option: &'static str, part: usize, whole_name: &str, whole: usize) -> Result<()> {
-    if part <= whole {
-        Ok(())
-    } else {
-        Err(Error::option(option, &part, format!("at most {whole_name} ({whole})")))
-    }
-}
-
 impl Check for FitOptions {
     fn check(&self) -> Result<()> {
         at_least("steps", self.steps, 1)?;
         positive("learning_rate", self.learning_rate)?;
         at_least("batch", self.batch, 1)?;
         at_least("off_surface", self.off_surface, 1)?;
-        at_most("free_space", self.free_space, "off_surface", self.off_surface)?;
         positive("near_sigma", self.near_sigma as f64)?;
         self.weights.check()?;
         non_negative("prior_weight", self.prior_weight as f64)
@@ -51,12 +41,6 @@ impl Check for HyperFitOptions {
         at_least("poses_per_step", self.poses_per_step, 1)?;
         at_least("surface_per_pose", self.surface_per_pose, 1)?;
         at_least("off_per_pose", self.off_per_pose, 1)?;
-        at_most(
-            "free_space_per_pose",
-            self.free_space_per_pose,
-            "off_per_pose",
-            self.off_per_pose,
-        )?;
         positive("near_sigma", self.near_sigma as f64)?;
         self.weights.check()?;
         non_negative("prior_weight", self.prior_weight as f64)?;
