@@ -7,7 +7,7 @@
 //! mpirun -np 2 --mca pml ob1 --mca btl self,tcp --mca btl_tcp_if_include lo \
 //!     $CARGO_TARGET_DIR/debug/examples/allreduce_timing 758970 50
 //! ```
-use avatar_neural::collective::{Collective, Transport};
+use avatar_neural::training::collective::{Collective, Transport};
 use std::time::Instant;
 
 fn main() {

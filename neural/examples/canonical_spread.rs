@@ -5,7 +5,7 @@
 //! clothed surface at the zero pose (the canonical clothing, panels hanging).
 use avatar_core::canonical::FieldCache;
 use avatar_core::mesh::bvh::Bvh;
-use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::data::capture_points::CapturePoints;
 use std::path::PathBuf;
 
 /// Where these runs cache skinning fields (a fixed folder under the temporary directory).

@@ -34,7 +34,7 @@ fn main() {
         t.elapsed().as_secs_f64()
     );
     let scale = avatar.header.normalisation.metres_per_unit();
-    let on_surface = avatar_neural::siren_eval::PROJECTED * scale;
+    let on_surface = avatar_neural::model::siren_eval::PROJECTED * scale;
     let frames: Vec<usize> =
         (0..count).map(|i| i * (clip.len() - 1) / (count - 1).max(1)).collect();
     let mut time = [0f64; 6];

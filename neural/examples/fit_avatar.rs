@@ -10,7 +10,7 @@
 
 use avatar_core::canonical::FieldCache;
 use avatar_neural::avatar::{AvatarFit, FitEvent, FitKind, fit_avatar};
-use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::data::capture_points::CapturePoints;
 use avatar_neural::{HyperFitOptions, Init, MetaModel};
 
 fn main() -> avatar_neural::Result<()> {
@@ -44,7 +44,7 @@ fn main() -> avatar_neural::Result<()> {
         {
             println!("step {step}: loss {loss:.4}");
         }
-    });
+    })?;
     avatar.save(out)?;
     println!("{} frames, {} points: saved {out}", report.frames, report.points);
     Ok(())

@@ -3,8 +3,8 @@
 //! Prints seconds per step and the final loss; with `cpu` it is the same fit as `avatar-studio
 //! fit`, so the two devices can be compared side by side.
 use avatar_core::canonical::FieldCache;
-use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::compute::Compute;
+use avatar_neural::data::capture_points::CapturePoints;
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaAvatar, MetaModel};
 use std::time::Instant;
 
@@ -55,7 +55,7 @@ fn main() {
                 betas: avatar.header.betas.clone(),
                 ..Default::default()
             },
-            64,
+            avatar_neural::avatar::MeshResolution::new(64).expect("within the bounds"),
         )
         .expect("meshing");
     println!("canonical mesh at 64: {} vertices", mesh.positions.len());

@@ -3,8 +3,8 @@
 //! -p avatar-neural --example kernel_rate [reps]`. Each line times every path back to back,
 //! timed by the thread's own CPU time (/proc/thread-self/schedstat), so other jobs on the
 //! machine slow it less than they slow the wall clock.
-use avatar_neural::train::gemm::{Epilogue, Mat, gemm_then_with};
-use avatar_neural::train::{KernelPath, kernel_name_of};
+use avatar_neural::training::step::gemm::{Epilogue, Mat, gemm_then_with};
+use avatar_neural::training::step::{KernelPath, kernel_name_of};
 
 /// This thread's time on a CPU in seconds (Linux; the wall clock elsewhere).
 fn thread_seconds() -> f64 {

@@ -4,7 +4,7 @@
 //! refinement), nofree (no free-space nor shell samples, no refinement).
 use avatar_core::canonical::FieldCache;
 use avatar_neural::avatar::{AvatarFit, FitKind, fit_avatar};
-use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::data::capture_points::CapturePoints;
 use avatar_neural::{HyperFitOptions, Init, MetaModel};
 
 fn main() -> avatar_neural::Result<()> {
@@ -79,7 +79,7 @@ fn main() -> avatar_neural::Result<()> {
         trace: None,
     };
     let t = std::time::Instant::now();
-    let (avatar, report) = fit_avatar(&capture, &fit, &mut |_| {});
+    let (avatar, report) = fit_avatar(&capture, &fit, &mut |_| {})?;
     avatar.save(out)?;
     println!(
         "{variant}: {} frames, {} points, {:.0} s: {out}",

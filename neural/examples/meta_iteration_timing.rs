@@ -9,9 +9,9 @@
 //! RAYON_NUM_THREADS=1 $E /tmp/md /tmp/one 12 12 4 2                          # 1 process
 //! mpirun -np 2 -x RAYON_NUM_THREADS=1 --mca btl self,tcp $E /tmp/md /tmp/two 12 12 4 2
 //! ```
-use avatar_neural::collective::{Collective, Transport};
-use avatar_neural::meta_data::{MetaData, MetaDataConfig};
-use avatar_neural::meta_training::{MetaOptions, meta_train_collective};
+use avatar_neural::data::meta_data::{MetaData, MetaDataConfig};
+use avatar_neural::training::collective::{Collective, Transport};
+use avatar_neural::training::meta_training::{MetaOptions, meta_train_collective};
 use std::path::PathBuf;
 
 fn main() {

@@ -25,8 +25,9 @@ fn main() {
             clip.frames[((clip.len() - 1) as f32 * at) as usize].clone()
         })
         .collect();
+    let cells = avatar_neural::avatar::MeshResolution::new(128).expect("within the bounds");
     let canonical: Vec<_> =
-        poses.iter().map(|p| avatar.canonical_mesh_at(p, 128).expect("canonical mesh")).collect();
+        poses.iter().map(|p| avatar.canonical_mesh_at(p, cells).expect("canonical mesh")).collect();
     let posed: Vec<_> = poses.iter().map(|p| avatar.posed_mesh(p).expect("posed mesh")).collect();
     write_mesh_sheet(std::path::Path::new(&out), &[canonical, posed]).expect("sheet written");
     println!("wrote {out}");

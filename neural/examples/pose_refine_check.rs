@@ -9,7 +9,7 @@ use avatar_core::body::pose_error;
 use avatar_core::canonical::FieldCache;
 use avatar_core::capture::CaptureManifest;
 use avatar_core::eval::conditions::{CaptureConditions, FitError};
-use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::data::capture_points::CapturePoints;
 use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
 use std::path::{Path, PathBuf};
 
@@ -77,7 +77,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let exact_points = CapturePoints::open(&src, frames, &field_cache())?;
         let off = HyperFitOptions {
             steps,
-            refine_poses: avatar_neural::pose_refine::PoseRefineOptions::off(),
+            refine_poses: avatar_neural::training::pose_refine::PoseRefineOptions::off(),
             ..HyperFitOptions::default()
         };
         let (oracle, _) = MetaAvatar::fit_points(
@@ -88,10 +88,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &mut |_, _, _| {},
         );
         let mut refiner =
-            avatar_neural::pose_refine::PoseRefiner::new(&capture, options.refine_poses);
+            avatar_neural::training::pose_refine::PoseRefiner::new(&capture, options.refine_poses);
         let mut samples = capture.pose_samples(oracle.header.config.encoding);
         for _ in 0..6 {
-            let r = avatar_neural::pose_refine::refine_round(
+            let r = avatar_neural::training::pose_refine::refine_round(
                 &mut refiner,
                 &oracle.model,
                 &mut samples,

@@ -52,9 +52,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let mut avatar = avatar_neural::MetaAvatar::load(&args[1], &field_cache())?;
     // RESOLUTION=N: mesh on N cells instead of the output resolution (loose pieces at most
-    // `LOOSE_RESOLUTION`).
+    // `MeshResolution::LOOSE_MAX`).
     if let Ok(r) = std::env::var("RESOLUTION") {
-        avatar.resolution = r.parse()?;
+        avatar.set_mesh_resolution(avatar_neural::avatar::MeshResolution::new(r.parse()?)?);
     }
     // AS_EXTRACTED=1: loose pieces as extracted; SHEET_THIN=m, SHEET_SEARCH=m: the
     // garment sheet's options (`canonical::garment_sheet`).
@@ -145,7 +145,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Ok(k) => {
             use avatar_core::avatar::AvatarSource;
             let p = capture.frames[k.parse::<usize>()?].params.clone();
-            let rest = avatar.canonical_mesh_at(&p, avatar.resolution)?;
+            let rest = avatar.canonical_mesh_at(&p, avatar.mesh_resolution())?;
             let weights = avatar.mesh_skinning_weights(&rest);
             let smoother = avatar.surface_smoother(&rest);
             Some(avatar_core::avatar::PoseTemplate { rest, weights, smoother })

@@ -2,8 +2,8 @@
 //! model): `cargo run -p avatar-neural --example step_timing -- 30`. Each configuration runs
 //! twice, interleaved, so drifting machine load hits them alike.
 use avatar_core::canonical::FieldCache;
-use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::loss::IgrWeights;
+use avatar_neural::data::capture_points::CapturePoints;
+use avatar_neural::training::loss::IgrWeights;
 use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
 use std::time::Instant;
 

@@ -4,8 +4,8 @@
 //! `portable` chooses those kernels). CPU time (all threads) is steadier than wall time on a
 //! shared machine.
 use avatar_core::canonical::FieldCache;
-use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
+use avatar_neural::data::capture_points::CapturePoints;
+use avatar_neural::training::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use avatar_neural::{HyperConfig, MetaModel};
 use std::time::Instant;
 
@@ -26,7 +26,7 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let preset = args.get(1).map_or("compact", |s| s.as_str());
     let steps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(40);
-    use avatar_neural::train::{KernelPath, kernel_name, set_kernel_path};
+    use avatar_neural::training::step::{KernelPath, kernel_name, set_kernel_path};
     match args.get(3).map(|s| s.as_str()) {
         Some("avx2") => set_kernel_path(KernelPath::Avx2),
         Some("portable") => set_kernel_path(KernelPath::Portable),

@@ -11,7 +11,7 @@ use burn::tensor::Device;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Compute {
-    /// The training path (`crate::train`): hand-derived gradients on all cores.
+    /// The training path (`crate::training::step`): hand-derived gradients on all cores.
     #[default]
     Cpu,
     Gpu,
@@ -42,7 +42,7 @@ impl Compute {
 }
 
 impl Compute {
-    /// Whether fits take the training path (`crate::train`) rather than burn's autodiff.
+    /// Whether fits take the training path (`crate::training::step`) rather than burn's autodiff.
     pub fn flat_training(self) -> bool {
         self == Compute::Cpu
     }

@@ -15,6 +15,9 @@ pub enum Error {
     /// An avatar file of a kind this build cannot load (said as core says a file's problem).
     #[error("{path}: {kind:?} is not an avatar this build can load ({known})")]
     AvatarKind { path: PathBuf, kind: String, known: String },
+    /// An option out of range (`config::Check`): which option, its value and its bound.
+    #[error("option {option} = {value} is out of range: it must be {bound}")]
+    Option { option: &'static str, value: String, bound: String },
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
@@ -29,10 +32,18 @@ impl Error {
     pub fn invalid(message: impl Into<String>) -> Self {
         avatar_core::Error::invalid(message).into()
     }
+    pub fn option(
+        option: &'static str,
+        value: &dyn std::fmt::Display,
+        bound: impl Into<String>,
+    ) -> Self {
+        Error::Option { option, value: value.to_string(), bound: bound.into() }
+    }
     /// Re-attribute an in-memory validation error to the file it came from.
     pub fn in_file(self, path: impl AsRef<Path>) -> Self {
         match self {
             Error::Core(e) => Error::Core(e.in_file(path)),
+            e @ Error::Option { .. } => avatar_core::Error::file(path, e.to_string()).into(),
             other => other,
         }
     }

@@ -1,45 +1,47 @@
-//! The neural avatar (MetaAvatar): the networks (SIREN SDF, bone encoder, hypernetwork), the
-//! IGR loss, training (`train/`, hand-derived gradients on the CPU; burn 0.22 as the reference
-//! and for the GPU), meta-learning (`meta_training`), and the avatar itself (`avatar/`: its
-//! kinds, file, fitting and loading).
+//! The neural avatar (MetaAvatar), one module per stage (docs/architecture.md has the map):
+//!
+//! - [`model`]: the networks (SIREN SDF, bone encoder, hypernetwork) and their files;
+//! - [`data`]: what the networks train on (a capture's canonical points, pose samples,
+//!   off-surface points, meta-training data);
+//! - [`training`]: the IGR loss, the fits (static SDF, hypernetwork), meta-learning, pose
+//!   refinement, and the training step's arithmetic (`training::step`: hand-derived gradients on
+//!   the CPU; burn 0.22 as the reference and for the GPU);
+//! - [`avatar`]: the avatar itself (its kinds, file, fitting recipe, meshes at a resolution,
+//!   posing and the evaluation's rows).
+//!
+//! Each stage's options check themselves ([`config::Check`]) where they enter the library.
 
 pub mod avatar;
-pub mod body_sdf;
-pub mod capture_points;
-pub mod collective;
 pub mod compute;
-pub mod encoder;
+pub mod config;
+pub mod data;
 pub mod error;
-pub mod eval_rows;
-pub mod fit;
-pub mod flat_params;
-pub mod hyper;
-pub mod hyper_fit;
-pub mod loss;
-pub mod meta_data;
-pub mod meta_training;
-pub mod model_file;
-pub mod off_surface;
-pub mod own_data;
-pub mod pose_refine;
-pub mod pose_sample;
-pub mod pose_trace;
-pub mod sine;
-pub mod siren;
-pub mod siren_eval;
-pub mod train;
-pub mod weights_file;
+pub mod model;
+pub mod training;
+
+// The paths from before the stages, kept for code written against them (they cost nothing).
+#[doc(hidden)]
+pub use avatar::eval_rows;
+#[doc(hidden)]
+pub use data::{body_sdf, capture_points, meta_data, off_surface, own_data, pose_sample};
+#[doc(hidden)]
+pub use model::{encoder, flat_params, hyper, model_file, sine, siren, siren_eval, weights_file};
+#[doc(hidden)]
+pub use training::step as train;
+#[doc(hidden)]
+pub use training::{collective, fit, hyper_fit, loss, meta_training, pose_refine, pose_trace};
 
 pub use avatar::{AnyAvatar, FitReport, Init, MetaAvatar, PartialFit, StaticAvatar};
-pub use encoder::{BoneEncoder, PoseEncoding};
+pub use config::Check;
+pub use data::pose_sample::PoseSample;
 pub use error::{Error, Result};
-pub use fit::{FitOptions, fit_sdf, sdf_values};
-pub use hyper::{HyperConfig, HyperNet};
-pub use hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
-pub use loss::{IgrWeights, igr_loss};
-pub use model_file::{MetaModel, PriorRef};
-pub use pose_sample::PoseSample;
-pub use siren::{Siren, SirenConfig, batched_sdf_and_gradient, sdf_and_gradient};
+pub use model::encoder::{BoneEncoder, PoseEncoding};
+pub use model::hyper::{HyperConfig, HyperNet};
+pub use model::model_file::{MetaModel, PriorRef};
+pub use model::siren::{Siren, SirenConfig, batched_sdf_and_gradient, sdf_and_gradient};
+pub use training::fit::{FitOptions, fit_sdf, sdf_values};
+pub use training::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
+pub use training::loss::{IgrWeights, igr_loss};
 
 /// The CPU device with autodiff (gradients for training).
 pub fn cpu_training_device() -> burn::tensor::Device {

@@ -3,7 +3,7 @@
 
 use avatar_core::avatar::AvatarSource;
 use avatar_core::canonical::FieldCache;
-use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::data::capture_points::CapturePoints;
 use avatar_neural::*;
 use glam::Vec3;
 use std::path::Path;

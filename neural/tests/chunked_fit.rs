@@ -6,8 +6,8 @@
 
 use avatar_core::canonical::FieldCache;
 use avatar_neural::avatar::{AvatarFit, FitEvent, FitKind, FitPhase, FitPlan, fit_avatar};
-use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::encoder::PoseEncoding;
+use avatar_neural::data::capture_points::CapturePoints;
+use avatar_neural::model::encoder::PoseEncoding;
 use avatar_neural::*;
 use glam::Vec3;
 use std::path::Path;
@@ -64,7 +64,8 @@ fn chunked_fits_show_partial_avatars_and_stop_at_a_chunk() {
                 );
                 partials.push(done);
             }
-        });
+        })
+        .unwrap();
         assert_eq!(steps, (0..7).collect::<Vec<_>>(), "every step logged once, in order");
         assert_eq!(partials, [3, 6], "after each chunk but the last");
         // The plan holds what ran (the time left is reckoned from it), each phase announced.
@@ -80,7 +81,8 @@ fn chunked_fits_show_partial_avatars_and_stop_at_a_chunk() {
             if let FitEvent::Partial { .. } = e {
                 cancel.store(true, Ordering::Relaxed);
             }
-        });
+        })
+        .unwrap();
         assert_eq!(
             avatar.partial().map(|p| p.to_string()).as_deref(),
             Some("partial: 3 of 7 steps")
@@ -105,7 +107,7 @@ fn the_static_recipe_is_static_equivalent() {
         cancel: None,
         trace: None,
     };
-    let (AnyAvatar::Static(a), _) = fit_avatar(&capture, &fit, &mut |_| {}) else {
+    let (AnyAvatar::Static(a), _) = fit_avatar(&capture, &fit, &mut |_| {}).unwrap() else {
         panic!("a static avatar")
     };
     let (b, _) = StaticAvatar::fit_points(
@@ -118,4 +120,35 @@ fn the_static_recipe_is_static_equivalent() {
     );
     let probe: Vec<Vec3> = (0..20).map(|i| Vec3::new(0.01 * i as f32, 1.0, 0.05)).collect();
     assert_eq!(a.sdf_metres(&probe), b.sdf_metres(&probe));
+}
+
+#[test]
+fn fit_avatar_refuses_options_out_of_range_by_name_before_a_step() {
+    let capture = capture();
+    let model = MetaModel::shipped();
+    let mut steps = 0;
+    for (options, option) in [
+        (HyperFitOptions { surface_per_pose: 0, ..HyperFitOptions::default() }, "surface_per_pose"),
+        (HyperFitOptions { lr_heads: f64::NAN, ..HyperFitOptions::default() }, "lr_heads"),
+    ] {
+        let fit = AvatarFit {
+            kind: FitKind::Meta(Init::MetaLearned(&model)),
+            options,
+            chunk: 0,
+            cancel: None,
+            trace: None,
+        };
+        let err = fit_avatar(&capture, &fit, &mut |_| steps += 1).err().expect("refused");
+        assert!(matches!(&err, Error::Option { option: o, .. } if *o == option), "{err}");
+    }
+    let fit = AvatarFit {
+        kind: FitKind::Static { siren: SirenConfig { hidden: 0, layers: 4 }, init: None },
+        options: HyperFitOptions::default(),
+        chunk: 0,
+        cancel: None,
+        trace: None,
+    };
+    let err = fit_avatar(&capture, &fit, &mut |_| steps += 1).err().expect("refused");
+    assert!(err.to_string().contains("siren.hidden"), "{err}");
+    assert_eq!(steps, 0, "no event before the check");
 }

@@ -7,7 +7,7 @@ use avatar_core::canonical::FieldCache;
 use avatar_core::capture::{CaptureManifest, FrameChoice};
 use avatar_core::motion::{MotionClip, library};
 use avatar_core::synth::{Outfit, SynthJob, generate_capture};
-use avatar_neural::capture_points::{CapturePoints, FrameCount};
+use avatar_neural::data::capture_points::{CapturePoints, FrameCount};
 use std::path::Path;
 
 /// The demo's first five frames in a new folder, frame 2's depth PNG replaced by text.

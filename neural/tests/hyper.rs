@@ -6,9 +6,9 @@
 use avatar_core::body::{BodyParams, NUM_JOINTS};
 use avatar_core::canonical::FieldCache;
 use avatar_core::canonical::Normalisation;
-use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::flat_params::{flatten, load_flat};
-use avatar_neural::hyper_fit::batch_loss;
+use avatar_neural::data::capture_points::CapturePoints;
+use avatar_neural::model::flat_params::{flatten, load_flat};
+use avatar_neural::training::hyper_fit::batch_loss;
 use avatar_neural::*;
 use burn::module::Module;
 use burn::tensor::{Tensor, TensorData};
@@ -62,7 +62,7 @@ fn sdf_of(layers: &(Vec<Tensor<2>>, Vec<Tensor<1>>), x: &[Vec3]) -> Vec<f32> {
         TensorData::new(x.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>(), [x.len(), 3]),
         &device,
     );
-    avatar_neural::siren::sdf_only(&layers.0, &layers.1, t)
+    avatar_neural::model::siren::sdf_only(&layers.0, &layers.1, t)
         .into_data()
         .as_slice::<f32>()
         .unwrap()
@@ -202,15 +202,19 @@ fn a_short_fine_tune_lowers_the_loss_on_the_demo_capture() {
     let score = |net: &HyperNet| {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(77);
         let (loss, _) = batch_loss(net, &refs, &options, &mut rng, &device, None, false);
-        avatar_neural::loss::scalar(&loss)
+        avatar_neural::training::loss::scalar(&loss)
     };
     let before = score(&config.init(config.siren.init(2, &device), 2, &device));
     let mut logged = Vec::new();
     let (avatar, report) =
         MetaAvatar::fit_points(&capture, &init, &options, None, &mut |_, l, _| logged.push(l));
     assert_eq!(report.frames, 3);
-    let trained =
-        avatar_neural::meta_training::trainable_hyper(&config, &flatten(&avatar.model), 0).unwrap();
+    let trained = avatar_neural::training::meta_training::trainable_hyper(
+        &config,
+        &flatten(&avatar.model),
+        0,
+    )
+    .unwrap();
     let after = score(&trained);
     assert!(after < 0.6 * before, "loss {before} -> {after}");
     assert!(logged.iter().all(|l| l.is_finite()));
@@ -269,7 +273,7 @@ fn a_saved_and_reloaded_meta_avatar_gives_identical_sdf_values_and_bad_files_are
     let mut absurd = avatar.header.clone();
     absurd.config.siren.hidden = usize::MAX / 3;
     let p = dir.path().join("absurd.avatar");
-    avatar_neural::weights_file::write(&p, &absurd, &[0.0f32; 16]).unwrap();
+    avatar_neural::model::weights_file::write(&p, &absurd, &[0.0f32; 16]).unwrap();
     let err = MetaAvatar::load(&p, &field_cache()).err().unwrap().to_string();
     assert!(err.contains("absurd.avatar") && err.contains("out of range"), "{err}");
     // A static avatar is not a meta avatar.

@@ -12,7 +12,7 @@ use avatar_core::mesh::integrity::integrity;
 use avatar_core::motion::library_clip;
 use avatar_core::synth::{Outfit, SynthJob, generate_capture};
 use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitKind, fit_avatar};
-use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::data::capture_points::CapturePoints;
 use avatar_neural::{HyperFitOptions, Init, MetaModel};
 
 /// Where these runs cache skinning fields (a fixed folder under the temporary directory).
@@ -36,7 +36,7 @@ fn a_posed_dress_avatar_has_loose_pieces_and_no_non_manifold_edge() {
         cancel: None,
         trace: None,
     };
-    let (AnyAvatar::Meta(avatar), _) = fit_avatar(&capture, &fit, &mut |_| {}) else {
+    let (AnyAvatar::Meta(avatar), _) = fit_avatar(&capture, &fit, &mut |_| {}).unwrap() else {
         panic!("a meta fit gives a MetaAvatar");
     };
     assert_eq!(avatar.surface_kind(), SurfaceChoice::WrappedWithLoose, "the skirt is loose");

@@ -16,11 +16,11 @@ use avatar_core::synth::{
     ClothedTemplate, Outfit, PoseFeatures, SynthJob, canonical_surface, generate_capture,
     pose_surface, subject_betas,
 };
-use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::encoder::PoseEncoding;
-use avatar_neural::meta_training::{MetaOptions, meta_train};
-use avatar_neural::model_file::{SHIPPED_PRIOR, sha256_hex};
-use avatar_neural::own_data::{OwnDataOptions, prepare};
+use avatar_neural::data::capture_points::CapturePoints;
+use avatar_neural::data::own_data::{OwnDataOptions, prepare};
+use avatar_neural::model::encoder::PoseEncoding;
+use avatar_neural::model::model_file::{SHIPPED_PRIOR, sha256_hex};
+use avatar_neural::training::meta_training::{MetaOptions, meta_train};
 use avatar_neural::*;
 use std::path::Path;
 

@@ -2,8 +2,8 @@
 //! steps"), keeps it through save and load, and a finished fit is not marked partial.
 
 use avatar_core::canonical::FieldCache;
-use avatar_neural::capture_points::CapturePoints;
-use avatar_neural::encoder::PoseEncoding;
+use avatar_neural::data::capture_points::CapturePoints;
+use avatar_neural::model::encoder::PoseEncoding;
 use avatar_neural::*;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -9,11 +9,11 @@ use avatar_core::canonical::{
 };
 use avatar_core::eval::conditions::FitError;
 use avatar_core::mesh::bvh::Bvh;
-use avatar_neural::body_sdf::BodySdf;
-use avatar_neural::capture_points::{CapturePoints, FramePoints, shell_samples_of};
-use avatar_neural::encoder::PoseEncoding;
-use avatar_neural::pose_refine::{PoseRefineOptions, PoseRefiner};
-use avatar_neural::pose_trace::pose_errors;
+use avatar_neural::data::body_sdf::BodySdf;
+use avatar_neural::data::capture_points::{CapturePoints, FramePoints, shell_samples_of};
+use avatar_neural::model::encoder::PoseEncoding;
+use avatar_neural::training::pose_refine::{PoseRefineOptions, PoseRefiner};
+use avatar_neural::training::pose_trace::pose_errors;
 use glam::{Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -97,7 +97,7 @@ fn capture_with_error(
     let rest_sdf = std::sync::Arc::new(avatar_core::mesh::signed_distance::SignedDistance::new(
         &body.mesh(rest.clone()),
     ));
-    let rest_sign = avatar_neural::capture_points::rest_sign_grid(&body.mesh(rest.clone()));
+    let rest_sign = avatar_neural::data::capture_points::rest_sign_grid(&body.mesh(rest.clone()));
     let capture = CapturePoints {
         body,
         body_file: None,
@@ -165,7 +165,7 @@ fn refinement_against_the_true_surface_recovers_perturbed_poses() {
     // they lie on the rest surface again, as for the true poses (each round finds their roots
     // afresh; iterating from the given fittings' roots left some on the roots those chose).
     let mut samples = capture.pose_samples(PoseEncoding::Hierarchical);
-    let off_surface = |samples: &[avatar_neural::pose_sample::PoseSample]| {
+    let off_surface = |samples: &[avatar_neural::data::pose_sample::PoseSample]| {
         let mut d: Vec<f32> = samples
             .iter()
             .flat_map(|s| s.points.iter())
@@ -334,7 +334,7 @@ fn upper_body_prealignment_corrects_the_arms_and_leaves_the_legs_to_the_fittings
     }
     // Shoulders and elbows (16-19): their mean error a fifth smaller or more (4.7 -> 3.3
     // degrees here), the posed joints (the legs' too, carried by the root) much closer.
-    let arms = |e: &avatar_neural::pose_trace::PoseErrors| {
+    let arms = |e: &avatar_neural::training::pose_trace::PoseErrors| {
         (16..20).map(|j| e.per_joint_deg[j]).sum::<f32>() / 4.0
     };
     assert!(after.posed_joints_cm < 0.6 * before.posed_joints_cm, "{before} -> {after}");
@@ -381,7 +381,7 @@ fn the_trunk_stage_moves_the_trunk_and_the_translation_alone() {
             );
         }
     }
-    let trunk = |e: &avatar_neural::pose_trace::PoseErrors| {
+    let trunk = |e: &avatar_neural::training::pose_trace::PoseErrors| {
         TRUNK.iter().map(|&j| e.per_joint_deg[j]).sum::<f32>() / 4.0
     };
     assert!(

@@ -3,7 +3,7 @@
 //! writes to the caller's lines and fits what an untraced one does.
 
 use avatar_core::body::{BodyParams, open_body_lowpoly};
-use avatar_neural::pose_trace::{Snap, match_truth, pose_errors};
+use avatar_neural::training::pose_trace::{Snap, match_truth, pose_errors};
 use glam::Vec3;
 
 #[test]
@@ -64,8 +64,8 @@ fn a_traced_fit_writes_to_the_callers_lines_and_fits_the_same_avatar() {
     use avatar_core::avatar::AvatarSource;
     use avatar_core::canonical::FieldCache;
     use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitKind, fit_avatar};
-    use avatar_neural::capture_points::CapturePoints;
-    use avatar_neural::pose_trace::{PoseTrace, TraceLines};
+    use avatar_neural::data::capture_points::CapturePoints;
+    use avatar_neural::training::pose_trace::{PoseTrace, TraceLines};
     use avatar_neural::{HyperFitOptions, Init, MetaModel};
     use std::sync::{Arc, Mutex};
 
@@ -94,7 +94,7 @@ fn a_traced_fit_writes_to_the_callers_lines_and_fits_the_same_avatar() {
             cancel: None,
             trace,
         };
-        match fit_avatar(&capture, &fit, &mut |_| {}).0 {
+        match fit_avatar(&capture, &fit, &mut |_| {}).unwrap().0 {
             AnyAvatar::Meta(a) => a,
             AnyAvatar::Static(_) => panic!("a meta fit gives a meta avatar"),
         }

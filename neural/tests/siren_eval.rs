@@ -1,8 +1,8 @@
 //! The fast evaluation path (`siren_eval`) against burn's forward and finite differences.
 
 use avatar_neural::cpu_device;
-use avatar_neural::siren::{SirenConfig, sdf_and_gradient, sdf_only};
-use avatar_neural::siren_eval::SirenEval;
+use avatar_neural::model::siren::{SirenConfig, sdf_and_gradient, sdf_only};
+use avatar_neural::model::siren_eval::SirenEval;
 use burn::tensor::{Tensor, TensorData};
 
 fn points(n: usize) -> Vec<[f32; 3]> {

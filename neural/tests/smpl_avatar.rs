@@ -8,7 +8,7 @@ use avatar_core::canonical::FieldCache;
 use avatar_core::export::{AvatarSource, ExportOptions, export_glb};
 use avatar_core::motion::clip_by_name;
 use avatar_core::synth::{Outfit, SynthJob, generate_smpl_capture, smpl_stand_in};
-use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::data::capture_points::CapturePoints;
 use avatar_neural::*;
 use glam::Vec3;
 
@@ -130,7 +130,7 @@ fn an_avatar_of_an_smpl_capture_fits_poses_exports_and_reloads_without_the_model
         assert_eq!(meta_back.sdf(p, &probe()).unwrap(), meta.sdf(p, &probe()).unwrap());
     }
     let mut small = meta_back;
-    small.resolution = 24;
+    small.set_mesh_resolution(avatar_neural::avatar::MeshResolution::new(24).unwrap());
     assert!(!small.posed_mesh(&pose).unwrap().faces.is_empty());
     assert!(matches!(AnyAvatar::load(&meta_path, &field_cache()).unwrap(), AnyAvatar::Meta(_)));
 

@@ -1,4 +1,4 @@
-//! The training path (`avatar_neural::train`) against burn's autodiff: the loss and every
+//! The training path (`avatar_neural::training::step`) against burn's autodiff: the loss and every
 //! parameter tensor's gradient agree to a relative 1e-4 (|ours - burn| / |burn| per tensor),
 //! on the compact and paper presets, with and without the normal term, the off-surface prior
 //! and the residual regulariser, for one and several poses; the static SIREN step likewise.
@@ -9,11 +9,11 @@
 
 use avatar_core::body::{BodyParams, NUM_JOINTS};
 use avatar_core::canonical::Normalisation;
-use avatar_neural::flat_params::{flat_gradients, flatten, load_flat};
-use avatar_neural::hyper_fit::{SampledBatch, batch_loss_of, sample_batch};
-use avatar_neural::loss::{IgrWeights, igr_loss, scalar};
-use avatar_neural::siren::W0;
-use avatar_neural::train::{
+use avatar_neural::model::flat_params::{flat_gradients, flatten, load_flat};
+use avatar_neural::model::siren::W0;
+use avatar_neural::training::hyper_fit::{SampledBatch, batch_loss_of, sample_batch};
+use avatar_neural::training::loss::{IgrWeights, igr_loss, scalar};
+use avatar_neural::training::step::{
     HyperGradient, IgrPoints, KernelPath, SirenGradient, SirenShape, kernel_name_of,
     set_kernel_path,
 };
@@ -99,7 +99,7 @@ fn perturbed(config: &HyperConfig, seed: u64) -> HyperNet {
     let device = cpu_training_device();
     let net = config.init(config.siren.init(seed, &device), seed, &device);
     let mut rng = ChaCha8Rng::seed_from_u64(seed + 100);
-    let layout = avatar_neural::train::HyperLayout::new(config);
+    let layout = avatar_neural::training::step::HyperLayout::new(config);
     let mut flat = flatten(&net);
     for (i, v) in flat.iter_mut().enumerate() {
         // Small moves for the heads' outputs (their products scale every SIREN weight).
@@ -310,7 +310,7 @@ fn static_siren_step_gradients_match_burn() {
             ..FitOptions::default()
         };
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let (surface, surface_n, off, _) = avatar_neural::fit::sample_step(
+        let (surface, surface_n, off, _) = avatar_neural::training::fit::sample_step(
             &samples[0].points,
             &samples[0].normals,
             &[],

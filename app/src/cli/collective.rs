@@ -2,7 +2,7 @@
 //! *Several machines*). The launcher (`mpirun`, Slurm's `srun`) starts the processes and MPI
 //! tells each its rank; nothing is read from the environment here.
 
-use avatar_neural::collective::{Collective, Transport};
+use avatar_neural::training::collective::{Collective, Transport};
 
 #[derive(clap::Args, Debug)]
 pub struct CollectiveArgs {

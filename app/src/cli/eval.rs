@@ -10,8 +10,9 @@ use avatar_core::eval::{
     CaptureConditions, EvalConfig, NakedBody, Predictor, Protocol, StaticOutfit, run as run_eval,
 };
 use avatar_core::synth::Outfit;
-use avatar_neural::eval_rows::{NeuralRow, RowKind};
-use avatar_neural::loss::IgrWeights;
+use avatar_neural::avatar::MeshResolution;
+use avatar_neural::avatar::eval_rows::{NeuralRow, RowKind};
+use avatar_neural::training::loss::IgrWeights;
 use avatar_neural::{HyperFitOptions, MetaModel};
 use std::path::PathBuf;
 
@@ -252,9 +253,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let (steps, resolution) =
         (args.steps.unwrap_or(p.steps), args.resolution.unwrap_or(p.resolution));
-    if !(16..=512).contains(&resolution) {
-        bail!("--resolution {resolution} is out of range (16 to 512)");
-    }
+    let resolution = MeshResolution::new(resolution)?;
     if args.max_frames == 0 {
         bail!("--max-frames must be at least 1");
     }
@@ -279,7 +278,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ..defaults.weights
         },
         refine_poses: match args.refine_poses.as_deref() {
-            Some(v) => avatar_neural::pose_refine::PoseRefineOptions {
+            Some(v) => avatar_neural::training::pose_refine::PoseRefineOptions {
                 enabled: v == "on",
                 ..defaults.refine_poses
             },

@@ -4,8 +4,8 @@
 
 use anyhow::bail;
 use avatar_neural::avatar::{AnyAvatar, AvatarFit, FitKind, fit_avatar};
-use avatar_neural::capture_points::{CapturePoints, FrameCount};
-use avatar_neural::pose_trace::{PoseTrace, Snap, TraceLines};
+use avatar_neural::data::capture_points::{CapturePoints, FrameCount};
+use avatar_neural::training::pose_trace::{PoseTrace, Snap, TraceLines};
 use avatar_neural::{HyperConfig, HyperFitOptions, Init, MetaModel};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -137,7 +137,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => None,
     };
     let fit = AvatarFit { kind, options, chunk: 0, cancel: Some(&cancel), trace: trace.as_ref() };
-    let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| progress.event(&e));
+    let (avatar, report) = fit_avatar(&capture, &fit, &mut |e| progress.event(&e))?;
     progress.finish();
     progress.outer("saving", || avatar.save(&args.out))?;
     let what = match (&avatar, &fit.kind) {

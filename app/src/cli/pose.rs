@@ -23,7 +23,7 @@ pub struct Args {
     /// obj or ply.
     #[arg(long, default_value = "obj")]
     format: String,
-    /// Marching-cubes resolution of the canonical mesh (16 to 512).
+    /// Marching-cubes resolution of the canonical mesh (16 to 512: `MeshResolution`).
     #[arg(long, default_value_t = avatar_neural::avatar::header::OUTPUT_RESOLUTION)]
     resolution: usize,
     /// Only the first N frames (after resampling to --fps).
@@ -34,21 +34,11 @@ pub struct Args {
     fps: f32,
 }
 
-/// Marching-cubes resolutions: below 16 cells no body survives, above 512 a mesh takes minutes.
-const RESOLUTION: std::ops::RangeInclusive<usize> = 16..=512;
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     if !matches!(args.format.as_str(), "obj" | "ply") {
         anyhow::bail!("unknown --format {:?}: use obj or ply", args.format);
     }
-    if !RESOLUTION.contains(&args.resolution) {
-        anyhow::bail!(
-            "--resolution {} is out of range ({} to {})",
-            args.resolution,
-            RESOLUTION.start(),
-            RESOLUTION.end()
-        );
-    }
+    let resolution = avatar_neural::avatar::MeshResolution::new(args.resolution)?;
     if args.frames == Some(0) {
         anyhow::bail!("--frames must be at least 1");
     }
@@ -57,7 +47,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     inputs.check_folder(&args.out)?;
     let clip = open_motion(&args.motion, args.fps, args.frames)?;
     let mut avatar = AnyAvatar::load(&args.avatar, avatar_studio::cache::field_cache())?;
-    avatar.set_resolution(args.resolution);
+    avatar.set_mesh_resolution(resolution);
     if let Some(p) = avatar.partial() {
         eprintln!(
             "note: {} is a partial avatar ({p}): its fit was cancelled",

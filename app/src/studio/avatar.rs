@@ -5,6 +5,7 @@ use crate::error::Result;
 use avatar_core::avatar::AvatarSource;
 use avatar_core::body::{BodyModel, Weights};
 use avatar_core::mesh::TriMesh;
+use avatar_neural::avatar::MeshResolution;
 use avatar_neural::{AnyAvatar, MetaAvatar, StaticAvatar};
 use std::path::Path;
 use std::sync::Arc;
@@ -39,7 +40,7 @@ impl StudioAvatar for StaticAvatar {
         self
     }
     fn set_resolution(&mut self, cells: usize) {
-        self.resolution = cells.clamp(16, 512);
+        self.set_mesh_resolution(MeshResolution::clamped(cells));
     }
     fn save(&self, path: &Path) -> Result<()> {
         Ok(StaticAvatar::save(self, path)?)
@@ -70,7 +71,7 @@ impl StudioAvatar for MetaAvatar {
         true
     }
     fn set_resolution(&mut self, cells: usize) {
-        self.resolution = cells.clamp(16, 512);
+        self.set_mesh_resolution(MeshResolution::clamped(cells));
     }
     fn save(&self, path: &Path) -> Result<()> {
         Ok(MetaAvatar::save(self, path)?)

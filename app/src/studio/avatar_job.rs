@@ -4,7 +4,7 @@
 use crate::studio::avatar::{CanonicalMesh, StudioAvatar, studio_avatar};
 use crate::studio::fit_config::FitConfig;
 use crate::studio::tasks::Task;
-use avatar_neural::avatar::{AvatarFit, FitEvent, TimeLeft, fit_avatar};
+use avatar_neural::avatar::{AvatarFit, FitEvent, MeshResolution, TimeLeft, fit_avatar};
 use avatar_neural::capture_points::{CapturePoints, FrameCount};
 use crossbeam_channel::Receiver;
 use std::path::{Path, PathBuf};
@@ -169,7 +169,7 @@ pub fn run_fit(
             })
         }
         FitEvent::Partial { done, mut avatar } => {
-            avatar.set_resolution(cfg.preview_resolution.clamp(8, 256));
+            avatar.set_mesh_resolution(MeshResolution::clamped(cfg.preview_resolution));
             if let Ok(mesh) = avatar.source().canonical_mesh(&rest) {
                 let weights = avatar.source().mesh_skinning_weights(&mesh);
                 send(JobEvent::Preview {
@@ -179,6 +179,6 @@ pub fn run_fit(
             }
             after_chunk();
         }
-    });
+    })?;
     Ok((studio_avatar(avatar, cfg.final_resolution), report.warnings))
 }

@@ -8,10 +8,10 @@ use avatar_core::canonical::Normalisation;
 use avatar_core::motion::MotionClip;
 use avatar_neural::avatar::meta_avatar::{META_AVATAR_KIND, MetaAvatarHeader};
 use avatar_neural::avatar::static_avatar::{AVATAR_FORMAT, AvatarHeader};
-use avatar_neural::encoder::PoseEncoding;
-use avatar_neural::flat_params::flatten;
-use avatar_neural::meta_data::{DATA_FORMAT, DATA_VERSION, Group, Manifest, MetaDataConfig};
-use avatar_neural::meta_training::MetaOptions;
+use avatar_neural::data::meta_data::{DATA_FORMAT, DATA_VERSION, Group, Manifest, MetaDataConfig};
+use avatar_neural::model::encoder::PoseEncoding;
+use avatar_neural::model::flat_params::flatten;
+use avatar_neural::training::meta_training::MetaOptions;
 use avatar_neural::{HyperConfig, MetaModel, SirenConfig, weights_file};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -339,6 +339,6 @@ impl Fixtures {
         avatar_core::motion::amass::load_amass_clip(&self.amass).unwrap();
         avatar_core::body::BodyModel::load_npz(&self.smpl).unwrap();
         avatar_core::body::BodyParams::load_json(&self.pose).unwrap();
-        avatar_neural::meta_data::MetaData::load(&self.meta_data).unwrap();
+        avatar_neural::data::meta_data::MetaData::load(&self.meta_data).unwrap();
     }
 }

@@ -234,7 +234,7 @@ pub fn run(cases: usize, seed: u64) {
 
     let pose = |p: &Path| -> Result<(), String> {
         let mut a = avatar_neural::AnyAvatar::load(p, &field_cache()).map_err(|e| e.to_string())?;
-        a.set_resolution(16);
+        a.set_mesh_resolution(avatar_neural::avatar::MeshResolution::new(16).unwrap());
         // An accepted mutant must pose without a panic (an error is fine: the CLI names the file).
         let _ = a.source().canonical_mesh(&BodyParams::default());
         Ok(())
@@ -285,13 +285,13 @@ pub fn run(cases: usize, seed: u64) {
 fn static_header_bytes() -> Vec<u8> {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("a.avatar");
-    avatar_neural::weights_file::write(&p, &static_header(), &static_weights()).unwrap();
+    avatar_neural::model::weights_file::write(&p, &static_header(), &static_weights()).unwrap();
     std::fs::read(p).unwrap()
 }
 
 fn meta_header_bytes() -> Vec<u8> {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("a.avatar");
-    avatar_neural::weights_file::write(&p, &meta_header(), &meta_weights()).unwrap();
+    avatar_neural::model::weights_file::write(&p, &meta_header(), &meta_weights()).unwrap();
     std::fs::read(p).unwrap()
 }

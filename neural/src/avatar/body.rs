@@ -16,7 +16,7 @@
 //! Indices are exact in float32 (below 2^24). Sparse weights keep the file small: an SMPL body
 //! (6,890 vertices, 13,776 faces) adds about 0.3 MB plus 8 bytes per non-zero weight.
 
-use crate::capture_points::CapturePoints;
+use crate::data::capture_points::CapturePoints;
 use crate::error::{Error, Result};
 use avatar_core::body::{BodyModel, NUM_JOINTS, Weights, open_body_ref};
 use glam::Vec3;

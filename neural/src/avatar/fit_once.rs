@@ -6,17 +6,19 @@ use crate::avatar::fitting::FitReport;
 use crate::avatar::fitting::{FitEvent, fit_meta, fit_static};
 use crate::avatar::meta_avatar::{Init, MetaAvatar};
 use crate::avatar::static_avatar::StaticAvatar;
-use crate::capture_points::CapturePoints;
+use crate::data::capture_points::CapturePoints;
 use crate::error::Result;
-use crate::fit::{FitOptions, Progress};
-use crate::hyper_fit::HyperFitOptions;
-use crate::siren::{Siren, SirenConfig};
+use crate::model::siren::{Siren, SirenConfig};
+use crate::training::fit::{FitOptions, Progress};
+use crate::training::hyper_fit::HyperFitOptions;
 use avatar_core::canonical::FieldCache;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 /// A progress callback as a fit's event callback (partial avatars dropped).
-pub(crate) fn progress_only(progress: crate::fit::Progress<'_>) -> impl FnMut(FitEvent) + '_ {
+pub(crate) fn progress_only(
+    progress: crate::training::fit::Progress<'_>,
+) -> impl FnMut(FitEvent) + '_ {
     move |e| {
         if let FitEvent::Progress { step, loss, terms, .. } = e {
             progress(step, loss, terms)

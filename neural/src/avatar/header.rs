@@ -5,7 +5,7 @@
 
 use crate::avatar::body as avatar_body;
 use crate::error::{Error, Result};
-use crate::weights_file;
+use crate::model::weights_file;
 use avatar_core::body::{BodyModel, check_betas};
 use avatar_core::canonical::{
     Canonicalizer, FIELD_CELLS, FieldCache, FieldOptions, Normalisation, SkinningField,
@@ -76,12 +76,8 @@ pub fn check_subject(
     Ok(())
 }
 
-/// Marching-cubes cells along the normalised cube's side of the meshes an avatar gives out
-/// (`pose`, `export`, the evaluation; the studio poses live at its own resolution). At 128
-/// cells (1.7 cm) the mesh's facets cost the normals: the tight outfits' NC on clean
-/// captures is 0.869 at 128, 0.893 at 192, 0.900 at 256 (docs/decisions.md). The
-/// evaluation of four captures (fits included) takes 97 s at 192 against 71 s at 128.
-pub const OUTPUT_RESOLUTION: usize = 192;
+/// The meshes users get, in cells (`MeshResolution::OUTPUT`, where the choice is explained).
+pub const OUTPUT_RESOLUTION: usize = super::MeshResolution::OUTPUT.cells();
 
 /// Taubin iterations on every extracted avatar surface: they take the grid's terraces off
 /// (the user-capture evaluation: NC +0.005, Dp -0.04 cm; docs/decisions.md).

@@ -12,14 +12,15 @@ use crate::avatar::header::{
     AVATAR_FORMAT, PartialFit, avatar_field, check_avatar_header, check_subject,
 };
 use crate::avatar::refined_poses::{self, RefinedPose};
-use crate::capture_points::CapturePoints;
+use crate::avatar::resolution::MeshResolution;
+use crate::data::capture_points::CapturePoints;
 use crate::error::{Error, Result};
-use crate::flat_params::{flatten, load_flat};
-use crate::hyper::{HyperConfig, HyperNet};
-use crate::model_file::MetaModel;
-use crate::pose_refine::PoseRefiner;
-use crate::siren_eval::{MetricSdf, SirenEval};
-use crate::weights_file;
+use crate::model::flat_params::{flatten, load_flat};
+use crate::model::hyper::{HyperConfig, HyperNet};
+use crate::model::model_file::MetaModel;
+use crate::model::siren_eval::{MetricSdf, SirenEval};
+use crate::model::weights_file;
+use crate::training::pose_refine::PoseRefiner;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, Weights};
 use avatar_core::canonical::{
     BodyWrap, FieldCache, GarmentSkinner, GarmentSkinning, Normalisation, SkinningField,
@@ -101,19 +102,11 @@ pub struct MetaAvatarHeader {
     pub frame_indices: Option<Vec<usize>>,
     /// The meta-model the fit started from (absent from scratch and in older avatars).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub prior: Option<crate::model_file::PriorRef>,
+    pub prior: Option<crate::model::model_file::PriorRef>,
 }
 
 /// The bone encoder's Adam rate when fine-tuning from scratch (the reference's).
 pub const SCRATCH_ENCODER_RATE: f64 = 1e-4;
-
-/// The finest grid the loose pieces (a skirt, a coat's tails) are extracted on. Loose cloth is
-/// learned from a few noisy depth frames and its SDF carries flaps and holes a few
-/// millimetres across that a finer grid draws; the coarser one draws the cloth's shape. One
-/// fitted dress per subject, held-out poses (docs/decisions.md): 192 cells
-/// 0.841 cm / 10.7 % spurious, 128 cells 0.765 / 9.0 %, NC 0.830 -> 0.827; 96 cells loses NC
-/// (0.800 on subject 1004). Tight clothing (the wrapped body) does not depend on it.
-pub const LOOSE_RESOLUTION: usize = 128;
 
 pub struct MetaAvatar {
     pub header: MetaAvatarHeader,
@@ -124,8 +117,9 @@ pub struct MetaAvatar {
     skinner: GarmentSkinner,
     rest_joints: [Vec3; NUM_JOINTS],
     device: Device,
-    /// Marching-cubes resolution of the canonical mesh (cells along the longest side).
-    pub resolution: usize,
+    /// What posing and export mesh it at (`AvatarSource::canonical_mesh`), and the surface kind
+    /// is decided at (`surface_kind`).
+    resolution: MeshResolution,
     /// Which mesh stands for the surface (`canonical::body_wrap`): `Auto` decides once, at the
     /// rest pose.
     pub surface: SurfaceChoice,
@@ -183,7 +177,7 @@ impl MetaAvatar {
             field: capture.field.clone(),
             rest_joints: capture.rest_joints(),
             device: crate::cpu_device(),
-            resolution: super::header::OUTPUT_RESOLUTION,
+            resolution: MeshResolution::OUTPUT,
             surface: SurfaceChoice::default(),
             wrap,
             decided: OnceLock::new(),
@@ -255,7 +249,7 @@ impl MetaAvatar {
             field,
             rest_joints,
             device,
-            resolution: super::header::OUTPUT_RESOLUTION,
+            resolution: MeshResolution::OUTPUT,
             surface: SurfaceChoice::default(),
             wrap,
             decided: OnceLock::new(),
@@ -296,7 +290,7 @@ impl MetaAvatar {
                 .flat_map_iter(|chunk| {
                     let flat: Vec<f32> =
                         chunk.iter().flat_map(|p| n.to_unit(*p).to_array()).collect();
-                    let f = crate::siren::sdf_only(
+                    let f = crate::model::siren::sdf_only(
                         &w,
                         &b,
                         Tensor::from_data(
@@ -318,7 +312,11 @@ impl MetaAvatar {
     /// The clothed surface at a pose in canonical space (metres): the body's mesh wrapped onto
     /// the pose's surface, with the extracted mesh's loose pieces where the clothing has some,
     /// or the extracted mesh (`surface_kind`).
-    pub fn canonical_mesh_at(&self, params: &BodyParams, resolution: usize) -> Result<TriMesh> {
+    pub fn canonical_mesh_at(
+        &self,
+        params: &BodyParams,
+        resolution: MeshResolution,
+    ) -> Result<TriMesh> {
         let sdf = self.sdf_at(params);
         match self.surface_kind() {
             SurfaceChoice::WrappedBody => Ok(self.wrapped_surface(&sdf, self.wrap.options.outside)),
@@ -326,14 +324,14 @@ impl MetaAvatar {
                 // Extracted at the zero level: extracting the level 0.7 cells out and projecting it back
                 // kept one dress whole at rest but on the quick preset cost every loose outfit
                 // (all Chamfer-L2 0.920 -> 1.186 cm, simulated skirt spurious 11 -> 46 %).
-                let extracted = self.extracted_surface(&sdf, resolution.min(LOOSE_RESOLUTION))?;
+                let extracted = self.extracted_surface(&sdf, resolution.loose())?;
                 Ok(self.wrap.with_loose_pieces(
                     &self.wrapped_surface(&sdf, self.wrap.options.tight_outside),
                     &extracted,
                     |p| sdf.sdf(p),
                 ))
             }
-            _ => self.extracted_surface(&sdf, resolution),
+            _ => self.extracted_surface(&sdf, resolution.cells()),
         }
     }
 
@@ -368,7 +366,7 @@ impl MetaAvatar {
 
     fn rest_surface_kind(&self) -> Result<SurfaceChoice> {
         let sdf = self.sdf_at(&self.rest_params());
-        let extracted = self.extracted_surface(&sdf, self.resolution)?;
+        let extracted = self.extracted_surface(&sdf, self.resolution.cells())?;
         Ok(
             if self.wrap.covers(&self.wrapped_surface(&sdf, self.wrap.options.outside), &extracted)
             {
@@ -377,6 +375,17 @@ impl MetaAvatar {
                 SurfaceChoice::WrappedWithLoose
             },
         )
+    }
+
+    /// The resolution posing and export mesh it at ([`MeshResolution::OUTPUT`] unless set).
+    pub fn mesh_resolution(&self) -> MeshResolution {
+        self.resolution
+    }
+
+    /// Mesh it at `resolution` from now on (before the first mesh: the surface kind is decided
+    /// at the resolution of the first).
+    pub fn set_mesh_resolution(&mut self, resolution: MeshResolution) {
+        self.resolution = resolution;
     }
 
     /// How the surface is wrapped and its loose cloth remade, to change before the avatar is

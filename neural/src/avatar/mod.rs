@@ -13,21 +13,24 @@
 //! re-exported here.
 
 pub mod body;
+pub mod eval_rows;
 mod fit_once;
 pub mod fit_plan;
 pub mod fitting;
 pub mod header;
 pub mod meta_avatar;
 pub mod refined_poses;
+pub mod resolution;
 pub mod static_avatar;
 
-use crate::weights_file;
+use crate::model::weights_file;
 pub use avatar_core::avatar::{AvatarSource, PROJECTION_STEPS, PoseSurface};
 pub use avatar_core::export::{ExportOptions, export_glb};
 pub use fit_plan::{FitPhase, FitPlan, TimeLeft};
 pub use fitting::{AvatarFit, FitEvent, FitKind, FitReport, fit_avatar};
 pub use header::PartialFit;
 pub use meta_avatar::{Init, META_AVATAR_KIND, MetaAvatar};
+pub use resolution::MeshResolution;
 pub use static_avatar::{STATIC_AVATAR_KIND, StaticAvatar};
 
 /// An avatar file of either kind, routed by its header.
@@ -80,10 +83,11 @@ impl AnyAvatar {
         }
     }
 
-    pub fn set_resolution(&mut self, resolution: usize) {
+    /// Mesh it at `resolution` from now on (posing, export).
+    pub fn set_mesh_resolution(&mut self, resolution: MeshResolution) {
         match self {
-            AnyAvatar::Static(a) => a.resolution = resolution,
-            AnyAvatar::Meta(a) => a.resolution = resolution,
+            AnyAvatar::Static(a) => a.set_mesh_resolution(resolution),
+            AnyAvatar::Meta(a) => a.set_mesh_resolution(resolution),
         }
     }
 }

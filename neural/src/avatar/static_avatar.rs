@@ -5,12 +5,13 @@
 
 use crate::avatar::body::{self as avatar_body, BodySection};
 use crate::avatar::header::{PartialFit, avatar_field, check_avatar_header, check_subject};
-use crate::capture_points::CapturePoints;
+use crate::avatar::resolution::MeshResolution;
+use crate::data::capture_points::CapturePoints;
 use crate::error::Result;
-use crate::flat_params::{flatten, load_flat};
-use crate::siren::{Siren, SirenConfig};
-use crate::siren_eval::MetricSdf;
-use crate::weights_file;
+use crate::model::flat_params::{flatten, load_flat};
+use crate::model::siren::{Siren, SirenConfig};
+use crate::model::siren_eval::MetricSdf;
+use crate::model::weights_file;
 use avatar_core::avatar::AvatarSource;
 use avatar_core::body::{BodyModel, BodyParams, Weights};
 use avatar_core::canonical::{FieldCache, GarmentSkinner, Normalisation, SkinningField};
@@ -46,7 +47,7 @@ pub struct AvatarHeader {
     /// The meta-model whose static SDF the fit started from (absent from scratch and in older
     /// avatars).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub prior: Option<crate::model_file::PriorRef>,
+    pub prior: Option<crate::model::model_file::PriorRef>,
 }
 
 pub struct StaticAvatar {
@@ -59,11 +60,21 @@ pub struct StaticAvatar {
     field: SkinningField,
     /// Posing: the field, inpainted along loose clothing.
     skinner: GarmentSkinner,
-    /// Marching-cubes resolution of the canonical mesh (cells along the longest side).
-    pub resolution: usize,
+    /// What posing and export mesh it at (`AvatarSource::canonical_mesh`).
+    resolution: MeshResolution,
 }
 
 impl StaticAvatar {
+    /// The resolution posing and export mesh it at ([`MeshResolution::OUTPUT`] unless set).
+    pub fn mesh_resolution(&self) -> MeshResolution {
+        self.resolution
+    }
+
+    /// Mesh it at `resolution` from now on.
+    pub fn set_mesh_resolution(&mut self, resolution: MeshResolution) {
+        self.resolution = resolution;
+    }
+
     /// The avatar of a SIREN fitted to a canonicalized capture (not marked partial).
     pub(crate) fn from_fitted(
         capture: &CapturePoints,
@@ -93,7 +104,7 @@ impl StaticAvatar {
             skinner: GarmentSkinner::with_body(capture.rest_sdf.clone()),
             body,
             field: capture.field.clone(),
-            resolution: super::header::OUTPUT_RESOLUTION,
+            resolution: MeshResolution::OUTPUT,
         }
     }
 
@@ -150,7 +161,7 @@ impl StaticAvatar {
             skinner,
             body,
             field,
-            resolution: super::header::OUTPUT_RESOLUTION,
+            resolution: MeshResolution::OUTPUT,
         })
     }
 }
@@ -168,7 +179,10 @@ impl AvatarSource for StaticAvatar {
         Ok(self.skinner.finish_surface(
             extract(
                 |p: &[Vec3]| self.sdf_metres(p),
-                &super::header::extract_options(&self.header.normalisation, self.resolution),
+                &super::header::extract_options(
+                    &self.header.normalisation,
+                    self.resolution.cells(),
+                ),
             )?
             .mesh,
         ))

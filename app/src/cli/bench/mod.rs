@@ -22,7 +22,7 @@ pub struct Args {
     #[arg(long)]
     out: Option<PathBuf>,
     /// Run the training path's portable loops even where the CPU has AVX-512
-    /// (`avatar_neural::train::KernelPath::Portable`).
+    /// (`avatar_neural::training::step::KernelPath::Portable`).
     #[arg(long)]
     portable_kernels: bool,
 }
@@ -131,7 +131,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         avatar_core::io::Inputs::new().check_file(path, &["md"])?;
     }
     if args.portable_kernels {
-        avatar_neural::train::set_kernel_path(avatar_neural::train::KernelPath::Portable);
+        avatar_neural::training::step::set_kernel_path(
+            avatar_neural::training::step::KernelPath::Portable,
+        );
     }
     let sections: Vec<Section> = vec![
         ("body", body_section),

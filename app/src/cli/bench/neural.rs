@@ -8,7 +8,8 @@ use avatar_core::body::BodyParams;
 use avatar_core::export::{ExportOptions, export_glb};
 use avatar_core::mesh::extract::{ExtractOptions, extract};
 use avatar_core::motion::{MotionClip, clip_by_name, library};
-use avatar_neural::capture_points::CapturePoints;
+use avatar_neural::avatar::MeshResolution;
+use avatar_neural::data::capture_points::CapturePoints;
 use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
 use glam::Vec3;
 use std::time::Instant;
@@ -55,7 +56,7 @@ pub fn bench_report(steps: usize) -> String {
     );
     let clip = clip_by_name("walk").expect("library clip");
     for resolution in [128, 64] {
-        avatar.resolution = resolution;
+        avatar.set_mesh_resolution(MeshResolution::new(resolution).expect("within the bounds"));
         let mut times = Vec::new();
         let mut vertices = 0;
         for params in clip.frames.iter().step_by(12).take(5) {
@@ -74,7 +75,7 @@ pub fn bench_report(steps: usize) -> String {
         );
     }
     out += &burn_against_fast_path(&avatar, &clip.frames[36]);
-    avatar.resolution = 128;
+    avatar.set_mesh_resolution(MeshResolution::new(128).expect("within the bounds"));
     out += &export_row(&avatar);
     if let Some(peak) = peak_memory_bytes() {
         out += &format!(

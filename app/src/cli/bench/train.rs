@@ -1,16 +1,18 @@
 //! `avatar-studio bench --only train`: `train-step`, the cost of a training step on the
-//! training path (`avatar_neural::train`) on every kernel path the CPU has (AVX-512, AVX2 +
+//! training path (`avatar_neural::training::step`) on every kernel path the CPU has (AVX-512, AVX2 +
 //! FMA, portable), on burn's autodiff and, when PyTorch is installed, in PyTorch
 //! (`benches/train_step_torch.py`), all at the fit's workload, for the compact and the paper
 //! presets, wall and CPU time; `train-meta`, the cost of a meta-training iteration (Alg. 1
 //! and Alg. 2) and a default 8-frame fit of the demo (canonicalization included).
 
-use avatar_neural::capture_points::CapturePoints;
 use avatar_neural::compute::Compute;
-use avatar_neural::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
-use avatar_neural::meta_training::MetaOptions;
-use avatar_neural::pose_sample::PoseSample;
-use avatar_neural::train::{KernelPath, kernel_name, kernel_name_of, kernel_path, set_kernel_path};
+use avatar_neural::data::capture_points::CapturePoints;
+use avatar_neural::data::pose_sample::PoseSample;
+use avatar_neural::training::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
+use avatar_neural::training::meta_training::MetaOptions;
+use avatar_neural::training::step::{
+    KernelPath, kernel_name, kernel_name_of, kernel_path, set_kernel_path,
+};
 use avatar_neural::{FitOptions, HyperConfig, HyperNet, Init, MetaAvatar, MetaModel, fit_sdf};
 use avatar_studio::studio::measure::cpu_seconds;
 use std::time::Instant;

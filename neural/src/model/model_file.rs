@@ -4,10 +4,10 @@
 //! fresh machine with no downloads.
 
 use crate::error::{Error, Result};
-use crate::flat_params::flatten;
-use crate::hyper::{HyperConfig, HyperNet};
-use crate::siren::Siren;
-use crate::weights_file;
+use crate::model::flat_params::flatten;
+use crate::model::hyper::{HyperConfig, HyperNet};
+use crate::model::siren::Siren;
+use crate::model::weights_file;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -88,7 +88,7 @@ fn sha256_of_file(path: &Path) -> Result<String> {
 }
 
 /// The shipped compact model (meta-trained on synthetic training subjects; docs/neural.md).
-const SHIPPED: &[u8] = include_bytes!("../../assets/model/meta-compact.bin");
+const SHIPPED: &[u8] = include_bytes!("../../../assets/model/meta-compact.bin");
 
 impl MetaModel {
     /// The compact model embedded in the binary.
@@ -231,18 +231,18 @@ impl MetaModel {
 
 /// The meta-SDF as a trainable SIREN on the CPU's training device (a fit forks it to its own).
 pub fn trainable_siren(
-    config: &crate::siren::SirenConfig,
+    config: &crate::model::siren::SirenConfig,
     flat: &[f32],
     seed: u64,
 ) -> Result<Siren> {
-    crate::flat_params::load_flat(config.init(seed, &crate::cpu_training_device()), flat)
+    crate::model::flat_params::load_flat(config.init(seed, &crate::cpu_training_device()), flat)
 }
 
 /// The hypernetwork (its base SDF included) as a trainable module on the CPU's training device
 /// (a fit forks it to its own).
 pub fn trainable_hyper(config: &HyperConfig, flat: &[f32], seed: u64) -> Result<HyperNet> {
     let device = crate::cpu_training_device();
-    crate::flat_params::load_flat(
+    crate::model::flat_params::load_flat(
         config.init(config.siren.init(seed, &device), seed, &device),
         flat,
     )

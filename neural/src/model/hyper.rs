@@ -8,9 +8,9 @@
 //! low-rank residual U_l C(pose) per layer, about 1 M parameters) that a laptop CPU
 //! fine-tunes in minutes.
 
-use crate::encoder::{BoneEncoder, PoseEncoding, default_linear};
-use crate::off_surface::gauss;
-use crate::siren::{Siren, SirenConfig};
+use crate::data::off_surface::gauss;
+use crate::model::encoder::{BoneEncoder, PoseEncoding, default_linear};
+use crate::model::siren::{Siren, SirenConfig};
 use burn::module::{Module, Param};
 use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor, TensorData};
@@ -79,15 +79,11 @@ impl HyperConfig {
     /// before any size arithmetic, which then cannot overflow.
     pub fn check(&self) -> crate::error::Result<()> {
         self.siren.check()?;
-        if !(1..=4096).contains(&self.head_hidden)
-            || self.rank.is_some_and(|r| !(1..=4096).contains(&r))
-        {
-            return Err(crate::error::Error::invalid(format!(
-                "hypernetwork head width {} or rank {:?} out of range (1-4096)",
-                self.head_hidden, self.rank
-            )));
+        crate::config::within("head_hidden", self.head_hidden, 1, 4096)?;
+        match self.rank {
+            Some(r) => crate::config::within("rank", r, 1, 4096),
+            None => Ok(()),
         }
-        Ok(())
     }
 
     /// Parameters of the whole hypernetwork: encoder, heads, low-rank bases and base SDF.
@@ -96,7 +92,7 @@ impl HyperConfig {
     }
 
     pub fn encoder_params(&self) -> usize {
-        use crate::encoder::{BONE_FEATURES as F, BONE_INPUTS as I};
+        use crate::model::encoder::{BONE_FEATURES as F, BONE_INPUTS as I};
         match self.encoding {
             PoseEncoding::Hierarchical => {
                 24 * 12 * F + F + 24 * ((I + F) * (I + F) + (I + F) + (I + F) * F + F)
@@ -236,9 +232,9 @@ impl HyperNet {
         let head_hidden = self.heads[0].w[0].val().dims()[1];
         let rank = self.bases.iter().map(|u| u.val().dims()[1]).max();
         let encoding = if self.encoder.prior_w.is_empty() {
-            crate::encoder::PoseEncoding::Quaternion
+            crate::model::encoder::PoseEncoding::Quaternion
         } else {
-            crate::encoder::PoseEncoding::Hierarchical
+            crate::model::encoder::PoseEncoding::Hierarchical
         };
         HyperConfig { siren, head_hidden, rank, encoding }
     }

@@ -1,5 +1,5 @@
 //! Pre-alignment of the frames' poses against a fixed target that knows the subject's shape
-//! (the shaped body, `crate::body_sdf::BodySdf`), before the avatar's SDF has learned anything
+//! (the shaped body, `crate::data::body_sdf::BodySdf`), before the avatar's SDF has learned anything
 //! from the misaligned points (docs/neural.md, "Pose refinement"; the measurements behind the
 //! defaults: docs/decisions.md).
 

@@ -163,6 +163,7 @@ pub fn meta_train_collective(
     log: &mut dyn FnMut(&MetaProgress),
     collective: &Collective,
 ) -> Result<PathBuf> {
+    crate::config::Check::check(options)?;
     let root = collective.is_root();
     if root {
         std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;

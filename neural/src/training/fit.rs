@@ -1,10 +1,10 @@
 //! Fitting a SIREN SDF to oriented points with the IGR loss (Adam): the inner loop of
 //! meta-learning and of fine-tuning the static SDF.
 
-use crate::loss::{IgrWeights, igr_loss};
-use crate::off_surface::OffSurface;
-use crate::siren::Siren;
-use crate::train::{Adam, IgrPoints, SirenGradient, SirenShape};
+use crate::data::off_surface::OffSurface;
+use crate::model::siren::Siren;
+use crate::training::loss::{IgrWeights, igr_loss};
+use crate::training::step::{Adam, IgrPoints, SirenGradient, SirenShape};
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::Vec3;
@@ -132,12 +132,12 @@ pub fn fit_sdf_resuming(
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
     let optim = optimiser.burn.get_or_insert_with(|| AdamConfig::new().init());
     let log_every = (options.steps / 50).max(1);
-    // On the CPU the steps run on the training path (`crate::train`), on a GPU through burn.
+    // On the CPU the steps run on the training path (`crate::training::step`), on a GPU through burn.
     let mut flat = options.compute.flat_training().then(|| {
         let (gradient, adam) = optimiser.flat.get_or_insert_with(|| {
             (SirenGradient::new(SirenShape::of(&model.config())), Adam::default())
         });
-        let params = crate::flat_params::flatten(&model);
+        let params = crate::model::flat_params::flatten(&model);
         (gradient, adam, vec![0f32; params.len()], params)
     });
     for step in 0..options.steps {
@@ -188,14 +188,14 @@ pub fn fit_sdf_resuming(
             log,
         );
         if log {
-            progress(step, crate::loss::scalar(&loss.total), loss.terms);
+            progress(step, crate::training::loss::scalar(&loss.total), loss.terms);
         }
         let grads = loss.total.backward();
         let grads = GradientsParams::from_grads(grads, &model);
         model = optim.step(options.learning_rate, model, grads);
     }
     match flat {
-        Some((_, _, _, params)) => crate::flat_params::load_flat(model, &params)
+        Some((_, _, _, params)) => crate::model::flat_params::load_flat(model, &params)
             .expect("the flat parameters come from this model"),
         None => model,
     }
@@ -229,6 +229,6 @@ pub fn sample_step(
 
 /// SDF values of points (no gradient), through the fast evaluation path (`siren_eval`).
 pub fn sdf_values(model: &Siren, points: &[Vec3]) -> Vec<f32> {
-    crate::siren_eval::SirenEval::of(model)
+    crate::model::siren_eval::SirenEval::of(model)
         .sdf(&points.iter().map(|p| p.to_array()).collect::<Vec<_>>())
 }

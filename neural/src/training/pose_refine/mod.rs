@@ -16,11 +16,11 @@
 //! nearer the truth). The derivative of the skinned point comes from
 //! `avatar_core::body::pose_jacobian`; `dx_c = -A^-1 dy` with `A` the blended linear part.
 
-use crate::capture_points::{CapturePoints, shell_samples_of};
-use crate::encoder::PoseEncoding;
-use crate::pose_sample::PoseSample;
-use crate::pose_trace::{PoseTrace, TraceLines};
-use crate::siren_eval::SirenEval;
+use crate::data::capture_points::{CapturePoints, shell_samples_of};
+use crate::data::pose_sample::PoseSample;
+use crate::model::encoder::PoseEncoding;
+use crate::model::siren_eval::SirenEval;
+use crate::training::pose_trace::{PoseTrace, TraceLines};
 use avatar_core::body::{BodyParams, NUM_JOINTS, POSE_DOF, PoseCorrection, blend_transform};
 use avatar_core::canonical::ShellOptions;
 use glam::{Mat3, Vec3};
@@ -182,7 +182,7 @@ impl<'a> PoseRefiner<'a> {
     /// ones by `pose_trace::match_truth`); writes the given fittings' errors.
     pub fn trace_against(&mut self, trace: &PoseTrace) {
         let given: Vec<BodyParams> = self.frames.iter().map(|f| f.given.clone()).collect();
-        self.truth = Some(crate::pose_trace::match_truth(&given, &trace.truth));
+        self.truth = Some(crate::training::pose_trace::match_truth(&given, &trace.truth));
         self.lines = Some(trace.lines.clone());
         self.trace_errors("given fittings");
     }
@@ -202,7 +202,7 @@ impl<'a> PoseRefiner<'a> {
     }
 
     /// The errors against the truth when a trace is written.
-    fn traced_errors(&self) -> Option<crate::pose_trace::PoseErrors> {
+    fn traced_errors(&self) -> Option<crate::training::pose_trace::PoseErrors> {
         self.lines.as_ref().and_then(|_| self.errors())
     }
 
@@ -212,10 +212,10 @@ impl<'a> PoseRefiner<'a> {
     }
 
     /// The refined fittings' errors against the truth, when it is known.
-    pub fn errors(&self) -> Option<crate::pose_trace::PoseErrors> {
-        self.truth
-            .as_ref()
-            .map(|t| crate::pose_trace::pose_errors(&self.refined(), t, &self.rest_joints))
+    pub fn errors(&self) -> Option<crate::training::pose_trace::PoseErrors> {
+        self.truth.as_ref().map(|t| {
+            crate::training::pose_trace::pose_errors(&self.refined(), t, &self.rest_joints)
+        })
     }
 
     /// Diagnostic (`PoseTrace::snap`, after [`PoseRefiner::trace_against`]): set these joints' rotations
@@ -349,7 +349,7 @@ impl<'a> PoseRefiner<'a> {
 /// normals and pose inputs.
 pub fn refine_round(
     refiner: &mut PoseRefiner,
-    model: &crate::hyper::HyperNet,
+    model: &crate::model::hyper::HyperNet,
     samples: &mut [PoseSample],
     encoding: PoseEncoding,
 ) -> RoundReport {

@@ -14,7 +14,7 @@
 
 use super::elementwise;
 use super::gemm::{Epilogue, Mat, add_column_sums, dots, gemm, gemm_then};
-use crate::siren::W0;
+use crate::model::siren::W0;
 
 /// Where each layer's weights and biases sit in a SIREN's flat parameter vector (the burn
 /// module's visit order: every weight matrix [in, out], then every bias).
@@ -47,7 +47,7 @@ impl SirenShape {
         SirenShape { widths: widths.to_vec(), w_off, b_off, len: off }
     }
 
-    pub fn of(config: &crate::siren::SirenConfig) -> SirenShape {
+    pub fn of(config: &crate::model::siren::SirenConfig) -> SirenShape {
         SirenShape::new(&config.widths())
     }
 

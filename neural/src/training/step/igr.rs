@@ -5,7 +5,7 @@
 //! independently and their shares add up.
 
 use super::siren_grad::{LossTerms, PointLoss};
-use crate::loss::IgrWeights;
+use crate::training::loss::IgrWeights;
 
 pub struct IgrPoints<'a> {
     pub weights: IgrWeights,

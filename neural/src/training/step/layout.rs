@@ -3,8 +3,8 @@
 //! reshuffling. Encoder, heads, low-rank bases, base SDF, in that order.
 
 use super::siren_grad::SirenShape;
-use crate::encoder::{BONE_FEATURES, BONE_INPUTS, PoseEncoding};
-use crate::hyper::HyperConfig;
+use crate::model::encoder::{BONE_FEATURES, BONE_INPUTS, PoseEncoding};
+use crate::model::hyper::HyperConfig;
 use avatar_core::body::skeleton::NUM_JOINTS;
 use std::ops::Range;
 

@@ -8,9 +8,11 @@
 //! cube (the group's shape: its first item's fitting). An item that fails here (no usable
 //! frame, a scan whose points do not canonicalize) is skipped by name like a refused one.
 
-use crate::capture_points::{CapturePoints, FrameCount};
+use crate::data::capture_points::{CapturePoints, FrameCount};
+use crate::data::meta_data::{
+    DATA_FORMAT, DATA_VERSION, Group, Manifest, MetaData, MetaDataConfig,
+};
 use crate::error::Result;
-use crate::meta_data::{DATA_FORMAT, DATA_VERSION, Group, Manifest, MetaData, MetaDataConfig};
 use avatar_core::body::{BodyModel, BodyParams};
 use avatar_core::canonical::{Canonicalizer, FieldCache, FieldOptions, Normalisation};
 use avatar_core::capture::open::load_body_model;
@@ -71,11 +73,7 @@ pub fn prepare(
     options: &OwnDataOptions,
     log: &mut dyn FnMut(&str),
 ) -> Result<OwnData> {
-    if options.points_per_pose == 0 || options.frames_per_capture == 0 {
-        return Err(crate::error::Error::invalid(
-            "own data needs at least one point per sample and one frame per capture",
-        ));
-    }
+    crate::config::Check::check(options)?;
     let mut skipped = found.refused.clone();
     let mut groups = Vec::new();
     let (mut poses, mut points, mut normals) = (Vec::new(), Vec::new(), Vec::new());
@@ -194,7 +192,7 @@ pub fn prepare(
 pub fn fingerprint(found: &Discovery, options: &OwnDataOptions) -> String {
     let mut text = format!(
         "{} {} {} {}\n",
-        crate::meta_data::DATA_VERSION,
+        crate::data::meta_data::DATA_VERSION,
         options.points_per_pose,
         options.frames_per_capture,
         options.seed
@@ -222,7 +220,7 @@ pub fn fingerprint(found: &Discovery, options: &OwnDataOptions) -> String {
     for r in &found.refused {
         stamp(&r.path);
     }
-    crate::model_file::sha256_hex(text.as_bytes())
+    crate::model::model_file::sha256_hex(text.as_bytes())
 }
 
 /// `n` of the points (without replacement when there are enough, else with), or `None` when

@@ -11,7 +11,7 @@ use super::heads::{
 };
 use super::igr::IgrPoints;
 use super::layout::{Block, HeadLayout, HyperLayout};
-use crate::hyper::HyperConfig;
+use crate::model::hyper::HyperConfig;
 use rayon::prelude::*;
 
 /// One step's data: B poses, each with `surface + off` rows of points.

@@ -10,9 +10,9 @@
 //! The spatial gradient is taken in reverse mode (one transposed multiply per layer), about
 //! twice the cost of the values alone, against four times for forward-mode tangents.
 
-pub use crate::sine::sin_cos;
-use crate::siren::W0;
-use crate::train::gemm::{Epilogue, Mat, dots, gemm, gemm_then};
+pub use crate::model::sine::sin_cos;
+use crate::model::siren::W0;
+use crate::training::step::gemm::{Epilogue, Mat, dots, gemm, gemm_then};
 use avatar_core::canonical::Normalisation;
 use burn::tensor::Tensor;
 use glam::Vec3;
@@ -59,7 +59,7 @@ impl SirenEval {
     }
 
     /// From a SIREN module (a static SDF, the meta-SDF, a network being trained).
-    pub fn of(siren: &crate::siren::Siren) -> SirenEval {
+    pub fn of(siren: &crate::model::siren::Siren) -> SirenEval {
         let (w, b) = siren.params();
         SirenEval::from_tensors(&w, &b)
     }
@@ -217,7 +217,7 @@ pub struct MetricSdf {
 }
 
 impl MetricSdf {
-    pub fn of(siren: &crate::siren::Siren, normalisation: Normalisation) -> MetricSdf {
+    pub fn of(siren: &crate::model::siren::Siren, normalisation: Normalisation) -> MetricSdf {
         MetricSdf { siren: SirenEval::of(siren), normalisation }
     }
 

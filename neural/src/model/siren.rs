@@ -45,15 +45,11 @@ impl SirenConfig {
         w
     }
 
-    /// Refuse sizes no network of this build has (checked before any size arithmetic).
+    /// Refuse sizes no network of this build has (checked before any size arithmetic): 1 to
+    /// 64 layers of 1 to 4,096 (also `config::Check`).
     pub fn check(&self) -> crate::error::Result<()> {
-        if !(1..=4096).contains(&self.hidden) || !(1..=64).contains(&self.layers) {
-            return Err(crate::error::Error::invalid(format!(
-                "SDF network {} x {} out of range (1-64 layers of 1-4096)",
-                self.layers, self.hidden
-            )));
-        }
-        Ok(())
+        crate::config::within("siren.hidden", self.hidden, 1, 4096)?;
+        crate::config::within("siren.layers", self.layers, 1, 64)
     }
 
     pub fn num_params(&self) -> usize {

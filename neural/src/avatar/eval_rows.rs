@@ -2,10 +2,12 @@
 //! avatar, the from-scratch baseline (same networks and fine-tuning steps, random
 //! initialisation) and the static meta-SDF (Alg. 1's pose-independent SDF fine-tuned).
 
-use crate::avatar::{AnyAvatar, AvatarFit, FitKind, Init, MetaAvatar, StaticAvatar, fit_avatar};
-use crate::capture_points::CapturePoints;
-use crate::hyper_fit::HyperFitOptions;
-use crate::model_file::MetaModel;
+use crate::avatar::{
+    AnyAvatar, AvatarFit, FitKind, Init, MeshResolution, MetaAvatar, StaticAvatar, fit_avatar,
+};
+use crate::data::capture_points::CapturePoints;
+use crate::model::model_file::MetaModel;
+use crate::training::hyper_fit::HyperFitOptions;
 use avatar_core::avatar::AvatarSource;
 use avatar_core::body::BodyParams;
 use avatar_core::canonical::forward_skin_with_weights;
@@ -36,7 +38,7 @@ pub struct NeuralRow {
     options: HyperFitOptions,
     /// Frames of the capture to fine-tune on (all of the protocol's frames when larger).
     max_frames: usize,
-    resolution: usize,
+    resolution: MeshResolution,
     /// Diagnostic: save each fitted MetaAvatar as `DIR/<capture>.avatar`.
     save_avatars: Option<std::path::PathBuf>,
     fitted: Option<Fitted>,
@@ -49,7 +51,7 @@ impl NeuralRow {
         model: Arc<MetaModel>,
         options: HyperFitOptions,
         max_frames: usize,
-        resolution: usize,
+        resolution: MeshResolution,
     ) -> Self {
         NeuralRow { kind, model, options, max_frames, resolution, save_avatars: None, fitted: None }
     }
@@ -83,17 +85,17 @@ impl Predictor for NeuralRow {
         };
         let fit =
             AvatarFit { kind, options: self.options.clone(), chunk: 0, cancel: None, trace: None };
-        self.fitted = Some(match fit_avatar(&capture, &fit, &mut |_| {}).0 {
+        self.fitted = Some(match fit_avatar(&capture, &fit, &mut |_| {})?.0 {
             AnyAvatar::Meta(a) => Fitted::Hyper(a),
             AnyAvatar::Static(mut avatar) => {
-                avatar.resolution = self.resolution;
+                avatar.set_mesh_resolution(self.resolution);
                 let canonical = avatar.canonical_mesh(&BodyParams::default())?;
                 let weights = avatar.mesh_skinning_weights(&canonical);
                 Fitted::Static(avatar, canonical, weights)
             }
         });
         if let Some(Fitted::Hyper(a)) = &mut self.fitted {
-            a.resolution = self.resolution;
+            a.set_mesh_resolution(self.resolution);
             if let (Some(dir), Some(name)) = (&self.save_avatars, data.capture_dir.file_name()) {
                 let path = dir.join(name).with_extension("avatar");
                 a.save(&path).map_err(|e| Error::invalid(format!("{}: {e}", path.display())))?;

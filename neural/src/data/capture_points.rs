@@ -3,9 +3,9 @@
 //! canonical [-1, 1]^3 cube, with each frame's pose kept for the hypernetwork; and PINA's
 //! off-surface sign prior from the canonical body's SDF.
 
-use crate::encoder::PoseEncoding;
+use crate::data::pose_sample::PoseSample;
 use crate::error::{Error, Result};
-use crate::pose_sample::PoseSample;
+use crate::model::encoder::PoseEncoding;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS};
 use avatar_core::canonical::{
     Canonicalizer, FieldCache, FieldOptions, Normalisation, ShellOptions, SkinningField,

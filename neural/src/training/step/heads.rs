@@ -4,7 +4,7 @@
 
 use super::gemm::{Mat, add_column_sums, gemm};
 use super::layout::{Block, EncoderLayout, HeadLayout};
-use crate::encoder::{BONE_FEATURES, BONE_INPUTS};
+use crate::model::encoder::{BONE_FEATURES, BONE_INPUTS};
 use avatar_core::body::skeleton::{NUM_JOINTS, SMPL_PARENTS};
 
 /// LayerNorm's epsilon in the burn reference (`hyper::layer_norm`).

@@ -180,7 +180,7 @@ unsafe fn store(p: *mut f32, v: __m512) {
     unsafe { _mm512_mask_storeu_ps(p, 0xFFFF, v) }
 }
 
-/// `crate::sine::sin_cos` on 16 lanes (the same reduction and polynomials, with fused
+/// `crate::model::sine::sin_cos` on 16 lanes (the same reduction and polynomials, with fused
 /// multiply-adds).
 #[target_feature(enable = "avx512f")]
 #[inline]

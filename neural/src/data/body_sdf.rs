@@ -2,7 +2,7 @@
 //! target of pose pre-alignment (`pose_refine`), which the fittings' errors cannot bend, unlike
 //! an SDF learned from the misaligned points.
 
-use crate::capture_points::CapturePoints;
+use crate::data::capture_points::CapturePoints;
 use avatar_core::mesh::TriMesh;
 use avatar_core::mesh::bvh::Bvh;
 use glam::Vec3;

@@ -2,11 +2,11 @@
 //! (meta-learning) and the fine-tuning of a personal avatar. Each step takes a minibatch of
 //! poses, predicts one SIREN per pose and scores its surface and off-surface points.
 
-use crate::fit::{Progress, SignPrior};
-use crate::hyper::HyperNet;
-use crate::loss::{IgrWeights, igr_loss, scalar};
-use crate::off_surface::OffSurface;
-use crate::train::{Adam, HyperBatch, HyperGradient, IgrPoints, StepLoss};
+use crate::data::off_surface::OffSurface;
+use crate::model::hyper::HyperNet;
+use crate::training::fit::{Progress, SignPrior};
+use crate::training::loss::{IgrWeights, igr_loss, scalar};
+use crate::training::step::{Adam, HyperBatch, HyperGradient, IgrPoints, StepLoss};
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
@@ -16,7 +16,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use crate::pose_sample::PoseSample;
+use crate::data::pose_sample::PoseSample;
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HyperFitOptions {
@@ -51,7 +51,7 @@ pub struct HyperFitOptions {
     /// Joint refinement of the frames' poses during a personal avatar's fit (PINA 3.2; on by
     /// default; meta-training ignores it).
     #[serde(default)]
-    pub refine_poses: crate::pose_refine::PoseRefineOptions,
+    pub refine_poses: crate::training::pose_refine::PoseRefineOptions,
     /// Where the steps run (a choice of this run, never written with the options).
     #[serde(skip)]
     pub compute: crate::compute::Compute,
@@ -91,7 +91,7 @@ impl Default for HyperFitOptions {
             prior_weight: 5000.0,
             residual_weight: 1e2,
             seed: 0,
-            refine_poses: crate::pose_refine::PoseRefineOptions::default(),
+            refine_poses: crate::training::pose_refine::PoseRefineOptions::default(),
             compute: crate::compute::Compute::Cpu,
         }
     }
@@ -115,8 +115,8 @@ impl HyperFitOptions {
     /// The static SDF's fit with the same budget: the same steps, rate of the SDF weights, loss
     /// and points a step (all poses pooled). The static meta-SDF row of the evaluation and
     /// `fit --static` use it, so the two kinds of avatar compare like for like.
-    pub fn static_equivalent(&self) -> crate::fit::FitOptions {
-        crate::fit::FitOptions {
+    pub fn static_equivalent(&self) -> crate::training::fit::FitOptions {
+        crate::training::fit::FitOptions {
             steps: self.steps,
             learning_rate: self.lr_sdf,
             batch: self.surface_per_pose * self.poses_per_step,
@@ -225,7 +225,7 @@ impl SampledBatch {
     pub fn signs(&self, prior: Option<SignPrior>) -> Option<Vec<f32>> {
         let mut is_free = vec![false; self.offs.len()];
         self.outside.iter().for_each(|&i| is_free[i] = true);
-        crate::fit::off_surface_signs(prior, &self.offs, &is_free)
+        crate::training::fit::off_surface_signs(prior, &self.offs, &is_free)
     }
 
     /// Points and normals as plain arrays (the training path's layout).
@@ -331,7 +331,7 @@ pub fn batch_loss_of(
     let input_len = batch.inputs.len() / b;
     let predicted = model
         .predict(Tensor::from_data(TensorData::new(batch.inputs.clone(), [b, input_len]), device));
-    let (f, g) = crate::siren::batched_sdf_and_gradient(
+    let (f, g) = crate::model::siren::batched_sdf_and_gradient(
         &predicted.weights,
         &predicted.biases,
         tensor3(&batch.points, b, device),
@@ -374,7 +374,7 @@ pub fn batch_loss_of(
 /// Fit `model` to the samples for `options.steps` steps (each a random minibatch of poses,
 /// epoch-shuffled). `optimisers` carry Adam's state (fresh for a new fit). Stops early when
 /// `cancel` is set and returns the model as it is then. On the CPU the steps run on the
-/// training path (`crate::train`); on a GPU through burn's autodiff.
+/// training path (`crate::training::step`); on a GPU through burn's autodiff.
 #[allow(clippy::too_many_arguments)]
 pub fn fit_hyper(
     mut model: HyperNet,
@@ -424,7 +424,7 @@ pub fn fit_hyper(
         }
     }
     match flat {
-        Some(fit) => crate::flat_params::load_flat(model, &fit.params)
+        Some(fit) => crate::model::flat_params::load_flat(model, &fit.params)
             .expect("the flat parameters come from this model"),
         None => model,
     }
@@ -442,7 +442,7 @@ impl FlatFit {
         if optimisers.flat.as_ref().is_none_or(|(g, _)| g.layout().config != config) {
             optimisers.flat = Some((HyperGradient::new(&config), Adam::default()));
         }
-        let params = crate::flat_params::flatten(model);
+        let params = crate::model::flat_params::flatten(model);
         FlatFit { grad: vec![0f32; params.len()], params }
     }
 

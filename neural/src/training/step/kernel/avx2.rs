@@ -209,7 +209,7 @@ unsafe fn store(p: *mut f32, v: __m256) {
     }
 }
 
-/// `crate::sine::sin_cos` on 8 lanes (the same reduction and polynomials, with fused
+/// `crate::model::sine::sin_cos` on 8 lanes (the same reduction and polynomials, with fused
 /// multiply-adds, as `avx512::sin_cos`).
 #[target_feature(enable = "avx2,fma")]
 #[inline]

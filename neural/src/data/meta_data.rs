@@ -9,9 +9,9 @@
 //! On disk (`--data DIR`): `meta-data.json` (what was generated, from which seed) and
 //! `samples.bin` (float32: per sample 72 pose values, then points x (position, normal)).
 
-use crate::encoder::PoseEncoding;
+use crate::data::pose_sample::PoseSample;
 use crate::error::{Error, Result};
-use crate::pose_sample::PoseSample;
+use crate::model::encoder::PoseEncoding;
 use avatar_core::body::{BodyModel, BodyParams};
 use avatar_core::canonical::Normalisation;
 use avatar_core::eval::dataset::{SIMULATED_TRAIN_OUTFITS, TRAIN_OUTFITS, TRAIN_SUBJECT_SEEDS};
@@ -144,6 +144,7 @@ pub struct MetaData {
 impl MetaData {
     /// Generate the data set (deterministic for a config).
     pub fn generate(body: &BodyModel, config: &MetaDataConfig) -> Result<MetaData> {
+        crate::config::Check::check(config)?;
         let outfits: Vec<Outfit> = config
             .outfits
             .iter()

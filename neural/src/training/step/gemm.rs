@@ -172,7 +172,7 @@ fn gemm_then_on(isa: Option<Isa>, a: Mat, b: Mat, out: &mut [f32], ep: Epilogue)
             plain(0.0, out);
             for (row, d_row) in out.chunks_exact_mut(n).zip(deriv.chunks_exact_mut(n)) {
                 for ((o, d), b) in row.iter_mut().zip(d_row.iter_mut()).zip(bias) {
-                    let (s, c) = crate::sine::sin_cos(w0 * (*o + b));
+                    let (s, c) = crate::model::sine::sin_cos(w0 * (*o + b));
                     (*o, *d) = (s, w0 * c);
                 }
             }
@@ -254,7 +254,7 @@ mod tests {
     /// asked (a silent fall-back to the plain loops would leave it untested).
     #[test]
     fn each_path_runs_its_kernel_on_this_cpu() {
-        use crate::train::kernel_name_of;
+        use crate::training::step::kernel_name_of;
         assert_eq!(kernel_name_of(KernelPath::Portable), "portable");
         #[cfg(target_arch = "x86_64")]
         {
