@@ -17,6 +17,9 @@ use std::time::{Duration, Instant};
 const SIZE: [f32; 2] = [920.0, 560.0];
 
 fn harness(options: StudioOptions) -> Harness<'static, StudioApp> {
+    // The snapshots show fitted avatars: every CPU fits with the AVX2 + FMA kernels here, so
+    // that a machine with AVX-512 (whose sums round differently) draws the same pixels.
+    avatar_neural::training::step::set_kernel_path(avatar_neural::training::step::KernelPath::Avx2);
     let mut h = Harness::builder()
         .with_size(SIZE)
         .wgpu()
