@@ -2,8 +2,8 @@
 //! their checkpoint without repeating iterations, a checkpoint of other options is refused, and
 //! the data folder round-trips; Alg. 2 can start from another model's static meta-SDF.
 
-use avatar_neural::meta_data::{MetaData, MetaDataConfig};
-use avatar_neural::meta_training::{MODEL_FILE, MetaOptions, meta_train};
+use avatar_neural::data::meta_data::{MetaData, MetaDataConfig};
+use avatar_neural::training::meta_training::{MODEL_FILE, MetaOptions, meta_train};
 use avatar_neural::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -79,7 +79,7 @@ fn meta_training_is_deterministic_and_resumes_after_a_kill() {
     assert_eq!((&a.hyper, &a.static_sdf), (&a2.hyper, &a2.static_sdf), "same seed, same weights");
     // Meta-training moved the weights away from the initialisation.
     let device = cpu_device();
-    let init = avatar_neural::flat_params::flatten(&o.config.siren.init(o.seed, &device));
+    let init = avatar_neural::model::flat_params::flatten(&o.config.siren.init(o.seed, &device));
     assert_ne!(a.static_sdf, init);
 
     // Killed in Alg. 2 after its 2nd iteration: the run stops with a clear error and resumes
@@ -118,7 +118,8 @@ fn alg2_can_start_from_another_models_static_sdf() {
     };
     let out = root.path().join("b");
     let model_path = root.path().join("a").join(MODEL_FILE);
-    avatar_neural::meta_training::start_from_static(&out, &variant, &first, &model_path).unwrap();
+    avatar_neural::training::meta_training::start_from_static(&out, &variant, &first, &model_path)
+        .unwrap();
     let mut stages = Vec::new();
     let second = MetaModel::load(
         &meta_train(&d, &variant, &out, None, &mut |p| stages.push(p.stage.to_string())).unwrap(),
@@ -128,16 +129,21 @@ fn alg2_can_start_from_another_models_static_sdf() {
     assert_eq!(second.static_sdf, first.static_sdf);
     assert_ne!(second.hyper, first.hyper, "other rates, other hypernetwork");
     // A folder that already holds a run is refused, naming its checkpoint.
-    let err = avatar_neural::meta_training::start_from_static(&out, &variant, &first, &model_path)
-        .unwrap_err()
-        .to_string();
+    let err = avatar_neural::training::meta_training::start_from_static(
+        &out,
+        &variant,
+        &first,
+        &model_path,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(err.contains("checkpoint.bin") && err.contains("already"), "{err}");
     // So is a model whose SDF has another size.
     let bigger = MetaOptions {
         config: HyperConfig { siren: SirenConfig { hidden: 24, layers: 2 }, ..o.config },
         ..options()
     };
-    let err = avatar_neural::meta_training::start_from_static(
+    let err = avatar_neural::training::meta_training::start_from_static(
         &root.path().join("c"),
         &bigger,
         &first,

@@ -6,9 +6,11 @@
 //! feature and OpenMPI's `mpirun` (scripts/test.sh installs it).
 #![cfg(feature = "mpi")]
 
-use avatar_neural::collective::{Collective, Transport};
-use avatar_neural::meta_data::{MetaData, MetaDataConfig};
-use avatar_neural::meta_training::{MODEL_FILE, MetaOptions, meta_train, meta_train_collective};
+use avatar_neural::data::meta_data::{MetaData, MetaDataConfig};
+use avatar_neural::training::collective::{Collective, Transport};
+use avatar_neural::training::meta_training::{
+    MODEL_FILE, MetaOptions, meta_train, meta_train_collective,
+};
 use avatar_neural::*;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};

@@ -8,9 +8,11 @@ use anyhow::{Context, bail};
 use avatar_core::own_data::{discover, looks_like_own_data};
 use avatar_neural::HyperConfig;
 use avatar_neural::MetaModel;
-use avatar_neural::meta_data::{MetaData, MetaDataConfig};
-use avatar_neural::meta_training::{MetaOptions, meta_train_collective, start_from_static};
-use avatar_neural::own_data::{OwnDataOptions, fingerprint, prepare};
+use avatar_neural::data::meta_data::{MetaData, MetaDataConfig};
+use avatar_neural::data::own_data::{OwnDataOptions, fingerprint, prepare};
+use avatar_neural::training::meta_training::{
+    MetaOptions, meta_train_collective, start_from_static,
+};
 use std::io::Write;
 use std::path::PathBuf;
 

@@ -52,7 +52,7 @@ impl StudioAvatar for MetaAvatar {
         let partial = self.header.partial.map(|p| format!(", {p}")).unwrap_or_default();
         // The shipped prior is the default and goes unsaid; another one is named by its file.
         let prior = match &self.header.prior {
-            Some(p) if p.name != avatar_neural::model_file::SHIPPED_PRIOR => {
+            Some(p) if p.name != avatar_neural::model::model_file::SHIPPED_PRIOR => {
                 let name = Path::new(&p.name);
                 let short = match (name.parent().and_then(Path::file_name), name.file_name()) {
                     (Some(dir), Some(file)) => Path::new(dir).join(file).display().to_string(),

@@ -5,7 +5,7 @@ use crate::studio::avatar::{CanonicalMesh, StudioAvatar, studio_avatar};
 use crate::studio::fit_config::FitConfig;
 use crate::studio::tasks::Task;
 use avatar_neural::avatar::{AvatarFit, FitEvent, MeshResolution, TimeLeft, fit_avatar};
-use avatar_neural::capture_points::{CapturePoints, FrameCount};
+use avatar_neural::data::capture_points::{CapturePoints, FrameCount};
 use crossbeam_channel::Receiver;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

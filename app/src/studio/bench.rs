@@ -313,7 +313,7 @@ pub fn viewport_row() -> String {
         Err(e) => return format!("| viewport frame rate | | {e} |\n"),
     };
     // The shipped meta-SDF meshed finely enough for about 50k triangles.
-    let sdf = avatar_neural::siren_eval::SirenEval::of(
+    let sdf = avatar_neural::model::siren_eval::SirenEval::of(
         &avatar_neural::MetaModel::shipped().static_siren(),
     );
     let options = avatar_core::mesh::extract::ExtractOptions::new(

@@ -2,7 +2,7 @@
 //! `avatar_neural::avatar::fitting`.
 
 use avatar_neural::avatar::FitKind;
-use avatar_neural::capture_points::FrameCount;
+use avatar_neural::data::capture_points::FrameCount;
 use avatar_neural::{HyperFitOptions, Init, MetaModel, SirenConfig};
 
 /// Which avatar a fit produces.

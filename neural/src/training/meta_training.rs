@@ -8,17 +8,17 @@
 mod checkpoint;
 mod tasks;
 
-use crate::collective::Collective;
+use crate::data::meta_data::MetaData;
+use crate::data::pose_sample::PoseSample;
 use crate::error::{Error, Result};
-use crate::fit::{FitOptions, fit_sdf};
-use crate::flat_params::{flatten, load_flat, reptile_gradients};
-use crate::hyper::{HyperConfig, HyperNet};
-use crate::hyper_fit::{GroupRates, HyperFitOptions, HyperOptimisers, fit_hyper};
-use crate::loss::IgrWeights;
-use crate::meta_data::MetaData;
-use crate::model_file::MetaModel;
-use crate::pose_sample::PoseSample;
-use crate::weights_file;
+use crate::model::flat_params::{flatten, load_flat, reptile_gradients};
+use crate::model::hyper::{HyperConfig, HyperNet};
+use crate::model::model_file::MetaModel;
+use crate::model::weights_file;
+use crate::training::collective::Collective;
+use crate::training::fit::{FitOptions, fit_sdf};
+use crate::training::hyper_fit::{GroupRates, HyperFitOptions, HyperOptimisers, fit_hyper};
+use crate::training::loss::IgrWeights;
 use burn::optim::AdamConfig;
 use burn::optim::GradientsParams;
 use checkpoint::Checkpoint;
@@ -427,7 +427,7 @@ pub fn start_from_static(
     weights_file::write(&ckpt_path, &ck, &model.static_sdf)
 }
 
-pub use crate::model_file::{trainable_hyper, trainable_siren};
+pub use crate::model::model_file::{trainable_hyper, trainable_siren};
 
 #[cfg(test)]
 mod tests {

@@ -3,9 +3,9 @@
 //! it to every other rank through the collective (`share`), so the ranks need no shared disk.
 
 use super::MetaOptions;
-use crate::collective::Collective;
 use crate::error::{Error, Result};
-use crate::weights_file;
+use crate::model::weights_file;
+use crate::training::collective::Collective;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

@@ -4,8 +4,8 @@
 //! union over the ranks is exactly one process's tasks, whatever the world size.
 
 use super::MetaOptions;
-use crate::collective::Collective;
-use crate::meta_data::MetaData;
+use crate::data::meta_data::MetaData;
+use crate::training::collective::Collective;
 use rand::seq::index::sample as sample_indices;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
