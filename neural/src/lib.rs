@@ -19,6 +19,18 @@ pub mod error;
 pub mod model;
 pub mod training;
 
+// The paths from before the stages, kept for code written against them (they cost nothing).
+#[doc(hidden)]
+pub use avatar::eval_rows;
+#[doc(hidden)]
+pub use data::{body_sdf, capture_points, meta_data, off_surface, own_data, pose_sample};
+#[doc(hidden)]
+pub use model::{encoder, flat_params, hyper, model_file, sine, siren, siren_eval, weights_file};
+#[doc(hidden)]
+pub use training::step as train;
+#[doc(hidden)]
+pub use training::{collective, fit, hyper_fit, loss, meta_training, pose_refine, pose_trace};
+
 pub use avatar::{AnyAvatar, FitReport, Init, MetaAvatar, PartialFit, StaticAvatar};
 pub use config::Check;
 pub use data::pose_sample::PoseSample;
