@@ -196,6 +196,16 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_fitting_error_is_serialized_as_fit_error() {
+        let json = serde_json::to_string(&CaptureConditions::user()).unwrap();
+        assert!(json.contains("\"fit_error\":{\"joint_deg\":3.0,\"trans_m\":0.01}"), "{json}");
+        let back: CaptureConditions = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, CaptureConditions::user());
+        let renamed = json.replace("\"fit_error\"", "\"fitting_error\"");
+        assert_eq!(serde_json::from_str::<CaptureConditions>(&renamed).unwrap(), back);
+    }
+
+    #[test]
     fn fitting_errors_have_the_stated_size_and_are_seeded() {
         let e = FittingError { joint_deg: 3.0, trans_m: 0.01 };
         let mut rng = ChaCha8Rng::seed_from_u64(7);
