@@ -67,12 +67,13 @@ fn bad_arguments_are_named() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--subjects"));
     let out = studio()
+        // `--fit-error`, the alias of `--fitting-error`, reaches the same check.
         .args(["eval", "--subjects", "1", "--fit-error", "90,1", "--out"])
         .arg(dir.path().join("r.json"))
         .output()
         .unwrap();
     assert!(
-        !out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--fit-error"),
+        !out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--fitting-error"),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );

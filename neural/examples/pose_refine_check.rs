@@ -1,6 +1,6 @@
 //! Pose refinement on a capture with exact fittings (PINA 3.2): a copy of the capture gets its
 //! fittings perturbed (seeded; by default 5 degrees per joint and 2 cm RMS, the evaluation's
-//! `FitError`), the avatar is fitted on the copy with refinement, and the given and the refined
+//! `FittingError`), the avatar is fitted on the copy with refinement, and the given and the refined
 //! poses are compared with the exact ones (mean joint angle, translation).
 //!
 //!   cargo run --release --example pose_refine_check -- assets/demo [FRAMES] [STEPS] [DEG] [CM]
@@ -8,7 +8,7 @@
 use avatar_core::body::pose_error;
 use avatar_core::canonical::FieldCache;
 use avatar_core::capture::CaptureManifest;
-use avatar_core::eval::conditions::{CaptureConditions, FitError};
+use avatar_core::eval::conditions::{CaptureConditions, FittingError};
 use avatar_neural::data::capture_points::CapturePoints;
 use avatar_neural::{HyperFitOptions, Init, MetaAvatar, MetaModel};
 use std::path::{Path, PathBuf};
@@ -37,11 +37,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let src = PathBuf::from(args.get(1).map_or("assets/demo", String::as_str));
     let arg = |i: usize, default: f32| args.get(i).map_or(Ok(default), |s| s.parse::<f32>());
     let (frames, steps) = (arg(2, 8.0)? as usize, arg(3, 256.0)? as usize);
-    let error = FitError { joint_deg: arg(4, 5.0)?, trans_m: arg(5, 2.0)? / 100.0 };
+    let error = FittingError { joint_deg: arg(4, 5.0)?, trans_m: arg(5, 2.0)? / 100.0 };
     let tmp = tempfile::tempdir()?;
     let dir = tmp.path().join("capture");
     copy_dir(&src, &dir)?;
-    CaptureConditions { fit_error: error, ..CaptureConditions::clean() }
+    CaptureConditions { fitting_error: error, ..CaptureConditions::clean() }
         .perturb_fittings(&dir, 1)?;
     let (exact, perturbed) = (CaptureManifest::load(&src)?, CaptureManifest::load(&dir)?);
     let capture = CapturePoints::open(&dir, frames, &field_cache())?;

@@ -19,7 +19,8 @@ pub mod error;
 pub mod model;
 pub mod training;
 
-// The paths from before the stages, kept for code written against them (they cost nothing).
+// Flat paths (`avatar_neural::siren`, `avatar_neural::train`, ...) beside the stage paths, for
+// the tests and examples written against them (they cost nothing).
 #[doc(hidden)]
 pub use avatar::eval_rows;
 #[doc(hidden)]

@@ -7,7 +7,7 @@ use avatar_core::canonical::ShellOptions;
 use avatar_core::canonical::{
     FieldOptions, Normalisation, RootOptions, SkinningField, canonicalize_points, forward_point,
 };
-use avatar_core::eval::conditions::FitError;
+use avatar_core::eval::conditions::FittingError;
 use avatar_core::mesh::bvh::Bvh;
 use avatar_neural::data::body_sdf::BodySdf;
 use avatar_neural::data::capture_points::{CapturePoints, FramePoints, shell_samples_of};
@@ -38,13 +38,13 @@ fn true_pose(rng: &mut ChaCha8Rng, k: usize) -> BodyParams {
 
 /// The synthetic capture: canonical points from the perturbed fittings, as `fit` would get them.
 fn capture(body: BodyModel, frames: usize) -> (CapturePoints, Vec<BodyParams>) {
-    capture_with_error(body, frames, FitError { joint_deg: 5.0, trans_m: 0.02 })
+    capture_with_error(body, frames, FittingError { joint_deg: 5.0, trans_m: 0.02 })
 }
 
 fn capture_with_error(
     body: BodyModel,
     frames: usize,
-    error: FitError,
+    error: FittingError,
 ) -> (CapturePoints, Vec<BodyParams>) {
     let rest = body.shaped_vertices(&[]);
     let field = SkinningField::build(
@@ -253,7 +253,7 @@ fn prealignment_leaves_exact_fittings_where_they_are() {
     // Exact fittings: no round can fit the body better, so the poses come back unchanged
     // (before the acceptance test the rounds drifted them, the residual growing).
     let (capture, truth) =
-        capture_with_error(open_body_lowpoly(), 4, FitError { joint_deg: 0.0, trans_m: 0.0 });
+        capture_with_error(open_body_lowpoly(), 4, FittingError { joint_deg: 0.0, trans_m: 0.0 });
     let body = BodySdf::new(&capture);
     let mut refiner = PoseRefiner::new(&capture, PoseRefineOptions::default());
     refiner.prealign(&|_, p: &[Vec3]| body.beyond_clothing(p, 0.03));

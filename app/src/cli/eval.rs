@@ -176,9 +176,10 @@ pub struct Args {
     #[arg(long)]
     free_space: Option<usize>,
     /// Fitting errors of user captures: DEGREES,CENTIMETRES RMS per joint and of the
-    /// translation (default 3,1; 0,0 gives user captures with exact fittings).
-    #[arg(long)]
-    fit_error: Option<String>,
+    /// translation (default 3,1; 0,0 gives user captures with exact fittings). Also spelled
+    /// `--fit-error`.
+    #[arg(long, alias = "fit-error")]
+    fitting_error: Option<String>,
     /// Joint refinement of the fine-tuning frames' poses in the hypernetwork rows (`fit`'s
     /// --refine-poses): on or off (default: `fit`'s).
     #[arg(long, value_parser = ["on", "off"])]
@@ -211,21 +212,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.noise.as_deref(),
     )?;
     config.subjects.truncate(subjects);
-    if let Some(text) = &args.fit_error {
+    if let Some(text) = &args.fitting_error {
         let values: Vec<f32> = text
             .split(',')
             .map(|v| v.trim().parse::<f32>())
             .collect::<Result<_, _>>()
             .unwrap_or_default();
         let [deg, cm] = values[..] else {
-            bail!("--fit-error {text:?}: expected DEGREES,CENTIMETRES (for example 5,2)");
+            bail!("--fitting-error {text:?}: expected DEGREES,CENTIMETRES (for example 5,2)");
         };
         if !(0.0..=45.0).contains(&deg) || !(0.0..=50.0).contains(&cm) {
-            bail!("--fit-error {deg},{cm} is out of range (0 to 45 degrees, 0 to 50 cm)");
+            bail!("--fitting-error {deg},{cm} is out of range (0 to 45 degrees, 0 to 50 cm)");
         }
         for c in config.captures.iter_mut().filter(|c| c.name == "user") {
-            c.fit_error =
-                avatar_core::eval::conditions::FitError { joint_deg: deg, trans_m: cm / 100.0 };
+            c.fitting_error =
+                avatar_core::eval::conditions::FittingError { joint_deg: deg, trans_m: cm / 100.0 };
         }
     }
     let outfits: Vec<String> =

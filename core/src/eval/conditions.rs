@@ -20,13 +20,13 @@ use std::path::Path;
 /// rotation vector with Gaussian components of standard deviation `joint_deg / sqrt(3)` (RMS
 /// angle `joint_deg`), and the translation gets a Gaussian offset of RMS length `trans_m`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct FitError {
+pub struct FittingError {
     pub joint_deg: f32,
     pub trans_m: f32,
 }
 
-impl FitError {
-    pub const NONE: FitError = FitError { joint_deg: 0.0, trans_m: 0.0 };
+impl FittingError {
+    pub const NONE: FittingError = FittingError { joint_deg: 0.0, trans_m: 0.0 };
 
     pub fn is_none(&self) -> bool {
         self.joint_deg == 0.0 && self.trans_m == 0.0
@@ -50,7 +50,9 @@ pub struct CaptureConditions {
     pub name: String,
     /// Depth corruption of the fine-tuning frames (`None` = exact depth).
     pub noise: Option<DepthNoise>,
-    pub fit_error: FitError,
+    /// Errors added to the body fittings (serialized as `fit_error`, the key existing files use).
+    #[serde(rename = "fit_error", alias = "fitting_error")]
+    pub fitting_error: FittingError,
     /// The person turns by a constant angle between frames, drawn per capture uniformly from
     /// this range (degrees); the clean protocol's is (45, 45).
     pub turn_deg: (f32, f32),
@@ -61,7 +63,7 @@ impl CaptureConditions {
         CaptureConditions {
             name: "clean".into(),
             noise: None,
-            fit_error: FitError::NONE,
+            fitting_error: FittingError::NONE,
             turn_deg: (45.0, 45.0),
         }
     }
@@ -72,7 +74,7 @@ impl CaptureConditions {
         CaptureConditions {
             name: "user".into(),
             noise: Some(DepthNoise::kinect_v2()),
-            fit_error: FitError { joint_deg: 3.0, trans_m: 0.01 },
+            fitting_error: FittingError { joint_deg: 3.0, trans_m: 0.01 },
             turn_deg: (30.0, 60.0),
         }
     }
@@ -100,7 +102,7 @@ impl CaptureConditions {
                 "front" => Ok(CaptureConditions { noise: noise.or(Self::user().noise), ..Self::front() }),
                 "user" => Ok(CaptureConditions { noise: noise.or(Self::user().noise), ..Self::user() }),
                 // Diagnostic settings: one of the user conditions at a time.
-                "noisy" => Ok(CaptureConditions { name: "noisy".into(), noise: noise.or(Self::user().noise), fit_error: FitError::NONE, ..Self::user() }),
+                "noisy" => Ok(CaptureConditions { name: "noisy".into(), noise: noise.or(Self::user().noise), fitting_error: FittingError::NONE, ..Self::user() }),
                 "misfit" => Ok(CaptureConditions { name: "misfit".into(), noise: None, ..Self::user() }),
                 other => Err(Error::invalid(format!("unknown capture conditions {other:?}: use user, clean, front (user, never turning the back to the camera), noisy (depth noise only) or misfit (fitting errors only)"))),
             })
@@ -126,13 +128,13 @@ impl CaptureConditions {
             Some(n) if *n == DepthNoise::kinect_v2() => "kinect_v2 depth noise and holes".into(),
             Some(_) => "custom depth noise".into(),
         };
-        let fit = if self.fit_error.is_none() {
+        let fitting = if self.fitting_error.is_none() {
             "exact fittings".to_string()
         } else {
             format!(
                 "fittings off by {} deg per joint and {} cm (RMS)",
-                self.fit_error.joint_deg,
-                self.fit_error.trans_m * 100.0
+                self.fitting_error.joint_deg,
+                self.fitting_error.trans_m * 100.0
             )
         };
         let (a, b) = self.turn_deg;
@@ -141,7 +143,7 @@ impl CaptureConditions {
         } else {
             format!("{a}-{b} deg between frames (one draw per capture)")
         };
-        format!("{}: {noise}, {fit}, {turn}", self.name)
+        format!("{}: {noise}, {fitting}, {turn}", self.name)
     }
 
     /// Set the job's turn and depth noise for the capture with this seed.
@@ -155,14 +157,14 @@ impl CaptureConditions {
 
     /// Add the fitting errors to the capture written in `dir` (its `capture.json`).
     pub fn perturb_fittings(&self, dir: &Path, seed: u64) -> Result<()> {
-        if self.fit_error.is_none() {
+        if self.fitting_error.is_none() {
             return Ok(());
         }
         let mut manifest = CaptureManifest::load(dir)?;
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6669_7465);
         for rec in manifest.frames.iter_mut() {
             let mut p = rec.params().map_err(|e| e.in_file(CaptureManifest::path_in(dir)))?;
-            self.fit_error.apply(&mut p, &mut rng);
+            self.fitting_error.apply(&mut p, &mut rng);
             rec.pose = Some(p.flat_pose());
             rec.translation = Some(p.trans.to_array());
         }
@@ -194,8 +196,18 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_fitting_error_is_serialized_as_fit_error() {
+        let json = serde_json::to_string(&CaptureConditions::user()).unwrap();
+        assert!(json.contains("\"fit_error\":{\"joint_deg\":3.0,\"trans_m\":0.01}"), "{json}");
+        let back: CaptureConditions = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, CaptureConditions::user());
+        let renamed = json.replace("\"fit_error\"", "\"fitting_error\"");
+        assert_eq!(serde_json::from_str::<CaptureConditions>(&renamed).unwrap(), back);
+    }
+
+    #[test]
     fn fitting_errors_have_the_stated_size_and_are_seeded() {
-        let e = FitError { joint_deg: 3.0, trans_m: 0.01 };
+        let e = FittingError { joint_deg: 3.0, trans_m: 0.01 };
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let (mut angles, mut shifts) = (Vec::new(), Vec::new());
         for _ in 0..400 {
@@ -221,7 +233,7 @@ mod tests {
         };
         assert_eq!(again, p);
         let mut exact = BodyParams::default();
-        FitError::NONE.apply(&mut exact, &mut rng);
+        FittingError::NONE.apply(&mut exact, &mut rng);
         assert_eq!(exact, BodyParams::default());
     }
 

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 /// The renderer's camera: the capture's [`Intrinsics`] (what capture.json records, checked when
 /// read) plus a depth range, with projection and rays. Back-projection is written once, in
-/// `Intrinsics::unproject`; a ray is its point at depth 1 (bit for bit the old `(u - cx) / fx`).
+/// `Intrinsics::unproject`; a ray is its point at depth 1 (bit for bit `(u - cx) / fx`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PinholeCamera {
     pub fx: f32,

@@ -97,7 +97,7 @@ pub struct MetaAvatarHeader {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refined_poses: Option<Vec<RefinedPose>>,
     /// The capture's frames the avatar was fitted on (manifest indices, in the take's order;
-    /// absent in avatars made before the frames were chosen over the whole capture).
+    /// absent in older avatar files, whose fits took the capture's first usable frames).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame_indices: Option<Vec<usize>>,
     /// The meta-model the fit started from (absent from scratch and in older avatars).

@@ -1,6 +1,6 @@
 //! The avatar file's optional record of pose refinement (PINA 3.2): for each training frame,
 //! the fitting the capture gave and the one the fit refined it to. Files without it (older
-//! files, fits with `--refine-poses off`) load as before; the studio shows the refined pose of
+//! files, fits with `--refine-poses off`) load without it; the studio shows the refined pose of
 //! a capture frame whose given fitting matches.
 
 use avatar_core::body::{BodyParams, pose_error};

@@ -11,7 +11,7 @@
 //! and images) and meshes with other textures keep their place and stay egui's.
 //!
 //! The pixels are egui's but for its dithering (at most one level, on gradients). Only while
-//! the view moves: a still window, and so every screenshot test, is painted by egui as before.
+//! the view moves: a still window, and so every screenshot test, is painted by egui itself.
 
 use eframe::egui;
 use eframe::egui::epaint::{ClippedPrimitive, ClippedShape, Mesh, Primitive};

@@ -125,7 +125,7 @@ impl PoseRefineOptions {
         PoseRefineOptions { until: self.first + 1, ..*self }
     }
 
-    /// The fitting steps after which a round runs (none when off), for a fit of `steps` steps.
+    /// The training steps after which a round runs (none when off), for a fit of `steps` steps.
     pub fn round_steps(&self, steps: usize) -> Vec<usize> {
         if !self.enabled || self.every == 0 || steps < 2 {
             return Vec::new();
