@@ -70,5 +70,9 @@ fn the_demo_default_fit_has_a_clean_face() {
         ..OrbitCamera::default()
     };
     settle(&mut h, "the close-up");
-    snap(&mut h, "demo_face_closeup", &tolerant(1500));
+    // The fit's last bits differ between CPUs even on the forced AVX2 path (the loss ends at
+    // 21.74 on an AMD EPYC, 21.53 on an Intel Xeon, both faces clean): the close-up moves by
+    // 2,323 pixels between the two, so it allows 3,000; the face's properties are the asserts
+    // above.
+    snap(&mut h, "demo_face_closeup", &tolerant(3000));
 }
