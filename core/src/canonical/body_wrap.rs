@@ -26,6 +26,7 @@ use crate::mesh::TriMesh;
 use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
 use crate::mesh::holes::close_short_holes;
+use crate::mesh::smooth::smooth_borders;
 use crate::mesh::topology::{
     compact, drop_non_manifold_faces, drop_small_pieces, edge_use, face_components,
 };
@@ -282,8 +283,19 @@ impl BodyWrap {
             .collect();
         border.sort_unstable();
         border.dedup();
+        let mut seam = Vec::new();
         for v in border {
             if let Some(hit) = bvh.closest_point_within(pieces.positions[v as usize], o.seam) {
+                pieces.positions[v as usize] = hit.point;
+                seam.push(v);
+            }
+        }
+        // Put onto the body, a border zigzags as far as its vertices were from it: smoothed
+        // along itself, then the seam's vertices back onto the body (exactly: `own_weights`).
+        let sheet = &self.sheet.options;
+        smooth_borders(&mut pieces, sheet.border_smoothing, sheet.row_step);
+        for v in seam {
+            if let Some(hit) = bvh.closest_point(pieces.positions[v as usize]) {
                 pieces.positions[v as usize] = hit.point;
             }
         }

@@ -27,6 +27,7 @@ mod tests;
 
 use crate::mesh::TriMesh;
 use crate::mesh::bvh::Bvh;
+use crate::mesh::smooth::smooth_borders;
 use crate::mesh::topology::{compact, drop_small_pieces};
 use glam::Vec3;
 use grid::Shape;
@@ -57,6 +58,9 @@ pub struct SheetGridOptions {
     pub min_piece_area: f32,
     /// Faces of the loose pieces this close (metres) to the sheet are what it stands for.
     pub cover: f32,
+    /// Taubin iterations along the sheet's borders (`mesh::smooth::smooth_borders`; each
+    /// vertex moves at most a row): a hem on the grid is a staircase with a rim that zigzags.
+    pub border_smoothing: usize,
 }
 
 impl Default for SheetGridOptions {
@@ -71,6 +75,7 @@ impl Default for SheetGridOptions {
             thin: 0.004,
             min_piece_area: 0.03,
             cover: 0.03,
+            border_smoothing: 10,
         }
     }
 }
@@ -164,8 +169,9 @@ impl GarmentSheet {
         }
         // Cells joined only at a corner give triangles that share a single vertex, so a pinch
         // can cut a bit off the sheet (a piece of its own, joined by no edge); small bits go.
-        let sheet =
+        let mut sheet =
             drop_small_pieces(&self.triangulate(&mask, &radius), self.options.min_piece_area);
+        smooth_borders(&mut sheet, self.options.border_smoothing, self.options.row_step);
         if sheet.faces.is_empty() {
             return pieces.clone();
         }
