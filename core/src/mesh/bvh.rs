@@ -30,6 +30,8 @@ pub struct Bvh {
     tris: Vec<[Vec3; 3]>,
     /// Original face index of each triangle in tree order.
     face_ids: Vec<u32>,
+    /// Tree order of each original face (the inverse of `face_ids`).
+    tree_index: Vec<u32>,
 }
 
 /// Closest point of the surface to a query point.
@@ -70,7 +72,11 @@ impl Bvh {
             build_node(&tris, &centroids, &mut order, 0, &mut nodes);
         }
         let sorted = order.iter().map(|&i| tris[i as usize]).collect();
-        Bvh { nodes, tris: sorted, face_ids: order }
+        let mut tree_index = vec![0u32; n];
+        for (position, &face) in order.iter().enumerate() {
+            tree_index[face as usize] = position as u32;
+        }
+        Bvh { nodes, tris: sorted, face_ids: order, tree_index }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -93,10 +99,33 @@ impl Bvh {
 
     /// Closest point on the surface within `max_distance` of `q` (exclusive).
     pub fn closest_point_within(&self, q: Vec3, max_distance: f32) -> Option<ClosestHit> {
+        self.closest_below(q, max_distance * max_distance)
+    }
+
+    /// [`Bvh::closest_point`] with a hint: `face` (a mesh face index, ideally the closest face
+    /// of a nearby earlier query: the same point a Gauss-Newton step before) bounds the search
+    /// by its distance, so subtrees farther than it are never opened. The answer is the one
+    /// [`Bvh::closest_point`] gives, bit for bit, whatever face the hint names: the walk visits
+    /// the leaves in the same order, and the first closest triangle in that order lies nearer
+    /// than the bound. A hint out of range is ignored.
+    pub fn closest_point_hinted(&self, q: Vec3, face: u32) -> Option<ClosestHit> {
+        let Some(&i) = self.tree_index.get(face as usize) else {
+            return self.closest_point(q);
+        };
+        let [a, b, c] = self.tris[i as usize];
+        let d2 = closest_point_on_triangle(q, a, b, c).distance_squared(q);
+        // Strictly above the hint's own distance (the walk keeps what is strictly nearer than
+        // its bound); a non-finite distance bounds nothing.
+        let bound = if d2.is_finite() { d2.next_up() } else { f32::INFINITY };
+        self.closest_below(q, bound)
+    }
+
+    /// The closest point whose squared distance is below `bound` (exclusive).
+    fn closest_below(&self, q: Vec3, bound: f32) -> Option<ClosestHit> {
         if self.nodes.is_empty() {
             return None;
         }
-        let mut best_d2 = max_distance * max_distance;
+        let mut best_d2 = bound;
         let mut best: Option<(Vec3, u32)> = None;
         let mut stack = [0u32; STACK];
         let mut top = 0usize;
