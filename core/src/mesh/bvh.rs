@@ -113,11 +113,12 @@ impl Bvh {
             return self.closest_point(q);
         };
         let [a, b, c] = self.tris[i as usize];
-        let d2 = closest_point_on_triangle(q, a, b, c).distance_squared(q);
-        // Strictly above the hint's own distance (the walk keeps what is strictly nearer than
-        // its bound); a non-finite distance bounds nothing.
-        let bound = if d2.is_finite() { d2.next_up() } else { f32::INFINITY };
-        self.closest_below(q, bound)
+        let d = closest_point_on_triangle(q, a, b, c).distance(q);
+        // Above the hint's own distance by more than the rounding of a box's or a triangle's
+        // distance can hide (the leaf of the closest triangle must stay open); a non-finite
+        // distance bounds nothing.
+        let bound = (d + rounding_margin(q, [a, b, c])).powi(2);
+        self.closest_below(q, if bound.is_finite() { bound } else { f32::INFINITY })
     }
 
     /// The closest point whose squared distance is below `bound` (exclusive).
@@ -127,7 +128,8 @@ impl Bvh {
         }
         let mut best_d2 = bound;
         let mut best: Option<(Vec3, u32)> = None;
-        let mut stack = [0u32; STACK];
+        // Nodes to visit and their boxes' squared distances (measured when pushed).
+        let mut stack = [(0u32, 0f32); STACK];
         let mut top = 0usize;
         let mut node_index = 0u32;
         loop {
@@ -150,7 +152,7 @@ impl Bvh {
                 let (near, d_near, far, d_far) =
                     if dl <= dr { (l, dl, r, dr) } else { (r, dr, l, dl) };
                 if d_far < best_d2 {
-                    stack[top] = far;
+                    stack[top] = (far, d_far);
                     top += 1;
                 }
                 if d_near < best_d2 {
@@ -168,8 +170,8 @@ impl Bvh {
                     });
                 }
                 top -= 1;
-                let candidate = stack[top];
-                if box_distance_squared(q, &self.nodes[candidate as usize]) < best_d2 {
+                let (candidate, d) = stack[top];
+                if d < best_d2 {
                     node_index = candidate;
                     break;
                 }
@@ -286,6 +288,13 @@ fn build_node(
     nodes[index].first = right_index as u32;
     nodes[index].count = 0;
     index
+}
+
+/// More than the rounding of a distance between `q` and a triangle (or a box) of these corners
+/// can be: 64 units in the last place of the largest coordinate involved.
+fn rounding_margin(q: Vec3, corners: [Vec3; 3]) -> f32 {
+    let scale = corners.iter().fold(q.abs().max_element(), |m, c| m.max(c.abs().max_element()));
+    64.0 * f32::EPSILON * scale.max(f32::MIN_POSITIVE)
 }
 
 fn box_distance_squared(q: Vec3, node: &Node) -> f32 {
