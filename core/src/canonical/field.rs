@@ -177,21 +177,23 @@ impl SkinningField {
     pub fn weights_at(&self, p: Vec3) -> Weights {
         let g = ((p - self.origin) / self.cell).max(Vec3::ZERO);
         let mut out = [0f32; NUM_JOINTS];
-        let i0 = [0, 1, 2].map(|a| (g[a].floor() as usize).min(self.dims[a] - 2));
+        // `g` is not negative: truncation is the floor.
+        let i0 = [0, 1, 2].map(|a| (g[a] as usize).min(self.dims[a] - 2));
         let t = Vec3::new(g.x - i0[0] as f32, g.y - i0[1] as f32, g.z - i0[2] as f32)
             .clamp(Vec3::ZERO, Vec3::ONE);
+        let factors = [[1.0 - t.x, t.x], [1.0 - t.y, t.y], [1.0 - t.z, t.z]];
+        let stride = [1, self.dims[0], self.dims[0] * self.dims[1]];
+        let base = i0[0] + stride[1] * i0[1] + stride[2] * i0[2];
         for corner in 0..8 {
             let o = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
-            let w = (if o[0] == 1 { t.x } else { 1.0 - t.x })
-                * (if o[1] == 1 { t.y } else { 1.0 - t.y })
-                * (if o[2] == 1 { t.z } else { 1.0 - t.z });
+            let w = factors[0][o[0]] * factors[1][o[1]] * factors[2][o[2]];
             if w == 0.0 {
                 continue;
             }
-            let k =
-                (i0[0] + o[0]) + self.dims[0] * ((i0[1] + o[1]) + self.dims[1] * (i0[2] + o[2]));
-            for j in 0..NUM_JOINTS {
-                out[j] += w * self.weights[k * NUM_JOINTS + j];
+            let k = base + o[0] + stride[1] * o[1] + stride[2] * o[2];
+            let node = &self.weights[k * NUM_JOINTS..(k + 1) * NUM_JOINTS];
+            for (v, &x) in out.iter_mut().zip(node) {
+                *v += w * x;
             }
         }
         out

@@ -30,6 +30,8 @@ pub struct Bvh {
     tris: Vec<[Vec3; 3]>,
     /// Original face index of each triangle in tree order.
     face_ids: Vec<u32>,
+    /// Tree order of each original face (the inverse of `face_ids`).
+    tree_index: Vec<u32>,
 }
 
 /// Closest point of the surface to a query point.
@@ -70,7 +72,11 @@ impl Bvh {
             build_node(&tris, &centroids, &mut order, 0, &mut nodes);
         }
         let sorted = order.iter().map(|&i| tris[i as usize]).collect();
-        Bvh { nodes, tris: sorted, face_ids: order }
+        let mut tree_index = vec![0u32; n];
+        for (position, &face) in order.iter().enumerate() {
+            tree_index[face as usize] = position as u32;
+        }
+        Bvh { nodes, tris: sorted, face_ids: order, tree_index }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -93,12 +99,37 @@ impl Bvh {
 
     /// Closest point on the surface within `max_distance` of `q` (exclusive).
     pub fn closest_point_within(&self, q: Vec3, max_distance: f32) -> Option<ClosestHit> {
+        self.closest_below(q, max_distance * max_distance)
+    }
+
+    /// [`Bvh::closest_point`] with a hint: `face` (a mesh face index, ideally the closest face
+    /// of a nearby earlier query: the same point a Gauss-Newton step before) bounds the search
+    /// by its distance, so subtrees farther than it are never opened. The answer is the one
+    /// [`Bvh::closest_point`] gives, bit for bit, whatever face the hint names: the walk visits
+    /// the leaves in the same order, and the first closest triangle in that order lies nearer
+    /// than the bound. A hint out of range is ignored.
+    pub fn closest_point_hinted(&self, q: Vec3, face: u32) -> Option<ClosestHit> {
+        let Some(&i) = self.tree_index.get(face as usize) else {
+            return self.closest_point(q);
+        };
+        let [a, b, c] = self.tris[i as usize];
+        let d = closest_point_on_triangle(q, a, b, c).distance(q);
+        // Above the hint's own distance by more than the rounding of a box's or a triangle's
+        // distance can hide (the leaf of the closest triangle must stay open); a non-finite
+        // distance bounds nothing.
+        let bound = (d + rounding_margin(q, [a, b, c])).powi(2);
+        self.closest_below(q, if bound.is_finite() { bound } else { f32::INFINITY })
+    }
+
+    /// The closest point whose squared distance is below `bound` (exclusive).
+    fn closest_below(&self, q: Vec3, bound: f32) -> Option<ClosestHit> {
         if self.nodes.is_empty() {
             return None;
         }
-        let mut best_d2 = max_distance * max_distance;
+        let mut best_d2 = bound;
         let mut best: Option<(Vec3, u32)> = None;
-        let mut stack = [0u32; STACK];
+        // Nodes to visit and their boxes' squared distances (measured when pushed).
+        let mut stack = [(0u32, 0f32); STACK];
         let mut top = 0usize;
         let mut node_index = 0u32;
         loop {
@@ -121,7 +152,7 @@ impl Bvh {
                 let (near, d_near, far, d_far) =
                     if dl <= dr { (l, dl, r, dr) } else { (r, dr, l, dl) };
                 if d_far < best_d2 {
-                    stack[top] = far;
+                    stack[top] = (far, d_far);
                     top += 1;
                 }
                 if d_near < best_d2 {
@@ -139,8 +170,8 @@ impl Bvh {
                     });
                 }
                 top -= 1;
-                let candidate = stack[top];
-                if box_distance_squared(q, &self.nodes[candidate as usize]) < best_d2 {
+                let (candidate, d) = stack[top];
+                if d < best_d2 {
                     node_index = candidate;
                     break;
                 }
@@ -257,6 +288,13 @@ fn build_node(
     nodes[index].first = right_index as u32;
     nodes[index].count = 0;
     index
+}
+
+/// More than the rounding of a distance between `q` and a triangle (or a box) of these corners
+/// can be: 64 units in the last place of the largest coordinate involved.
+fn rounding_margin(q: Vec3, corners: [Vec3; 3]) -> f32 {
+    let scale = corners.iter().fold(q.abs().max_element(), |m, c| m.max(c.abs().max_element()));
+    64.0 * f32::EPSILON * scale.max(f32::MIN_POSITIVE)
 }
 
 fn box_distance_squared(q: Vec3, node: &Node) -> f32 {

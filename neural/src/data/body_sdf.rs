@@ -7,6 +7,7 @@ use avatar_core::mesh::TriMesh;
 use avatar_core::mesh::bvh::Bvh;
 use glam::Vec3;
 use rayon::prelude::*;
+use std::sync::Mutex;
 
 pub struct BodySdf {
     mesh: TriMesh,
@@ -14,6 +15,11 @@ pub struct BodySdf {
     vertex_normals: Vec<Vec3>,
     /// Each vertex's body part: the joint with the largest skinning weight.
     parts: Vec<usize>,
+    /// Per frame ([`BodySdf::beyond_clothing_of`]), the closest face of each point of the
+    /// frame's last query, by position: the hint of the next query's closest-point search
+    /// (`Bvh::closest_point_hinted`, whose answer does not depend on it). Pre-alignment asks
+    /// for the same points of a frame step after step, each moved a little.
+    hints: Mutex<Vec<Vec<u32>>>,
 }
 
 impl BodySdf {
@@ -31,23 +37,35 @@ impl BodySdf {
     pub fn of_mesh(mesh: TriMesh, parts: Vec<usize>) -> BodySdf {
         let bvh = Bvh::build(&mesh);
         let vertex_normals = mesh.vertex_normals();
-        BodySdf { mesh, bvh, vertex_normals, parts }
+        BodySdf { mesh, bvh, vertex_normals, parts, hints: Mutex::new(Vec::new()) }
     }
 
     /// Signed distance (positive outside) and its gradient at each point. The sign comes from
     /// the vertex normals interpolated at the closest point, which holds at edges and corners
     /// where one face's normal does not.
     pub fn eval(&self, points: &[Vec3]) -> (Vec<f32>, Vec<Vec3>) {
-        let (d, g, _) = self.eval_parts(points);
+        let (d, g, _) = self.eval_parts(points, &[]).0;
         (d, g)
     }
 
-    /// [`BodySdf::eval`] with the body part of each point's closest surface point.
-    fn eval_parts(&self, points: &[Vec3]) -> (Vec<f32>, Vec<Vec3>, Vec<usize>) {
-        let rows: Vec<(f32, Vec3, usize)> = points
+    /// [`BodySdf::eval`] with the body part of each point's closest surface point; `hints`:
+    /// a face near each point, by position (shorter than `points`: none for the rest). Also
+    /// returns each point's closest face (`u32::MAX` where there is none).
+    #[allow(clippy::type_complexity)]
+    fn eval_parts(
+        &self,
+        points: &[Vec3],
+        hints: &[u32],
+    ) -> ((Vec<f32>, Vec<Vec3>, Vec<usize>), Vec<u32>) {
+        let rows: Vec<(f32, Vec3, usize, u32)> = points
             .par_iter()
-            .map(|&p| {
-                let Some(h) = self.bvh.closest_point(p) else { return (f32::NAN, Vec3::ZERO, 0) };
+            .enumerate()
+            .map(|(i, &p)| {
+                let hit = match hints.get(i) {
+                    Some(&face) => self.bvh.closest_point_hinted(p, face),
+                    None => self.bvh.closest_point(p),
+                };
+                let Some(h) = hit else { return (f32::NAN, Vec3::ZERO, 0, u32::MAX) };
                 let [a, b, c] = self.mesh.faces[h.face as usize].map(|i| i as usize);
                 let n = interpolate(
                     h.point,
@@ -57,14 +75,39 @@ impl BodySdf {
                 let d = p - h.point;
                 let sign = if d.dot(n) >= 0.0 { 1.0 } else { -1.0 };
                 let g = if h.distance > 1e-6 { d / h.distance * sign } else { n };
-                (sign * h.distance, g, self.parts.get(a).copied().unwrap_or(0))
+                (sign * h.distance, g, self.parts.get(a).copied().unwrap_or(0), h.face)
             })
             .collect();
         (
-            rows.iter().map(|r| r.0).collect(),
-            rows.iter().map(|r| r.1).collect(),
-            rows.iter().map(|r| r.2).collect(),
+            (
+                rows.iter().map(|r| r.0).collect(),
+                rows.iter().map(|r| r.1).collect(),
+                rows.iter().map(|r| r.2).collect(),
+            ),
+            rows.iter().map(|r| r.3).collect(),
         )
+    }
+
+    /// [`BodySdf::beyond_clothing`] of frame `frame`'s points: the same values, found faster
+    /// when the frame's previous query asked for nearly the same points in the same order.
+    pub fn beyond_clothing_of(
+        &self,
+        frame: usize,
+        points: &[Vec3],
+        band: f32,
+    ) -> (Vec<f32>, Vec<Vec3>) {
+        let hints = {
+            let mut all = self.hints.lock().unwrap_or_else(|e| e.into_inner());
+            all.get_mut(frame).map(std::mem::take).unwrap_or_default()
+        };
+        let (parts, faces) = self.eval_parts(points, &hints);
+        let mut all = self.hints.lock().unwrap_or_else(|e| e.into_inner());
+        if all.len() <= frame {
+            all.resize_with(frame + 1, Vec::new);
+        }
+        all[frame] = faces;
+        drop(all);
+        self.offset_by_part(parts, band)
     }
 
     /// The signed distance less the clothing's offset over these points: per body part (the
@@ -73,7 +116,15 @@ impl BodySdf {
     /// Tight clothing sits a few millimetres out, more on some parts than on others; without
     /// the offset every point would pull inward.
     pub fn beyond_clothing(&self, points: &[Vec3], band: f32) -> (Vec<f32>, Vec<Vec3>) {
-        let (mut d, g, parts) = self.eval_parts(points);
+        self.offset_by_part(self.eval_parts(points, &[]).0, band)
+    }
+
+    /// The distances less each part's clothing offset ([`BodySdf::beyond_clothing`]).
+    fn offset_by_part(
+        &self,
+        (mut d, g, parts): (Vec<f32>, Vec<Vec3>, Vec<usize>),
+        band: f32,
+    ) -> (Vec<f32>, Vec<Vec3>) {
         let near = |part: Option<usize>| -> Vec<f32> {
             d.iter()
                 .zip(&parts)

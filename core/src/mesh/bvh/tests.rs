@@ -168,3 +168,47 @@ fn a_ray_along_a_box_face_plane_still_finds_the_triangles_beyond() {
     // Beside the slab (y < 0) the same ray misses every box.
     assert!(bvh.ray_cast(Vec3::new(0.0, -0.01, 0.5), Vec3::X, 0.0, 100.0).is_none());
 }
+
+#[test]
+fn a_hinted_query_answers_as_the_plain_one_whatever_the_hint() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    // A soup, and a folded grid whose shared corners and edges tie several faces.
+    let soup = Bvh::from_triangles(random_soup(&mut rng, 300));
+    let n = 12;
+    let at = |i: usize, j: usize| {
+        let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
+        Vec3::new(x, (3.0 * x).sin() * 0.3 * (x - 0.5).abs(), z)
+    };
+    let mut grid = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            grid.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            grid.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    let grid_points: Vec<Vec3> = (0..=n)
+        .flat_map(|i| (0..=n).map(move |j| (i, j)))
+        .map(|(i, j)| at(i, j) + Vec3::new(0.0, 0.05, 0.0))
+        .collect();
+    let grid = Bvh::from_triangles(grid);
+    for (bvh, extra) in [(&soup, Vec::new()), (&grid, grid_points)] {
+        let mut points: Vec<Vec3> = (0..300)
+            .map(|_| {
+                Vec3::new(
+                    rng.random_range(-1.5..1.5),
+                    rng.random_range(-1.5..1.5),
+                    rng.random_range(-1.5..1.5),
+                )
+            })
+            .collect();
+        points.extend(extra);
+        for p in points {
+            let plain = bvh.closest_point(p).unwrap();
+            let faces = bvh.num_triangles() as u32;
+            for hint in [plain.face, rng.random_range(0..faces), (plain.face + 1) % faces, faces] {
+                assert_eq!(bvh.closest_point_hinted(p, hint), Some(plain), "{p} hint {hint}");
+            }
+        }
+    }
+    assert_eq!(Bvh::from_triangles(Vec::new()).closest_point_hinted(Vec3::ZERO, 0), None);
+}

@@ -173,7 +173,7 @@ impl<'a> MetaFit<'a> {
         on_event(FitEvent::Phase(FitPhase::PreAlignment));
         let body = crate::data::body_sdf::BodySdf::new(self.capture);
         let band = r.options.prealign_cutoff;
-        let sdf = |_: usize, p: &[Vec3]| body.beyond_clothing(p, band);
+        let sdf = |k: usize, p: &[Vec3]| body.beyond_clothing_of(k, p, band);
         let share = r.near_share(&sdf);
         let aligned = if share >= PREALIGN_MIN_NEAR {
             r.prealign(&sdf);
