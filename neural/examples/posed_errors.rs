@@ -11,10 +11,11 @@
 //! --keep-captures CAPS` writes DIR/NAME.avatar beside CAPS/NAME. AT_REST=1 poses
 //! the rest pose's canonical surface at every pose (what the pose-conditioned SDF adds).
 //! RESOLUTION=N meshes the avatar on N cells. TEMPLATE=1 poses as the exporter does (the rest
-//! surface moved to each pose: `PoseTemplate`), TEMPLATE_POSE=K the same from capture frame
-//! K's surface.
-//! AS_EXTRACTED=1 keeps the loose pieces as extracted; SHEET_THIN, SHEET_SEARCH (metres) set the garment
-//! sheet's options.
+//! surface moved to each pose: `PoseTemplate`, what `posed_mesh` does for loose cloth),
+//! TEMPLATE_POSE=K the same from capture frame K's surface. PER_POSE=1 skins each pose's own
+//! canonical surface.
+//! AS_EXTRACTED=1 keeps the loose pieces as extracted; SHEET_THIN, SHEET_SEARCH, SHEET_BORDER_REACH (metres),
+//! SHEET_BORDER_ITERATIONS, SHEET_HEM_WINDOW set the garment sheet's options.
 //! A simulated outfit's truth at a library clip is its garment simulated through the clip, as
 //! the evaluation's; RIGID_TRUTH=1 scores the generator's rule-posed garment against it
 //! instead of the avatar (how far the cloth's own motion lies from any rule of the pose).
@@ -66,6 +67,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let sheet = &mut wrap.sheet.options;
         sheet.thin = number("SHEET_THIN").unwrap_or(sheet.thin);
         sheet.search = number("SHEET_SEARCH").unwrap_or(sheet.search);
+        sheet.border_reach = number("SHEET_BORDER_REACH").unwrap_or(sheet.border_reach);
+        sheet.border_smoothing =
+            number("SHEET_BORDER_ITERATIONS").map_or(sheet.border_smoothing, |n| n as usize);
+        sheet.hem_window = number("SHEET_HEM_WINDOW").map_or(sheet.hem_window, |n| n as usize);
     }
     // SKIN_LOOSE=a,b: where loose cloth's weights start to be inpainted, and are wholly.
     if let Ok(v) = std::env::var("SKIN_LOOSE") {
@@ -201,6 +206,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 exporter.posed_mesh(&avatar, &pose)?
             } else if at_rest {
                 avatar.posed_mesh_of_surface_at(&pose, &avatar.rest_params())?
+            } else if std::env::var("PER_POSE").is_ok() {
+                avatar.posed_mesh_of_surface_at(&pose, &pose)?
             } else {
                 avatar.posed_mesh(&pose)?
             };
@@ -268,23 +275,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 )?;
             }
             if std::env::var("LOOPS").is_ok() {
-                let mut loops: Vec<(f32, f32, f32)> =
-                    avatar_core::mesh::holes::border_loops(&predicted)
-                        .iter()
-                        .map(|l| {
-                            let c =
-                                l.iter().map(|&v| predicted.positions[v as usize]).sum::<Vec3>()
+                for (label, mesh) in [("loops", &predicted), ("truth's", &truth)] {
+                    let mut loops: Vec<(f32, f32, f32)> =
+                        avatar_core::mesh::holes::border_loops(mesh)
+                            .iter()
+                            .map(|l| {
+                                let c = l.iter().map(|&v| mesh.positions[v as usize]).sum::<Vec3>()
                                     / l.len() as f32;
-                            (avatar_core::mesh::holes::loop_length(&predicted, l), c.y, c.z)
-                        })
+                                (avatar_core::mesh::holes::loop_length(mesh, l), c.y, c.z)
+                            })
+                            .collect();
+                    loops.sort_by(|a, b| b.0.total_cmp(&a.0));
+                    let t: Vec<String> = loops
+                        .iter()
+                        .take(12)
+                        .map(|(l, y, z)| format!("{l:.2}m@y{y:.2}z{z:.2}"))
                         .collect();
-                loops.sort_by(|a, b| b.0.total_cmp(&a.0));
-                let t: Vec<String> = loops
-                    .iter()
-                    .take(12)
-                    .map(|(l, y, z)| format!("{l:.2}m@y{y:.2}z{z:.2}"))
-                    .collect();
-                println!("{name} {i}: loops {}", t.join(" "));
+                    println!("{name} {i}: {label} {}", t.join(" "));
+                }
+            }
+            // OBJ=PREFIX: each frame's predicted and true meshes as OBJ files.
+            if let Ok(prefix) = std::env::var("OBJ") {
+                avatar_core::mesh::io::write_obj(format!("{prefix}-{name}{i}.obj"), &predicted)?;
+                avatar_core::mesh::io::write_obj(format!("{prefix}-{name}{i}-truth.obj"), &truth)?;
             }
             let metrics = evaluate_frame(&predicted, &truth, &regions, &options, i as u64)?;
             if worst.as_ref().is_none_or(|w| metrics.surface.spurious > w.0) {

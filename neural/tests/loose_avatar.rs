@@ -1,8 +1,8 @@
 //! A loose avatar fitted to a synthetic dress capture comes out whole where a mesh can be
 //! checked without ground truth: its surface has the skirt beside the wrapped body, as one
 //! sheet whose only border is its waist and hem, and at held-out poses of another motion no
-//! edge of the posed mesh is shared by more than two faces (docs/integrity.md;
-//! `canonical::garment_sheet`, `mesh::topology::drop_non_manifold_faces`).
+//! edge of the posed mesh is shared by more than two faces, its faces the same at every pose
+//! (docs/integrity.md; `canonical::garment_sheet`, `mesh::topology::drop_non_manifold_faces`).
 
 use avatar_core::body::open_body_ref;
 use avatar_core::canonical::FieldCache;
@@ -42,8 +42,12 @@ fn a_posed_dress_avatar_has_loose_pieces_and_no_non_manifold_edge() {
     assert_eq!(avatar.surface_kind(), SurfaceChoice::WrappedWithLoose, "the skirt is loose");
     let betas = capture.frames[0].params.betas.clone();
     let kick = library_clip("kick").unwrap();
+    let mut faces = None;
     for frame in kick.frames.iter().step_by(20) {
         let mesh = avatar.posed_mesh(&query(frame, &betas)).unwrap();
+        // One rest surface moved to every pose (FITE's explicit template): the same faces,
+        // so the same waist and hem, at every pose.
+        assert_eq!(*faces.get_or_insert_with(|| mesh.faces.clone()), mesh.faces);
         let whole = integrity(&mesh);
         assert!(whole.boundary_edges > 0, "the hem is an open border: {whole:?}");
         assert_eq!(whole.non_manifold_edges, 0, "{whole:?}");

@@ -293,7 +293,7 @@ impl BodyWrap {
         // Put onto the body, a border zigzags as far as its vertices were from it: smoothed
         // along itself, then the seam's vertices back onto the body (exactly: `own_weights`).
         let sheet = &self.sheet.options;
-        smooth_borders(&mut pieces, sheet.border_smoothing, sheet.row_step);
+        smooth_borders(&mut pieces, sheet.border_smoothing, sheet.border_reach);
         for v in seam {
             if let Some(hit) = bvh.closest_point(pieces.positions[v as usize]) {
                 pieces.positions[v as usize] = hit.point;

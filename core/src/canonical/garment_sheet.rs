@@ -58,9 +58,14 @@ pub struct SheetGridOptions {
     pub min_piece_area: f32,
     /// Faces of the loose pieces this close (metres) to the sheet are what it stands for.
     pub cover: f32,
-    /// Taubin iterations along the sheet's borders (`mesh::smooth::smooth_borders`; each
-    /// vertex moves at most a row): a hem on the grid is a staircase with a rim that zigzags.
+    /// Taubin iterations along the sheet's borders (`mesh::smooth::smooth_borders`), each
+    /// vertex moving at most `border_reach` (metres): a hem on the grid is a staircase with a
+    /// rim that zigzags.
     pub border_smoothing: usize,
+    pub border_reach: f32,
+    /// The hem is evened by a running median of the columns' lowest cells over this many
+    /// columns either side (`grid::even_hem`; 0: as the rays found it).
+    pub hem_window: usize,
 }
 
 impl Default for SheetGridOptions {
@@ -76,6 +81,8 @@ impl Default for SheetGridOptions {
             min_piece_area: 0.03,
             cover: 0.03,
             border_smoothing: 10,
+            border_reach: 0.01,
+            hem_window: 7,
         }
     }
 }
@@ -167,11 +174,14 @@ impl GarmentSheet {
                 radius[cell] = r;
             }
         }
+        if self.options.hem_window > 0 {
+            grid::even_hem(shape, &mut mask, &mut radius, self.options.hem_window);
+        }
         // Cells joined only at a corner give triangles that share a single vertex, so a pinch
         // can cut a bit off the sheet (a piece of its own, joined by no edge); small bits go.
         let mut sheet =
             drop_small_pieces(&self.triangulate(&mask, &radius), self.options.min_piece_area);
-        smooth_borders(&mut sheet, self.options.border_smoothing, self.options.row_step);
+        smooth_borders(&mut sheet, self.options.border_smoothing, self.options.border_reach);
         if sheet.faces.is_empty() {
             return pieces.clone();
         }

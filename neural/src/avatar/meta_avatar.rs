@@ -21,6 +21,7 @@ use crate::model::model_file::MetaModel;
 use crate::model::siren_eval::{MetricSdf, SirenEval};
 use crate::model::weights_file;
 use crate::training::pose_refine::PoseRefiner;
+use avatar_core::avatar::PoseTemplate;
 use avatar_core::body::{BodyModel, BodyParams, NUM_JOINTS, Weights};
 use avatar_core::canonical::{
     BodyWrap, FieldCache, GarmentSkinner, GarmentSkinning, Normalisation, SkinningField,
@@ -125,6 +126,9 @@ pub struct MetaAvatar {
     pub surface: SurfaceChoice,
     wrap: Arc<BodyWrap>,
     decided: OnceLock<SurfaceChoice>,
+    /// The rest surface and its weights, which a surface with loose cloth moves to each pose
+    /// (`posed_mesh`); made at the first pose.
+    template: OnceLock<PoseTemplate>,
 }
 
 impl MetaAvatar {
@@ -181,6 +185,7 @@ impl MetaAvatar {
             surface: SurfaceChoice::default(),
             wrap,
             decided: OnceLock::new(),
+            template: OnceLock::new(),
         }
     }
 
@@ -253,6 +258,7 @@ impl MetaAvatar {
             surface: SurfaceChoice::default(),
             wrap,
             decided: OnceLock::new(),
+            template: OnceLock::new(),
         })
     }
 
@@ -385,17 +391,20 @@ impl MetaAvatar {
     /// Mesh it at `resolution` from now on (before the first mesh: the surface kind is decided
     /// at the resolution of the first).
     pub fn set_mesh_resolution(&mut self, resolution: MeshResolution) {
+        self.template = OnceLock::new();
         self.resolution = resolution;
     }
 
     /// How the surface is wrapped and its loose cloth remade, to change before the avatar is
     /// shared (`None` once it is; examples measure variants with it).
     pub fn wrap_mut(&mut self) -> Option<&mut BodyWrap> {
+        self.template = OnceLock::new();
         Arc::get_mut(&mut self.wrap)
     }
 
     /// How loose cloth is skinned (examples measure variants with it).
     pub fn garment_skinning_mut(&mut self) -> &mut GarmentSkinning {
+        self.template = OnceLock::new();
         &mut self.skinner.options
     }
 
@@ -405,11 +414,23 @@ impl MetaAvatar {
         BodyParams { betas: self.header.betas.clone(), ..BodyParams::default() }
     }
 
-    /// The clothed mesh at a pose in the world: the pose's own canonical surface, skinned. Not
-    /// the reference surface moved to the pose (`PoseTemplate`, the exporter's recipe): on the
-    /// quick preset that kept every pose whole but sent loose cloth after the legs (simulated
-    /// skirt Chamfer-L2 1.74 -> 2.29 cm, spurious 11 -> 44 %; docs/integrity.md).
+    /// The clothed mesh at a pose in the world, as the exporter and the studio pose it. A
+    /// surface with loose cloth is its rest surface moved to the pose and skinned
+    /// (`PoseTemplate`, FITE's explicit template): the garment sheet, whole at rest, is whole
+    /// at every pose, its waist and hem the same loops (each pose's own sheet drew its top
+    /// border down a raised thigh). Any other surface is the pose's own canonical surface,
+    /// skinned (a wrapped body is whole at every pose either way). docs/integrity.md.
     pub fn posed_mesh(&self, params: &BodyParams) -> Result<TriMesh> {
+        if self.surface_kind() == SurfaceChoice::WrappedWithLoose {
+            let template = match self.template.get() {
+                Some(t) => t,
+                None => {
+                    let made = PoseTemplate::new(self)?;
+                    self.template.get_or_init(|| made)
+                }
+            };
+            return Ok(template.posed_mesh(self, params)?);
+        }
         self.posed_mesh_of_surface_at(params, params)
     }
 

@@ -156,3 +156,61 @@ pub fn neighbour_median(shape: Shape, known: &[Option<f32>], cell: usize) -> Opt
     values.sort_by(f32::total_cmp);
     Some(values[values.len() / 2])
 }
+
+/// The lowest cloth cell of each column (`None` where the column has none).
+fn bottoms(shape: Shape, mask: &[bool], radius: &[Option<f32>]) -> Vec<Option<usize>> {
+    (0..shape.columns)
+        .map(|c| {
+            (0..shape.rows)
+                .find(|&r| mask[shape.index(r, c)] && radius[shape.index(r, c)].is_some())
+        })
+        .collect()
+}
+
+/// The hem as a running median of the columns' lowest cells over `2 * half + 1` columns: a
+/// column hanging lower than its neighbours' median (a tongue where the rays grazed the rim)
+/// loses the cells below it, one ending higher (a notch) gains cells down to it, their
+/// radius the mean of the same row's cloth in the window (else the column's lowest). A hem
+/// wider than the window keeps its shape. Windows with fewer than `half + 1` columns of cloth
+/// (a cape's side edge) are left as they are.
+pub fn even_hem(shape: Shape, mask: &mut [bool], radius: &mut [Option<f32>], half: usize) {
+    let bottom = bottoms(shape, mask, radius);
+    let window =
+        |c: usize| (0..=2 * half).map(move |k| (c + shape.columns * 2 + k - half) % shape.columns);
+    let targets: Vec<Option<usize>> = (0..shape.columns)
+        .map(|c| {
+            bottom[c]?;
+            let mut rows: Vec<usize> = window(c).filter_map(|n| bottom[n]).collect();
+            if rows.len() < half + 1 {
+                return None;
+            }
+            rows.sort_unstable();
+            Some(rows[rows.len() / 2])
+        })
+        .collect();
+    for c in 0..shape.columns {
+        let (Some(b), Some(t)) = (bottom[c], targets[c]) else { continue };
+        if b < t {
+            for r in b..t {
+                let cell = shape.index(r, c);
+                mask[cell] = false;
+                radius[cell] = None;
+            }
+        } else {
+            let fallback = radius[shape.index(b, c)];
+            for r in t..b {
+                let row: Vec<f32> = window(c)
+                    .filter(|&n| n != c && mask[shape.index(r, n)])
+                    .filter_map(|n| radius[shape.index(r, n)])
+                    .collect();
+                let cell = shape.index(r, c);
+                mask[cell] = true;
+                radius[cell] = if row.is_empty() {
+                    fallback
+                } else {
+                    Some(row.iter().sum::<f32>() / row.len() as f32)
+                };
+            }
+        }
+    }
+}

@@ -194,3 +194,39 @@ fn a_slanted_hem_comes_out_a_smooth_curve_not_a_staircase() {
     assert!(smoothed < stepped - 0.1, "border {stepped} -> {smoothed} m");
     assert_eq!(integrity(&sheet_with(10)).pieces, 1);
 }
+
+#[test]
+fn the_hem_loses_its_tongues_and_notches_and_keeps_a_wide_step() {
+    use grid::even_hem;
+    // Cloth from row 10 up, except a tongue (3 columns down to row 4), a notch (2 columns
+    // ending at row 14) and a step 20 columns wide down to row 6 (a longer back panel).
+    let shape = Shape { rows: 30, columns: 90 };
+    let bottom_of = |c: usize| match c {
+        10..=12 => 4,
+        30..=31 => 14,
+        50..=69 => 6,
+        _ => 10,
+    };
+    let mut mask: Vec<bool> =
+        (0..shape.len()).map(|i| i / shape.columns >= bottom_of(i % shape.columns)).collect();
+    // The radius grows by a centimetre a row, so a filled notch's radius can be checked.
+    let mut radius: Vec<Option<f32>> = (0..shape.len())
+        .map(|i| mask[i].then(|| 0.3 + 0.01 * (i / shape.columns) as f32))
+        .collect();
+    even_hem(shape, &mut mask, &mut radius, 4);
+    let bottom = |c: usize| (0..shape.rows).find(|&r| mask[shape.index(r, c)]).unwrap();
+    for c in [10, 11, 12, 30, 31, 0, 40, 89] {
+        assert_eq!(bottom(c), 10, "column {c}");
+    }
+    for c in 55..=64 {
+        assert_eq!(bottom(c), 6, "the wide step stays (column {c})");
+    }
+    // The notch is filled with its rows' radius from the neighbours; no cell above the hem
+    // changed.
+    assert!((radius[shape.index(10, 30)].unwrap() - 0.40).abs() < 1e-6);
+    for c in 0..shape.columns {
+        for r in 15..shape.rows {
+            assert!(mask[shape.index(r, c)] && radius[shape.index(r, c)].is_some());
+        }
+    }
+}
