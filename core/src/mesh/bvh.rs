@@ -1,16 +1,23 @@
 //! Bounding-volume hierarchy over a triangle mesh: closest point on the surface
 //! (point-to-triangle distance, the Df metric) and ray casting (first hit or every hit).
 //!
-//! Built once per mesh by median splits along the longest axis of the triangle centroids,
-//! at most `LEAF_SIZE` triangles a leaf. Queries are read-only, so one `Bvh` can be shared
-//! between threads.
+//! Built once per mesh by the surface area heuristic (binned over the triangles' centroids;
+//! below `SAH_DEPTH` levels, median splits along the centroids' longest axis), at most
+//! `LEAF_SIZE` triangles a leaf. Queries are read-only, so one `Bvh` can be shared between
+//! threads. Their answers do not depend on the tree's shape: of equally near triangles (or
+//! hits at the same ray parameter) the lowest face index wins, and subtrees are pruned only
+//! beyond the rounding of a distance, so every query answers as a brute-force search would.
 
 use super::TriMesh;
 use glam::Vec3;
 
 const LEAF_SIZE: usize = 4;
-/// Deep enough for any tree built by median splits of up to 2^40 triangles.
-const STACK: usize = 64;
+
+/// Levels split by the surface area heuristic, which may split off a few triangles a level;
+/// deeper, median splits (at most 40 more levels for up to 2^40 triangles).
+const SAH_DEPTH: usize = 48;
+/// Deep enough for any tree this builds.
+const STACK: usize = SAH_DEPTH + 48;
 
 #[derive(Debug, Clone, Copy)]
 struct Node {
@@ -32,6 +39,9 @@ pub struct Bvh {
     face_ids: Vec<u32>,
     /// Tree order of each original face (the inverse of `face_ids`).
     tree_index: Vec<u32>,
+    /// The largest coordinate magnitude of any corner: the scale of the rounding of a
+    /// distance or a ray parameter (`Bvh::margin`).
+    scale: f32,
 }
 
 /// Closest point of the surface to a query point.
@@ -67,16 +77,24 @@ impl Bvh {
         let n = tris.len();
         let mut order: Vec<u32> = (0..n as u32).collect();
         let centroids: Vec<Vec3> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+        let bounds: Vec<(Vec3, Vec3)> =
+            tris.iter().map(|[a, b, c]| (a.min(*b).min(*c), a.max(*b).max(*c))).collect();
         let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
         if n > 0 {
-            build_node(&tris, &centroids, &mut order, 0, &mut nodes);
+            build_node(&bounds, &centroids, &mut order, 0, 0, &mut nodes);
         }
-        let sorted = order.iter().map(|&i| tris[i as usize]).collect();
+        let sorted: Vec<[Vec3; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
         let mut tree_index = vec![0u32; n];
         for (position, &face) in order.iter().enumerate() {
             tree_index[face as usize] = position as u32;
         }
-        Bvh { nodes, tris: sorted, face_ids: order, tree_index }
+        let scale = sorted
+            .iter()
+            .flatten()
+            .map(|p: &Vec3| p.abs().max_element())
+            .filter(|m| m.is_finite())
+            .fold(0f32, f32::max);
+        Bvh { nodes, tris: sorted, face_ids: order, tree_index, scale }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -105,9 +123,9 @@ impl Bvh {
     /// [`Bvh::closest_point`] with a hint: `face` (a mesh face index, ideally the closest face
     /// of a nearby earlier query: the same point a Gauss-Newton step before) bounds the search
     /// by its distance, so subtrees farther than it are never opened. The answer is the one
-    /// [`Bvh::closest_point`] gives, bit for bit, whatever face the hint names: the walk visits
-    /// the leaves in the same order, and the first closest triangle in that order lies nearer
-    /// than the bound. A hint out of range is ignored.
+    /// [`Bvh::closest_point`] gives, bit for bit, whatever face the hint names: the closest
+    /// triangles lie within the bound, and of them the lowest face index wins either way. A
+    /// hint out of range is ignored.
     pub fn closest_point_hinted(&self, q: Vec3, face: u32) -> Option<ClosestHit> {
         let Some(&i) = self.tree_index.get(face as usize) else {
             return self.closest_point(q);
@@ -121,13 +139,31 @@ impl Bvh {
         self.closest_below(q, if bound.is_finite() { bound } else { f32::INFINITY })
     }
 
-    /// The closest point whose squared distance is below `bound` (exclusive).
+    /// More than the rounding of a distance (or a ray parameter along a unit direction)
+    /// between `q` and any triangle or box of this tree can be: 64 units in the last place of
+    /// the largest coordinate involved. Subtrees are pruned only beyond it, so that the answer
+    /// does not depend on the tree's shape.
+    fn margin(&self, q: Vec3) -> f32 {
+        64.0 * f32::EPSILON * self.scale.max(q.abs().max_element()).max(f32::MIN_POSITIVE)
+    }
+
+    /// The closest point whose squared distance is below `bound` (exclusive): of the triangles
+    /// at the least squared distance (as computed), the one with the lowest face index, so the
+    /// answer is that of a brute-force search whatever the tree's shape.
     fn closest_below(&self, q: Vec3, bound: f32) -> Option<ClosestHit> {
         if self.nodes.is_empty() {
             return None;
         }
+        let margin = self.margin(q);
+        // A node is opened while its box lies within `reach`: the best squared distance so far
+        // widened by the rounding margin.
+        let reach_of = |d2: f32| {
+            let r = (d2.sqrt() + margin).powi(2);
+            if r.is_nan() { f32::INFINITY } else { r }
+        };
         let mut best_d2 = bound;
-        let mut best: Option<(Vec3, u32)> = None;
+        let mut reach = reach_of(bound);
+        let mut best: Option<(Vec3, u32)> = None; // point, face index
         // Nodes to visit and their boxes' squared distances (measured when pushed).
         let mut stack = [(0u32, 0f32); STACK];
         let mut top = 0usize;
@@ -138,11 +174,21 @@ impl Bvh {
                 let start = node.first as usize;
                 for i in start..start + node.count as usize {
                     let [a, b, c] = self.tris[i];
+                    // The triangle's box first: cheaper than the exact distance, and most
+                    // of a leaf's triangles lie beyond reach.
+                    let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+                    if ((lo - q).max(q - hi).max(Vec3::ZERO)).length_squared() > reach {
+                        continue;
+                    }
                     let p = closest_point_on_triangle(q, a, b, c);
                     let d2 = p.distance_squared(q);
-                    if d2 < best_d2 {
+                    let face = self.face_ids[i];
+                    let better =
+                        d2 < best_d2 || (d2 == best_d2 && best.is_some_and(|(_, f)| face < f));
+                    if better {
                         best_d2 = d2;
-                        best = Some((p, i as u32));
+                        reach = reach_of(d2);
+                        best = Some((p, face));
                     }
                 }
             } else {
@@ -151,27 +197,27 @@ impl Bvh {
                 let dr = box_distance_squared(q, &self.nodes[r as usize]);
                 let (near, d_near, far, d_far) =
                     if dl <= dr { (l, dl, r, dr) } else { (r, dr, l, dl) };
-                if d_far < best_d2 {
+                if d_far <= reach {
                     stack[top] = (far, d_far);
                     top += 1;
                 }
-                if d_near < best_d2 {
+                if d_near <= reach {
                     node_index = near;
                     continue;
                 }
             }
-            // Pop the next node that can still beat the best distance.
+            // Pop the next node that can still hold the best distance.
             loop {
                 if top == 0 {
-                    return best.map(|(point, i)| ClosestHit {
+                    return best.map(|(point, face)| ClosestHit {
                         point,
                         distance: best_d2.sqrt(),
-                        face: self.face_ids[i as usize],
+                        face,
                     });
                 }
                 top -= 1;
                 let (candidate, d) = stack[top];
-                if d < best_d2 {
+                if d <= reach {
                     node_index = candidate;
                     break;
                 }
@@ -185,9 +231,14 @@ impl Bvh {
         let mut best: Option<RayHit> = None;
         self.traverse_ray(origin, dir, t_min, t_max, |bvh, i, limit| {
             let [a, b, c] = bvh.tris[i];
+            let face = bvh.face_ids[i];
             match ray_triangle(origin, dir, a, b, c) {
-                Some((t, u, v, front)) if t > t_min && t < limit => {
-                    best = Some(RayHit { t, face: bvh.face_ids[i], u, v, front });
+                // Of hits at the same parameter, the lowest face index (as a brute force).
+                Some((t, u, v, front))
+                    if t > t_min
+                        && (t < limit || (t == limit && best.is_some_and(|h| face < h.face))) =>
+                {
+                    best = Some(RayHit { t, face, u, v, front });
                     t
                 }
                 _ => limit,
@@ -209,7 +260,7 @@ impl Bvh {
             }
             limit
         });
-        hits.sort_by(|a, b| a.t.total_cmp(&b.t));
+        hits.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.face.cmp(&b.face)));
         hits
     }
 
@@ -223,13 +274,17 @@ impl Bvh {
             return;
         }
         let inv = Vec3::ONE / dir; // infinities are handled by the slab test
+        // Boxes are tested with the range widened by the rounding of a hit's parameter, so
+        // that which triangles are met does not depend on the tree's shape.
+        let slack = self.margin(origin) / dir.length().max(f32::MIN_POSITIVE);
+        let widen = |t: f32, sign: f32| t + sign * (slack + 4.0 * f32::EPSILON * t.abs());
         let mut limit = t_max;
         let mut stack = [0u32; STACK];
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
             let node = &self.nodes[stack[top] as usize];
-            if !ray_box(origin, inv, node, t_min, limit) {
+            if !ray_box(origin, inv, node, widen(t_min, -1.0), widen(limit, 1.0)) {
                 continue;
             }
             if node.count > 0 {
@@ -246,20 +301,21 @@ impl Bvh {
     }
 }
 
+/// `bounds`: each triangle's box.
 fn build_node(
-    tris: &[[Vec3; 3]],
+    bounds: &[(Vec3, Vec3)],
     centroids: &[Vec3],
     order: &mut [u32],
     offset: usize,
+    depth: usize,
     nodes: &mut Vec<Node>,
 ) -> usize {
     let (mut min, mut max) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     let (mut cmin, mut cmax) = (min, max);
     for &i in order.iter() {
-        for p in tris[i as usize] {
-            min = min.min(p);
-            max = max.max(p);
-        }
+        let (lo, hi) = bounds[i as usize];
+        min = min.min(lo);
+        max = max.max(hi);
         let c = centroids[i as usize];
         cmin = cmin.min(c);
         cmax = cmax.max(c);
@@ -271,23 +327,105 @@ fn build_node(
     if order.len() <= LEAF_SIZE || !(extent.max_element() > 0.0) {
         return index;
     }
-    let axis = if extent.x >= extent.y && extent.x >= extent.z {
-        0
-    } else if extent.y >= extent.z {
-        1
+    let mid = if depth < SAH_DEPTH {
+        sah_split(bounds, centroids, order, cmin, extent)
     } else {
-        2
+        median_split(centroids, order, extent)
     };
+    let (left, right) = order.split_at_mut(mid);
+    build_node(bounds, centroids, left, offset, depth + 1, nodes);
+    let right_index = build_node(bounds, centroids, right, offset + mid, depth + 1, nodes);
+    nodes[index].first = right_index as u32;
+    nodes[index].count = 0;
+    index
+}
+
+const BINS: usize = 8;
+
+/// The median of `order` along the centroids' longest axis (`extent`): `order` reordered
+/// about it, and its index.
+fn median_split(centroids: &[Vec3], order: &mut [u32], extent: Vec3) -> usize {
+    let axis = extent.max_position();
     let mid = order.len() / 2;
     order.select_nth_unstable_by(mid, |&a, &b| {
         centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
     });
-    let (left, right) = order.split_at_mut(mid);
-    build_node(tris, centroids, left, offset, nodes);
-    let right_index = build_node(tris, centroids, right, offset + mid, nodes);
-    nodes[index].first = right_index as u32;
-    nodes[index].count = 0;
-    index
+    mid
+}
+
+/// Half the surface area of a box.
+fn area(min: Vec3, max: Vec3) -> f32 {
+    let d = (max - min).max(Vec3::ZERO);
+    d.x * d.y + d.y * d.z + d.z * d.x
+}
+
+/// The split of `order` (reordered in place; the index of the first of the right half)
+/// whose halves' box areas weighted by their triangles are least, binned by the triangles'
+/// centroids along each axis (the surface area heuristic).
+fn sah_split(
+    bounds: &[(Vec3, Vec3)],
+    centroids: &[Vec3],
+    order: &mut [u32],
+    cmin: Vec3,
+    extent: Vec3,
+) -> usize {
+    let scale = Vec3::select(extent.cmpgt(Vec3::ZERO), BINS as f32 / extent, Vec3::ZERO);
+    let bin_of = |c: Vec3| -> [usize; 3] {
+        let b = ((c - cmin) * scale).to_array();
+        b.map(|x| (x as usize).min(BINS - 1))
+    };
+    let empty = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    let mut count = [[0usize; BINS]; 3];
+    let mut boxes = [[empty; BINS]; 3];
+    for &i in order.iter() {
+        let (lo, hi) = bounds[i as usize];
+        for (axis, b) in bin_of(centroids[i as usize]).into_iter().enumerate() {
+            count[axis][b] += 1;
+            let bx = &mut boxes[axis][b];
+            *bx = (bx.0.min(lo), bx.1.max(hi));
+        }
+    }
+    let mut best = (f32::INFINITY, 0usize, 0usize); // cost, axis, first bin of the right half
+    for axis in 0..3 {
+        if !(extent[axis] > 0.0) {
+            continue;
+        }
+        // Right-to-left sweep of the areas and counts, then left to right.
+        let mut right_area = [0f32; BINS];
+        let mut right_count = [0usize; BINS];
+        let (mut r, mut rc) = (empty, 0);
+        for b in (1..BINS).rev() {
+            r = (r.0.min(boxes[axis][b].0), r.1.max(boxes[axis][b].1));
+            rc += count[axis][b];
+            right_area[b] = area(r.0, r.1);
+            right_count[b] = rc;
+        }
+        let (mut l, mut lc) = (empty, 0);
+        for b in 1..BINS {
+            l = (l.0.min(boxes[axis][b - 1].0), l.1.max(boxes[axis][b - 1].1));
+            lc += count[axis][b - 1];
+            if lc == 0 || right_count[b] == 0 {
+                continue;
+            }
+            let cost = area(l.0, l.1) * lc as f32 + right_area[b] * right_count[b] as f32;
+            if cost < best.0 {
+                best = (cost, axis, b);
+            }
+        }
+    }
+    if !best.0.is_finite() {
+        // Every centroid in one bin.
+        return median_split(centroids, order, extent);
+    }
+    let (_, axis, boundary) = best;
+    let mut mid = 0;
+    for k in 0..order.len() {
+        if bin_of(centroids[order[k] as usize])[axis] < boundary {
+            order.swap(k, mid);
+            mid += 1;
+        }
+    }
+    mid
 }
 
 /// More than the rounding of a distance between `q` and a triangle (or a box) of these corners

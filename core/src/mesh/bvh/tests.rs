@@ -212,3 +212,126 @@ fn a_hinted_query_answers_as_the_plain_one_whatever_the_hint() {
     }
     assert_eq!(Bvh::from_triangles(Vec::new()).closest_point_hinted(Vec3::ZERO, 0), None);
 }
+
+/// The brute-force answer the tree must give bit for bit: the least computed squared distance,
+/// and of equal ones the lowest face index.
+fn brute_closest(tris: &[[Vec3; 3]], q: Vec3) -> (u32, Vec3, f32) {
+    let mut best = (u32::MAX, Vec3::ZERO, f32::INFINITY);
+    for (f, t) in tris.iter().enumerate() {
+        let p = closest_point_on_triangle(q, t[0], t[1], t[2]);
+        let d2 = p.distance_squared(q);
+        if d2 < best.2 {
+            best = (f as u32, p, d2);
+        }
+    }
+    best
+}
+
+/// A grid of `n` x `n` quads over a bumpy sheet: its shared corners tie up to six faces.
+fn bumpy_grid(n: usize) -> Vec<[Vec3; 3]> {
+    let at = |i: usize, j: usize| {
+        let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
+        Vec3::new(x, 0.1 * (7.0 * x).sin() * (5.0 * z).cos(), z)
+    };
+    let mut tris = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            tris.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            tris.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    tris
+}
+
+#[test]
+fn closest_points_are_the_brute_force_ones_ties_to_the_lowest_face() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let grid = bumpy_grid(20);
+    // Above every corner (a tie of the faces around it), and anywhere.
+    let mut points: Vec<Vec3> = grid.iter().flatten().map(|&p| p + Vec3::Y * 0.03).collect();
+    points.extend((0..400).map(|_| {
+        Vec3::new(
+            rng.random_range(-0.5..1.5),
+            rng.random_range(-0.5..0.5),
+            rng.random_range(-0.5..1.5),
+        )
+    }));
+    let soup = random_soup(&mut rng, 400);
+    for tris in [grid, soup] {
+        let bvh = Bvh::from_triangles(tris.clone());
+        let mut ties = 0;
+        for &q in &points {
+            let (face, point, d2) = brute_closest(&tris, q);
+            let hit = bvh.closest_point(q).unwrap();
+            assert_eq!((hit.face, hit.point, hit.distance), (face, point, d2.sqrt()), "{q}");
+            let t = &tris[face as usize];
+            ties += tris
+                .iter()
+                .filter(|u| *u != t)
+                .filter(|u| {
+                    closest_point_on_triangle(q, u[0], u[1], u[2]).distance_squared(q) == d2
+                })
+                .count()
+                .min(1);
+        }
+        // The grid's corners do tie: the rule is exercised.
+        if tris.len() == 800 {
+            assert!(ties > 100, "only {ties} ties");
+        }
+    }
+}
+
+#[test]
+fn first_ray_hits_are_the_brute_force_ones_ties_to_the_lowest_face() {
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let grid = bumpy_grid(16);
+    let bvh = Bvh::from_triangles(grid.clone());
+    // Straight down through every corner (a tie of the faces around it), and at random.
+    let mut rays: Vec<(Vec3, Vec3)> =
+        grid.iter().flatten().map(|&p| (p + Vec3::Y, -Vec3::Y)).collect();
+    rays.extend((0..300).map(|_| {
+        let o = Vec3::new(rng.random_range(0.0..1.0), 1.0, rng.random_range(0.0..1.0));
+        let d = Vec3::new(rng.random_range(-0.5..0.5), -1.0, rng.random_range(-0.5..0.5));
+        (o, d.normalize())
+    }));
+    for (o, d) in rays {
+        let mut brute: Option<(f32, u32)> = None;
+        for (f, t) in grid.iter().enumerate() {
+            if let Some((t, ..)) = ray_triangle(o, d, t[0], t[1], t[2])
+                && t > 0.0
+                && t < 10.0
+                && brute.is_none_or(|b| t < b.0)
+            {
+                brute = Some((t, f as u32));
+            }
+        }
+        assert_eq!(bvh.ray_cast(o, d, 0.0, 10.0).map(|h| (h.t, h.face)), brute, "{o} {d}");
+        let hits = bvh.ray_hits(o, d, 0.0, 10.0);
+        assert!(hits.windows(2).all(|w| (w[0].t, w[0].face) < (w[1].t, w[1].face)));
+    }
+}
+
+#[test]
+fn a_tree_the_heuristic_makes_deep_still_answers() {
+    // Triangles whose sizes double along x: the surface area heuristic peels off the small
+    // ones a few at a time, level after level (the depth is capped, then median splits).
+    let mut tris = Vec::new();
+    for i in 0..120 {
+        let x = 1.2f32.powi(i);
+        for k in 0..3 {
+            let y = k as f32 * x;
+            tris.push([
+                Vec3::new(x, y, 0.0),
+                Vec3::new(x * 1.1, y, 0.0),
+                Vec3::new(x, y + x * 0.1, 0.1 * x),
+            ]);
+        }
+    }
+    let bvh = Bvh::from_triangles(tris.clone());
+    for i in 0..120 {
+        let q = Vec3::new(1.2f32.powi(i) * 1.05, 0.01, 1.0);
+        let (face, point, _) = brute_closest(&tris, q);
+        let hit = bvh.closest_point(q).unwrap();
+        assert_eq!((hit.face, hit.point), (face, point));
+    }
+}
