@@ -78,8 +78,7 @@ impl Bvh {
         let n = tris.len();
         let mut order: Vec<u32> = (0..n as u32).collect();
         let centroids: Vec<Vec3> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
-        let bounds: Vec<(Vec3, Vec3)> =
-            tris.iter().map(|[a, b, c]| (a.min(*b).min(*c), a.max(*b).max(*c))).collect();
+        let bounds: Vec<(Vec3, Vec3)> = tris.iter().map(triangle_box).collect();
         let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
         if n > 0 {
             build_node(&bounds, &centroids, &mut order, 0, 0, &mut nodes);
@@ -136,7 +135,7 @@ impl Bvh {
         // Above the hint's own distance by more than the rounding of a box's or a triangle's
         // distance can hide (the leaf of the closest triangle must stay open); a non-finite
         // distance bounds nothing.
-        let bound = (d + rounding_margin(q, [a, b, c])).powi(2);
+        let bound = (d + self.margin(q)).powi(2);
         self.closest_below(q, if bound.is_finite() { bound } else { f32::INFINITY })
     }
 
@@ -177,8 +176,8 @@ impl Bvh {
                     let [a, b, c] = self.tris[i];
                     // The triangle's box first: cheaper than the exact distance, and most
                     // of a leaf's triangles lie beyond reach.
-                    let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
-                    if ((lo - q).max(q - hi).max(Vec3::ZERO)).length_squared() > reach {
+                    let (lo, hi) = triangle_box(&self.tris[i]);
+                    if box_distance_squared(q, lo, hi) > reach {
                         continue;
                     }
                     let p = closest_point_on_triangle(q, a, b, c);
@@ -194,8 +193,9 @@ impl Bvh {
                 }
             } else {
                 let (l, r) = (node_index + 1, node.first);
-                let dl = box_distance_squared(q, &self.nodes[l as usize]);
-                let dr = box_distance_squared(q, &self.nodes[r as usize]);
+                let (left, right) = (&self.nodes[l as usize], &self.nodes[r as usize]);
+                let dl = box_distance_squared(q, left.min, left.max);
+                let dr = box_distance_squared(q, right.min, right.max);
                 let (near, d_near, far, d_far) =
                     if dl <= dr { (l, dl, r, dr) } else { (r, dr, l, dl) };
                 if d_far <= reach {
@@ -302,16 +302,14 @@ impl Bvh {
     }
 }
 
-/// More than the rounding of a distance between `q` and a triangle (or a box) of these corners
-/// can be: 64 units in the last place of the largest coordinate involved.
-fn rounding_margin(q: Vec3, corners: [Vec3; 3]) -> f32 {
-    let scale = corners.iter().fold(q.abs().max_element(), |m, c| m.max(c.abs().max_element()));
-    64.0 * f32::EPSILON * scale.max(f32::MIN_POSITIVE)
+fn box_distance_squared(q: Vec3, min: Vec3, max: Vec3) -> f32 {
+    let d = (min - q).max(q - max).max(Vec3::ZERO);
+    d.length_squared()
 }
 
-fn box_distance_squared(q: Vec3, node: &Node) -> f32 {
-    let d = (node.min - q).max(q - node.max).max(Vec3::ZERO);
-    d.length_squared()
+/// A triangle's box: its corners' least and greatest coordinates.
+fn triangle_box([a, b, c]: &[Vec3; 3]) -> (Vec3, Vec3) {
+    (a.min(*b).min(*c), a.max(*b).max(*c))
 }
 
 /// Slab test: does the ray meet the box for some t in [t_min, t_max]?
