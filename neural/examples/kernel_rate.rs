@@ -1,9 +1,10 @@
 //! GFLOP/s of the training path's products on one thread, per kernel path, at the shapes a
-//! step runs (a block of 128 points through a 128- or 256-wide layer): `cargo run --release
+//! step runs (a block of 128 points through a 128- or 256-wide layer, and the dot products of
+//! the layers of width 1 and 3, a block's rows together and one row at a time): `cargo run --release
 //! -p avatar-neural --example kernel_rate [reps]`. Each line times every path back to back,
 //! timed by the thread's own CPU time (/proc/thread-self/schedstat), so other jobs on the
 //! machine slow it less than they slow the wall clock.
-use avatar_neural::training::step::gemm::{Epilogue, Mat, gemm_then_with};
+use avatar_neural::training::step::gemm::{Epilogue, Mat, dots_with, gemm_then_with};
 use avatar_neural::training::step::{KernelPath, kernel_name_of};
 
 /// This thread's time on a CPU in seconds (Linux; the wall clock elsewhere).
@@ -71,6 +72,34 @@ fn main() {
                 }
                 let s = (thread_seconds() - t) / reps as f64;
                 line += &format!(" {:.1} GFLOP/s |", 2.0 * (m * k * n) as f64 / s / 1e9);
+            }
+            println!("{line}");
+        }
+    }
+    // The layers of width 1 (the SDF) and 3 (the input's gradient): dot products of rows.
+    for (m, k, r) in [(128, 128, 1), (128, 128, 3), (128, 256, 1), (128, 256, 3)] {
+        let (a, rows) = (data(m * k, 5), data(r * k, 6));
+        let mut out = vec![0f32; m * r];
+        for (name, by_row) in [("dots, a block's rows together", false), ("dots, row by row", true)]
+        {
+            let mut line = format!("| {name} ({m} x {k} x {r}) |");
+            for path in paths {
+                let mut run = || {
+                    if by_row {
+                        for (ai, oi) in a.chunks_exact(k).zip(out.chunks_exact_mut(r)) {
+                            dots_with(path, ai, &rows, k, 0.0, oi);
+                        }
+                    } else {
+                        dots_with(path, &a, &rows, k, 0.0, &mut out);
+                    }
+                };
+                run();
+                let t = thread_seconds();
+                for _ in 0..reps * 20 {
+                    run();
+                }
+                let s = (thread_seconds() - t) / (reps * 20) as f64;
+                line += &format!(" {:.1} GFLOP/s |", 2.0 * (m * k * r) as f64 / s / 1e9);
             }
             println!("{line}");
         }

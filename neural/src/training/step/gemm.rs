@@ -421,6 +421,8 @@ mod tests {
             (9, 5003, 6),
             (5, 8200, 3),
             (2, 23, 3),
+            (13, 256, 1),
+            (21, 40, 3),
         ];
         for (path, &(m, k, r)) in PATHS.iter().flat_map(|&p| shapes.iter().map(move |s| (p, s))) {
             let (a, rows) = (data(m * k, 7), data(r * k, 8));
@@ -436,6 +438,30 @@ mod tests {
                     out[i] - 1.0,
                     expected[i]
                 );
+            }
+        }
+    }
+
+    /// The kernels take several rows of a together; each row's sum must be the one it gets
+    /// alone (the fit's results do not depend on how many rows a block has).
+    #[test]
+    fn dots_of_a_block_equal_each_row_alone_bit_for_bit() {
+        for path in PATHS {
+            for &(m, k, r) in &[(19, 256, 1), (11, 131, 3), (9, 1031, 2)] {
+                let (a, rows) = (data(m * k, 3), data(r * k, 4));
+                let mut block = vec![0f32; m * r];
+                dots_with(path, &a, &rows, k, 0.0, &mut block);
+                for i in 0..m {
+                    let mut alone = vec![0f32; r];
+                    dots_with(path, &a[i * k..(i + 1) * k], &rows, k, 0.0, &mut alone);
+                    for j in 0..r {
+                        assert_eq!(
+                            block[i * r + j].to_bits(),
+                            alone[j].to_bits(),
+                            "{path:?} {m}x{k}x{r}, row {i}"
+                        );
+                    }
+                }
             }
         }
     }

@@ -223,29 +223,63 @@ pub unsafe fn dots(
     beta: f32,
     out: *mut f32,
 ) {
+    let mut i = 0;
+    // SAFETY (whole body): rows i.. of a and of out lie inside their buffers.
+    unsafe {
+        while i + DOT_ROWS <= m {
+            dots_rows::<DOT_ROWS>(k, r, a.add(i * k), rows, beta, out.add(i * r));
+            i += DOT_ROWS;
+        }
+        while i < m {
+            dots_rows::<1>(k, r, a.add(i * k), rows, beta, out.add(i * r));
+            i += 1;
+        }
+    }
+}
+
+/// Rows of a that [`dots`] takes together: one accumulator's chain of fused multiply-adds
+/// waits on the last one (4 cycles), so eight rows' chains keep both FMA ports busy.
+const DOT_ROWS: usize = 8;
+
+/// [`dots`] for R consecutive rows of a: each row's accumulator sees the same sequence of
+/// fused multiply-adds and the same reduction as one row alone, so the result is the same to
+/// the bit whatever R.
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn dots_rows<const R: usize>(
+    k: usize,
+    r: usize,
+    a: *const f32,
+    rows: *const f32,
+    beta: f32,
+    out: *mut f32,
+) {
     let tail = (k % 16) as u32;
     let mask: __mmask16 = ((1u32 << tail) - 1) as u16;
     let full = k - k % 16;
-    for i in 0..m {
-        // SAFETY: row i of a, every row of `rows` and out's row i lie inside their buffers.
-        unsafe {
-            let ai = a.add(i * k);
-            for j in 0..r {
-                let bj = rows.add(j * k);
-                let mut acc = _mm512_setzero_ps();
-                let mut p = 0;
-                while p < full {
-                    acc = _mm512_fmadd_ps(load(ai.add(p)), load(bj.add(p)), acc);
-                    p += 16;
+    // SAFETY (whole body): the R rows of a, every row of `rows` and out's R rows lie inside
+    // their buffers (the caller's contract).
+    unsafe {
+        for j in 0..r {
+            let bj = rows.add(j * k);
+            let mut acc = [_mm512_setzero_ps(); R];
+            let mut p = 0;
+            while p < full {
+                let b = load(bj.add(p));
+                for (d, acc) in acc.iter_mut().enumerate() {
+                    *acc = _mm512_fmadd_ps(load(a.add(d * k + p)), b, *acc);
                 }
-                if tail > 0 {
-                    acc = _mm512_fmadd_ps(
-                        _mm512_maskz_loadu_ps(mask, ai.add(full)),
-                        _mm512_maskz_loadu_ps(mask, bj.add(full)),
-                        acc,
-                    );
+                p += 16;
+            }
+            if tail > 0 {
+                let b = _mm512_maskz_loadu_ps(mask, bj.add(full));
+                for (d, acc) in acc.iter_mut().enumerate() {
+                    *acc =
+                        _mm512_fmadd_ps(_mm512_maskz_loadu_ps(mask, a.add(d * k + full)), b, *acc);
                 }
-                let o = out.add(i * r + j);
+            }
+            for (d, acc) in acc.into_iter().enumerate() {
+                let o = out.add(d * r + j);
                 let s = _mm512_reduce_add_ps(acc);
                 *o = if beta == 0.0 { s } else { *o + s };
             }
