@@ -77,7 +77,7 @@ fn main() {
         }
     }
     // The layers of width 1 (the SDF) and 3 (the input's gradient): dot products of rows.
-    for (m, k, r) in [(128, 128, 1), (128, 128, 3), (128, 256, 1), (128, 256, 3)] {
+    for (m, k, r) in [(128, 128, 1), (128, 128, 3), (128, 256, 1), (128, 256, 3), (128, 128, 128)] {
         let (a, rows) = (data(m * k, 5), data(r * k, 6));
         let mut out = vec![0f32; m * r];
         for (name, by_row) in [("dots, a block's rows together", false), ("dots, row by row", true)]
