@@ -24,6 +24,10 @@ const BLOCK: usize = 256;
 struct Layer {
     /// [fan_in, fan_out], row-major (the layout of the burn weights).
     w: Vec<f32>,
+    /// W transposed, [fan_out, fan_in] row-major: the gradient's `delta W^T` then runs on the
+    /// product's register tiles (as a product with a transposed operand it ran on dot
+    /// products of rows, at half their rate).
+    wt: Vec<f32>,
     b: Vec<f32>,
     fan_in: usize,
     fan_out: usize,
@@ -42,8 +46,10 @@ impl SirenEval {
             .zip(biases)
             .map(|(w, b)| {
                 let [fan_in, fan_out] = w.dims();
+                let w = to_vec(w.clone().into_data());
                 Layer {
-                    w: to_vec(w.clone().into_data()),
+                    wt: transposed(&w, fan_in, fan_out),
+                    w,
                     b: to_vec(b.clone().into_data()),
                     fan_in,
                     fan_out,
@@ -199,8 +205,13 @@ impl SirenEval {
             }
             let k = layer.fan_in;
             let (src, dst) = (&s.grad_a[..n * width], &mut s.grad_b[..n * k]);
-            // grad of the input = src W_l^T: dot products of src's rows with W_l's rows.
-            gemm(Mat::new(src, n, width), Mat::new(&layer.w, k, width).t(), 0.0, dst);
+            // grad of the input = src W_l^T (the first layer's three columns: dot products of
+            // src's rows with W_0's rows).
+            if l == 0 {
+                gemm(Mat::new(src, n, width), Mat::new(&layer.w, k, width).t(), 0.0, dst);
+            } else {
+                gemm(Mat::new(src, n, width), Mat::new(&layer.wt, width, k), 0.0, dst);
+            }
             std::mem::swap(&mut s.grad_a, &mut s.grad_b);
             width = k;
         }
@@ -241,6 +252,17 @@ impl MetricSdf {
             .map(|q| self.normalisation.from_unit(Vec3::from_array(q)))
             .collect()
     }
+}
+
+/// `w` [rows, cols] row-major, transposed: [cols, rows] row-major.
+fn transposed(w: &[f32], rows: usize, cols: usize) -> Vec<f32> {
+    let mut t = vec![0f32; w.len()];
+    for (r, row) in w.chunks_exact(cols).enumerate() {
+        for (c, &v) in row.iter().enumerate() {
+            t[c * rows + r] = v;
+        }
+    }
+    t
 }
 
 fn to_vec(data: burn::tensor::TensorData) -> Vec<f32> {
