@@ -272,8 +272,7 @@ impl BodyWrap {
         let chosen = close_short_holes(&chosen, o.max_hole).0;
         let mut pieces = self.clothing_pieces(&chosen, &bvh);
         if o.remesh_loose {
-            pieces =
-                self.sheet.remesh(&pieces, sdf, |p| bvh.closest_point_within(p, o.far).is_none());
+            pieces = self.sheet.remesh(&pieces, sdf, |p| !bvh.any_within(p, o.far));
         }
         // Border edges (one face) of the pieces: their vertices go onto the body nearby.
         let mut border: Vec<u32> = edge_use(&pieces.faces)
@@ -392,12 +391,17 @@ const SEAM_TOLERANCE: f32 = 1e-5;
 
 /// Which faces of `mesh` have their centre farther than `far` from the surface in `bvh`.
 fn faces_far_from(bvh: &Bvh, mesh: &TriMesh, far: f32) -> Vec<bool> {
+    // Neighbouring faces of a mesh mostly come in turn: the triangle found for one is tried
+    // first for the next.
     (0..mesh.faces.len())
         .into_par_iter()
-        .map(|f| {
-            let [a, b, c] = mesh.triangle(f);
-            bvh.closest_point_within((a + b + c) / 3.0, far).is_none()
-        })
+        .map_init(
+            || u32::MAX,
+            |last, f| {
+                let [a, b, c] = mesh.triangle(f);
+                !bvh.any_within_from((a + b + c) / 3.0, far, last)
+            },
+        )
         .collect()
 }
 
@@ -424,7 +428,7 @@ fn touching_ball_radius(bvh: &Bvh, x: Vec3, dir: Vec3) -> f32 {
     // surface there; a tenth of a millimetre covers rounding.
     let empty = |r: f32| {
         let clearance = 0.98 * r - 1e-4;
-        clearance <= 0.0 || bvh.closest_point_within(x + r * dir, clearance).is_none()
+        clearance <= 0.0 || !bvh.any_within(x + r * dir, clearance)
     };
     if empty(MAX_REACH) {
         return MAX_REACH;

@@ -343,7 +343,7 @@ impl GarmentSheet {
             .filter(|&f| {
                 let [a, b, c] = pieces.triangle(f);
                 let centre = (a + b + c) / 3.0;
-                !under(centre) && bvh.closest_point_within(centre, self.options.cover).is_none()
+                !under(centre) && !bvh.any_within(centre, self.options.cover)
             })
             .map(|f| pieces.faces[f])
             .collect();

@@ -188,7 +188,7 @@ pub(crate) fn check_scan_on_body(
     let bvh = Bvh::build(&body.mesh(posed.vertices.clone()));
     let step = (scan.positions.len() / 2000).max(1);
     let sample: Vec<Vec3> = scan.positions.iter().step_by(step).copied().collect();
-    let on = sample.iter().filter(|p| bvh.closest_point_within(**p, ON_BODY).is_some()).count();
+    let on = sample.iter().filter(|p| bvh.any_within(**p, ON_BODY)).count();
     if 2 * on >= sample.len() {
         return Ok(());
     }

@@ -132,8 +132,16 @@ pub struct MetaAvatar {
 }
 
 impl MetaAvatar {
+    /// The body wrap of a capture's subject (what [`MetaAvatar::from_fitted`] takes): the
+    /// same for every avatar fitted from it.
+    pub(crate) fn body_wrap_of(capture: &CapturePoints) -> Arc<BodyWrap> {
+        let (body, ..) = avatar_body::of_capture(capture);
+        Arc::new(BodyWrap::new(&body, &capture.betas))
+    }
+
     /// The avatar of a fitted hypernetwork (inference copy of its weights) after `done` of
-    /// `requested` steps.
+    /// `requested` steps; `wrap`: [`MetaAvatar::body_wrap_of`] the capture.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn from_fitted(
         capture: &CapturePoints,
         init: &Init,
@@ -141,6 +149,7 @@ impl MetaAvatar {
         requested: usize,
         model: &HyperNet,
         refiner: Option<&PoseRefiner>,
+        wrap: Arc<BodyWrap>,
     ) -> MetaAvatar {
         let refined_poses = refiner.map(|r| {
             capture
@@ -172,7 +181,6 @@ impl MetaAvatar {
                 Init::Scratch { .. } => None,
             },
         };
-        let wrap = Arc::new(BodyWrap::new(&body, &capture.betas));
         MetaAvatar {
             header,
             model: model.valid().to_device(&crate::cpu_device()),

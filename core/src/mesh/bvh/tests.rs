@@ -335,3 +335,39 @@ fn a_tree_the_heuristic_makes_deep_still_answers() {
         assert_eq!((hit.face, hit.point), (face, point));
     }
 }
+
+/// `any_within` is `closest_point_within(..).is_some()` without the search for the closest:
+/// the same answer at every radius, the exact distance (exclusive) and either side of it
+/// included.
+#[test]
+fn any_within_answers_as_the_closest_point_within() {
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let points: Vec<Vec3> = (0..300)
+        .map(|_| {
+            Vec3::new(
+                rng.random_range(-0.5..1.5),
+                rng.random_range(-0.5..0.5),
+                rng.random_range(-0.5..1.5),
+            )
+        })
+        .collect();
+    let soup = random_soup(&mut rng, 400);
+    let (mut inside, mut outside) = (0, 0);
+    for tris in [bumpy_grid(20), soup] {
+        let bvh = Bvh::from_triangles(tris.clone());
+        for &q in &points {
+            let d = bvh.closest_point(q).unwrap().distance;
+            for r in [0.0, d * 0.5, d, d.next_up(), d * 1.5, 0.05, 0.3, f32::INFINITY] {
+                let expected = bvh.closest_point_within(q, r).is_some();
+                assert_eq!(bvh.any_within(q, r), expected, "{q} within {r}");
+                // Whatever triangle an earlier query left as the first to try.
+                for mut last in [0, 7, 399, u32::MAX] {
+                    assert_eq!(bvh.any_within_from(q, r, &mut last), expected, "{q} from {last}");
+                }
+                if expected { inside += 1 } else { outside += 1 }
+            }
+        }
+    }
+    assert!(inside > 500 && outside > 500, "{inside} within, {outside} beyond");
+    assert!(!Bvh::from_triangles(Vec::new()).any_within(Vec3::ZERO, 1.0));
+}

@@ -23,10 +23,12 @@ use crate::training::fit::SignPrior;
 use crate::training::hyper_fit::{HyperFitOptions, HyperOptimisers, fit_hyper};
 use crate::training::pose_refine::{PoseRefiner, refine_round};
 use crate::training::pose_trace::{PoseTrace, Snap};
-use avatar_core::canonical::{ShellOptions, SurfaceChoice};
+use avatar_core::canonical::{BodyWrap, ShellOptions, SurfaceChoice};
 use burn::module::Module;
 use burn::tensor::Device;
 use glam::Vec3;
+use std::cell::OnceCell;
+use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 /// Pre-alignment runs when at least this share of the points is near the body (midway between
@@ -82,6 +84,9 @@ struct MetaFit<'a> {
     longer: usize,
     /// The steps in all: `options.steps`, `longer` once loose cloth is found.
     total: usize,
+    /// The subject's body wrap, made once for every avatar of the fit (the loose check's,
+    /// the partial ones, the last): it depends on the body and its shape alone.
+    wrap: OnceCell<Arc<BodyWrap>>,
 }
 
 impl<'a> MetaFit<'a> {
@@ -140,6 +145,7 @@ impl<'a> MetaFit<'a> {
             snap: None,
             longer,
             total,
+            wrap: OnceCell::new(),
         }
     }
 
@@ -278,6 +284,7 @@ impl<'a> MetaFit<'a> {
                 self.total,
                 model,
                 self.refiner.as_ref(),
+                self.body_wrap(),
             ),
             FitReport::of(self.capture),
         )
@@ -319,9 +326,15 @@ impl<'a> MetaFit<'a> {
                     self.total,
                     m,
                     self.refiner.as_ref(),
+                    self.body_wrap(),
                 ))
             }),
         }
+    }
+
+    /// The subject's body wrap, made at the first avatar.
+    fn body_wrap(&self) -> Arc<BodyWrap> {
+        self.wrap.get_or_init(|| MetaAvatar::body_wrap_of(self.capture)).clone()
     }
 
     /// A refinement round against the avatar's SDF (then the diagnostic's snap).
