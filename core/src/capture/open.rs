@@ -275,9 +275,12 @@ fn load_frames(
             manifest.frames.len()
         )));
     }
+    // One tree of the body at rest, refitted to each frame's pose (a fraction of a build;
+    // the same answers).
+    let rest_tree = Bvh::build(&body.mesh(body.v_template.clone()));
     Ok(indices
         .par_iter()
-        .map(|&i| load_frame(dir, manifest, &manifest.frames[i], i, body, options))
+        .map(|&i| load_frame(dir, manifest, &manifest.frames[i], i, body, &rest_tree, options))
         .collect())
 }
 
@@ -354,6 +357,7 @@ fn load_frame(
     record: &FrameRecord,
     index: usize,
     body: &BodyModel,
+    rest_tree: &Bvh,
     options: &CaptureOptions,
 ) -> std::result::Result<CaptureFrame, FrameError> {
     let depth_file = dir.join(&record.depth);
@@ -391,7 +395,7 @@ fn load_frame(
     };
     let (points, pixels) = backproject(&depth, intr, camera_to_world, mask.as_deref());
     let posed = body.pose(&params);
-    let bvh = Bvh::build(&body.mesh(posed.vertices));
+    let bvh = rest_tree.refit(&body.mesh(posed.vertices));
     // World up: the body's rest up axis (Y) carried by the root orientation is not the floor's
     // up; captures are in a Y-up world, like the body model.
     let (kept, crop) =

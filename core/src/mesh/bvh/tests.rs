@@ -371,3 +371,53 @@ fn any_within_answers_as_the_closest_point_within() {
     assert!(inside > 500 && outside > 500, "{inside} within, {outside} beyond");
     assert!(!Bvh::from_triangles(Vec::new()).any_within(Vec3::ZERO, 1.0));
 }
+
+/// A tree refitted to moved corners answers as a tree built on them: closest points (ties
+/// included) and first ray hits bit for bit, though its boxes come from another shape.
+#[test]
+fn a_refitted_tree_answers_as_a_fresh_build() {
+    let mut rng = ChaCha8Rng::seed_from_u64(13);
+    let n = 20;
+    let grid = bumpy_grid(n);
+    let at_rest = TriMesh::new(grid.iter().flatten().copied().collect(), tri_faces(grid.len()));
+    // The sheet rolled up a little and shaken: every corner moves, the faces stay.
+    let moved = TriMesh::new(
+        at_rest
+            .positions
+            .iter()
+            .map(|p| {
+                let a = 0.8 * p.x;
+                Vec3::new(a.sin(), p.y + 1.0 - a.cos(), p.z)
+                    + Vec3::splat(rng.random_range(-0.01..0.01))
+            })
+            .collect(),
+        at_rest.faces.clone(),
+    );
+    let refitted = Bvh::build(&at_rest).refit(&moved);
+    let fresh = Bvh::build(&moved);
+    for _ in 0..500 {
+        let q = Vec3::new(
+            rng.random_range(-0.5..1.5),
+            rng.random_range(-0.5..1.0),
+            rng.random_range(-0.5..1.5),
+        );
+        assert_eq!(refitted.closest_point(q), fresh.closest_point(q), "{q}");
+        assert_eq!(refitted.any_within(q, 0.05), fresh.any_within(q, 0.05), "{q}");
+        let dir = Vec3::new(rng.random_range(-1.0..1.0), -1.0, rng.random_range(-1.0..1.0));
+        let dir = dir.normalize();
+        assert_eq!(refitted.ray_cast(q, dir, 0.0, 10.0), fresh.ray_cast(q, dir, 0.0, 10.0), "{q}");
+    }
+    // Corners above the shared vertices tie faces: the lowest face wins in both.
+    for p in moved.positions.iter().step_by(7) {
+        let q = *p + Vec3::Y * 0.02;
+        assert_eq!(refitted.closest_point(q), fresh.closest_point(q), "{q}");
+    }
+    // Other faces get a fresh build.
+    let other = TriMesh::new(moved.positions.clone(), moved.faces[..10].to_vec());
+    assert_eq!(Bvh::build(&at_rest).refit(&other).num_triangles(), 10);
+}
+
+/// Faces of a triangle soup whose corners are listed in order.
+fn tri_faces(n: usize) -> Vec<[u32; 3]> {
+    (0..n as u32).map(|f| [3 * f, 3 * f + 1, 3 * f + 2]).collect()
+}
