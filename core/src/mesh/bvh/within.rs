@@ -1,7 +1,7 @@
 //! Whether anything of the surface lies near a point: the closest-point walk that stops at
 //! the first triangle within reach.
 
-use super::{Bvh, STACK, box_distance_squared, closest_point_on_triangle, triangle_box};
+use super::{Bvh, STACK, box_distance_squared, closest_point_on_triangle, triangle_box, widened};
 use glam::Vec3;
 
 impl Bvh {
@@ -28,8 +28,7 @@ impl Bvh {
             return true;
         }
         // Boxes within the bound widened by the rounding margin, as `closest_below` opens them.
-        let reach = (bound.sqrt() + self.margin(q)).powi(2);
-        let reach = if reach.is_nan() { f32::INFINITY } else { reach };
+        let reach = widened(bound, self.margin(q));
         let mut stack = [0u32; STACK];
         let mut top = 0usize;
         let mut node_index = 0u32;
@@ -48,12 +47,7 @@ impl Bvh {
                     }
                 }
             } else {
-                let (l, r) = (node_index + 1, node.first);
-                let (left, right) = (&self.nodes[l as usize], &self.nodes[r as usize]);
-                let dl = box_distance_squared(q, left.min, left.max);
-                let dr = box_distance_squared(q, right.min, right.max);
-                let (near, d_near, far, d_far) =
-                    if dl <= dr { (l, dl, r, dr) } else { (r, dr, l, dl) };
+                let [(near, d_near), (far, d_far)] = self.children_nearer_first(node_index, q);
                 if d_far <= reach {
                     stack[top] = far;
                     top += 1;
