@@ -134,17 +134,6 @@ impl Bvh {
         self.closest_below(q, if bound.is_finite() { bound } else { f32::INFINITY })
     }
 
-    /// The two children of interior node `index` (the left one follows it, `first` names the
-    /// right one), the one whose box is nearer `q` first, each with its box's squared distance.
-    #[inline(always)]
-    fn children_nearer_first(&self, index: u32, q: Vec3) -> [(u32, f32); 2] {
-        let (l, r) = (index + 1, self.nodes[index as usize].first);
-        let (left, right) = (&self.nodes[l as usize], &self.nodes[r as usize]);
-        let dl = box_distance_squared(q, left.min, left.max);
-        let dr = box_distance_squared(q, right.min, right.max);
-        if dl <= dr { [(l, dl), (r, dr)] } else { [(r, dr), (l, dl)] }
-    }
-
     /// More than the rounding of a distance (or a ray parameter along a unit direction)
     /// between `q` and any triangle or box of this tree can be: 64 units in the last place of
     /// the largest coordinate involved. Subtrees are pruned only beyond it, so that the answer
@@ -157,13 +146,22 @@ impl Bvh {
     /// at the least squared distance (as computed), the one with the lowest face index, so the
     /// answer is that of a brute-force search whatever the tree's shape.
     fn closest_below(&self, q: Vec3, bound: f32) -> Option<ClosestHit> {
+        self.walk_below::<false>(q, bound)
+    }
+
+    /// The walk of [`Bvh::closest_below`]; with `FIRST`, it returns the first triangle it
+    /// meets below `bound` (`Bvh::any_within`: whether there is one, not which is closest).
+    fn walk_below<const FIRST: bool>(&self, q: Vec3, bound: f32) -> Option<ClosestHit> {
         if self.nodes.is_empty() {
             return None;
         }
         let margin = self.margin(q);
         // A node is opened while its box lies within `reach`: the best squared distance so far
         // widened by the rounding margin.
-        let reach_of = |d2: f32| widened(d2, margin);
+        let reach_of = |d2: f32| {
+            let r = (d2.sqrt() + margin).powi(2);
+            if r.is_nan() { f32::INFINITY } else { r }
+        };
         let mut best_d2 = bound;
         let mut reach = reach_of(bound);
         let mut best: Option<(Vec3, u32)> = None; // point, face index
@@ -189,13 +187,21 @@ impl Bvh {
                     let better =
                         d2 < best_d2 || (d2 == best_d2 && best.is_some_and(|(_, f)| face < f));
                     if better {
+                        if FIRST {
+                            return Some(ClosestHit { point: p, distance: d2.sqrt(), face });
+                        }
                         best_d2 = d2;
                         reach = reach_of(d2);
                         best = Some((p, face));
                     }
                 }
             } else {
-                let [(near, d_near), (far, d_far)] = self.children_nearer_first(node_index, q);
+                let (l, r) = (node_index + 1, node.first);
+                let (left, right) = (&self.nodes[l as usize], &self.nodes[r as usize]);
+                let dl = box_distance_squared(q, left.min, left.max);
+                let dr = box_distance_squared(q, right.min, right.max);
+                let (near, d_near, far, d_far) =
+                    if dl <= dr { (l, dl, r, dr) } else { (r, dr, l, dl) };
                 if d_far <= reach {
                     stack[top] = (far, d_far);
                     top += 1;
@@ -357,14 +363,6 @@ pub fn ray_triangle(
     let t = e2.dot(q) * inv_det;
     // det > 0 means dir . (e1 x e2) < 0: the ray runs against the normal (front side).
     Some((t, u, v, det > 0.0))
-}
-
-/// A squared distance `d2` widened by `margin` (the reach within which a box is opened); a
-/// NaN reaches everywhere.
-#[inline]
-fn widened(d2: f32, margin: f32) -> f32 {
-    let r = (d2.sqrt() + margin).powi(2);
-    if r.is_nan() { f32::INFINITY } else { r }
 }
 
 /// The largest finite coordinate magnitude of any corner (`Bvh::scale`).
