@@ -247,17 +247,14 @@ impl<'a> PoseRefiner<'a> {
         let mut report = RoundReport { residual_before: 0.0, residual_after: 0.0 };
         let n = self.frames.len().max(1) as f32;
         let (iterations, cutoff) = (self.options.iterations, 10.0 * self.options.huber);
-        for k in 0..self.frames.len() {
-            let r = self.refine_frame(k, sdf, iterations, (-cutoff, cutoff), RoundPoints::All);
+        for r in self.refine_frames(sdf, iterations, (-cutoff, cutoff), RoundPoints::All) {
             report.residual_before += r.residual_before / n;
             report.residual_after += r.residual_after / n;
         }
         if self.options.zero_mean && self.frames.len() > 1 {
             self.remove_common_correction();
         }
-        for k in 0..self.frames.len() {
-            self.recanonicalise_fully(k);
-        }
+        self.recanonicalise_all_fully();
         self.rounds_done += 1;
         if let Some(e) = self.traced_errors() {
             self.trace(|| {

@@ -6,6 +6,7 @@
 use super::{FrameSdf, PoseRefiner, RoundPoints, RoundReport};
 use avatar_core::body::{PoseCorrection, blend_transform};
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Rounds, and Gauss-Newton steps a round, of the upper body's pre-alignment: 4 of 5. The whole
 /// body's longer schedule (`PoseRefineOptions::prealign_rounds`) moved the quick dress's poses a
@@ -31,12 +32,13 @@ impl PoseRefiner<'_> {
     /// `sdf` at the current poses: high for tight clothing, low for a dress, whose skirt the
     /// body does not explain (pre-alignment then pulls the legs toward the skirt).
     pub fn near_share(&self, sdf: FrameSdf) -> f32 {
-        let (mut near, mut all) = (0usize, 0usize);
-        for k in 0..self.frames.len() {
-            let f = self.body_point_sdf(k, sdf);
-            near += f.iter().filter(|v| v.abs() <= self.options.prealign_cutoff).count();
-            all += f.len();
-        }
+        let (near, all) = (0..self.frames.len())
+            .into_par_iter()
+            .map(|k| {
+                let f = self.body_point_sdf(k, sdf);
+                (f.iter().filter(|v| v.abs() <= self.options.prealign_cutoff).count(), f.len())
+            })
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
         near as f32 / all.max(1) as f32
     }
 
@@ -76,9 +78,7 @@ impl PoseRefiner<'_> {
             // Frames from both starts: their shared translation along the body's axis back to
             // the given fittings' (each start held it there alone).
             self.hold_shared_axial_translation();
-            for k in 0..self.frames.len() {
-                self.recanonicalise(k);
-            }
+            self.recanonicalise_all();
         }
         for f in self.frames.iter_mut() {
             f.anchor = f.correction;
@@ -126,6 +126,7 @@ impl PoseRefiner<'_> {
     fn body_residuals(&self, sdf: FrameSdf) -> Vec<f32> {
         let cutoff = self.options.prealign_cutoff;
         (0..self.frames.len())
+            .into_par_iter()
             .map(|k| {
                 let f = self.body_point_sdf(k, sdf);
                 f.iter().map(|v| v.abs().min(cutoff)).sum::<f32>() / f.len().max(1) as f32
@@ -192,14 +193,8 @@ impl PoseRefiner<'_> {
         for round in 0..rounds {
             let start: Vec<PoseCorrection> = self.frames.iter().map(|f| f.correction).collect();
             let mut r = RoundReport { residual_before: 0.0, residual_after: 0.0 };
-            for k in 0..self.frames.len() {
-                let f = self.refine_frame(
-                    k,
-                    sdf,
-                    iterations,
-                    (-o.prealign_cutoff, o.prealign_cutoff),
-                    points,
-                );
+            let keep = (-o.prealign_cutoff, o.prealign_cutoff);
+            for f in self.refine_frames(sdf, iterations, keep, points) {
                 r.residual_before += f.residual_before / n;
                 r.residual_after += f.residual_after / n;
             }
@@ -212,9 +207,7 @@ impl PoseRefiner<'_> {
                 for (f, c) in self.frames.iter_mut().zip(best_start) {
                     f.correction = *c;
                 }
-                for k in 0..self.frames.len() {
-                    self.recanonicalise(k);
-                }
+                self.recanonicalise_all();
                 if let Some(e) = self.traced_errors() {
                     self.trace(|| format!(
                         "pre-alignment {}: |sdf| {:.2} mm, no better than {:.2}: back to round {}'s start; {e}",
@@ -228,9 +221,7 @@ impl PoseRefiner<'_> {
             }
             best = Some((r.residual_before, start));
             self.hold_shared_axial_translation();
-            for k in 0..self.frames.len() {
-                self.recanonicalise(k);
-            }
+            self.recanonicalise_all();
             if let Some(e) = self.traced_errors() {
                 self.trace(|| {
                     format!(
