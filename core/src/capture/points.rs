@@ -131,15 +131,18 @@ pub fn crop_to_body(
 ) -> Result<(Vec<usize>, CropReport)> {
     let (lo, _) =
         body.bounds().ok_or_else(|| Error::invalid("cannot crop to an empty body mesh"))?;
-    let body_dist: Vec<f32> = points
+    // Whether a point is near the body, found by the first triangle within reach; its
+    // distance is measured only where the floor's test needs it.
+    // Neighbouring pixels are near the same triangles: each query first tries the last one.
+    let near_body: Vec<bool> = points
         .par_iter()
-        .map(|&p| {
-            body.closest_point_within(p, options.max_distance).map_or(f32::INFINITY, |h| h.distance)
-        })
+        .map_init(|| u32::MAX, |last, &p| body.any_within_from(p, options.max_distance, last))
         .collect();
+    let body_dist = |p: Vec3| {
+        body.closest_point_within(p, options.max_distance).map_or(f32::INFINITY, |h| h.distance)
+    };
     let mut report = CropReport::default();
-    let near: Vec<usize> =
-        (0..points.len()).filter(|&i| body_dist[i] <= options.max_distance).collect();
+    let near: Vec<usize> = (0..points.len()).filter(|&i| near_body[i]).collect();
     report.far_from_body = points.len() - near.len();
     let floor = if options.remove_floor {
         let lowest =
@@ -157,7 +160,7 @@ pub fn crop_to_body(
             Some((n, d)) => {
                 let on_floor =
                     (points[i].dot(n) - d).abs() <= options.floor_tolerance || points[i].dot(n) < d;
-                let is_floor = on_floor && body_dist[i] > options.keep_near_body;
+                let is_floor = on_floor && body_dist(points[i]) > options.keep_near_body;
                 if is_floor {
                     report.floor += 1;
                 }
