@@ -393,27 +393,38 @@ pub fn fit_hyper(
     let mut order: Vec<usize> = Vec::new();
     let log_every = (options.steps / 50).max(1);
     let mut flat = options.compute.flat_training().then(|| FlatFit::new(&model, optimisers));
+    // The next step's batch, drawn while the step before it runs (the CPU path).
+    let mut next: Option<SampledBatch> = None;
     for step in 0..options.steps {
         if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             break;
         }
-        if order.len() < per_step {
-            let mut epoch: Vec<usize> = (0..samples.len()).collect();
-            epoch.shuffle(&mut rng);
-            order.extend(epoch);
-        }
-        let batch: Vec<&PoseSample> = order.drain(..per_step).map(|i| &samples[i]).collect();
         let log = step % log_every == 0 || step + 1 == options.steps;
+        let mut draw = || {
+            let batch = next_batch(samples, per_step, &mut order, &mut rng);
+            sample_batch(&batch, options, &mut rng)
+        };
         match flat.as_mut() {
             Some(fit) => {
-                let drawn = sample_batch(&batch, options, &mut rng);
-                let signs = drawn.signs(prior);
-                let loss = fit.step(&drawn, signs.as_deref(), options, rates, optimisers);
+                let drawn = next.take().unwrap_or_else(&mut draw);
+                // The next draw takes the same random numbers in the same order as one after
+                // another: only the time it runs changes, beside this step's sign queries.
+                // The prior is asked once a step that runs (the fit counts steps by it).
+                let last = step + 1 == options.steps;
+                let (loss, following) = rayon::join(
+                    || {
+                        let signs = drawn.signs(prior);
+                        fit.step(&drawn, signs.as_deref(), options, rates, optimisers)
+                    },
+                    || (!last).then(draw),
+                );
+                next = following;
                 if log {
                     progress(step, loss.total, loss.terms);
                 }
             }
             None => {
+                let batch = next_batch(samples, per_step, &mut order, &mut rng);
                 let (loss, terms) =
                     batch_loss(&model, &batch, options, &mut rng, device, prior, log);
                 if log {
@@ -428,6 +439,22 @@ pub fn fit_hyper(
             .expect("the flat parameters come from this model"),
         None => model,
     }
+}
+
+/// The next `per_step` samples of the shuffled epochs in `order` (a new epoch appended when
+/// fewer are left).
+fn next_batch<'s>(
+    samples: &'s [PoseSample],
+    per_step: usize,
+    order: &mut Vec<usize>,
+    rng: &mut ChaCha8Rng,
+) -> Vec<&'s PoseSample> {
+    if order.len() < per_step {
+        let mut epoch: Vec<usize> = (0..samples.len()).collect();
+        epoch.shuffle(rng);
+        order.extend(epoch);
+    }
+    order.drain(..per_step).map(|i| &samples[i]).collect()
 }
 
 /// The CPU training path's state during a fit: the model's flat parameters and gradient.
