@@ -49,15 +49,27 @@ pub fn choose_by_agreement(roots: &[Root]) -> usize {
 /// The root nearest a surface (`distance` of a canonical point to it): the rest body's, before
 /// an avatar exists (`Canonicalizer`, and pose refinement's rounds).
 pub fn choose_nearest(roots: &[Root], distance: impl Fn(Vec3) -> f32) -> usize {
-    nearest_with_gap(roots, distance).0
+    nearest_with_gap(roots, |x, _| distance(x)).0
 }
 
 /// [`choose_nearest`]'s pick and how much farther the runner-up is (infinite for one root).
-fn nearest_with_gap(roots: &[Root], distance: impl Fn(Vec3) -> f32) -> (usize, f32) {
+/// `distance(x, cap)` may answer infinity for a root at least `cap` from the surface: each
+/// root after the first is asked with a cap beyond the nearest so far by more than
+/// [`NEAREST_TIE`], so such a root can be neither the pick nor a runner-up within the tie, and
+/// the pick and whether the gap is under the tie are those of the exact distances.
+fn nearest_with_gap(roots: &[Root], distance: impl Fn(Vec3, f32) -> f32) -> (usize, f32) {
     if roots.len() < 2 {
         return (0, f32::INFINITY);
     }
-    let d: Vec<f32> = roots.iter().map(|r| distance(r.canonical)).collect();
+    let mut nearest = f32::INFINITY;
+    let d: Vec<f32> = roots
+        .iter()
+        .map(|r| {
+            let v = distance(r.canonical, nearest + NEAREST_TIE + TIE_CAP_MARGIN);
+            nearest = nearest.min(v);
+            v
+        })
+        .collect();
     let best = (0..roots.len()).min_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap_or(0);
     let runner_up =
         (0..roots.len()).filter(|&i| i != best).map(|i| d[i]).fold(f32::INFINITY, f32::min);
@@ -69,6 +81,10 @@ fn nearest_with_gap(roots: &[Root], distance: impl Fn(Vec3) -> f32) -> (usize, f
 /// swap them.
 pub const NEAREST_TIE: f32 = 0.05;
 
+/// How far beyond the tie a root's distance is still measured exactly (metres): well above the
+/// rounding of a distance, so that a root left unmeasured is surely beyond the tie.
+const TIE_CAP_MARGIN: f32 = 0.01;
+
 /// How a point's root is picked among several.
 #[derive(Clone, Copy)]
 pub enum RootPick<'a> {
@@ -77,9 +93,10 @@ pub enum RootPick<'a> {
     Agreement,
     /// The caller's choice; a point with several roots is ambiguous.
     Chooser(RootChooser<'a>),
-    /// The root nearest a surface ([`choose_nearest`], `distance`: of a canonical point to the
-    /// surface); a point is ambiguous when its runner-up is within [`NEAREST_TIE`] of it.
-    Nearest(&'a (dyn Fn(Vec3) -> f32 + Sync)),
+    /// The root nearest a surface ([`choose_nearest`], `distance(x, cap)`: of a canonical point
+    /// `x` to the surface, or infinity when it is not below `cap`); a point is ambiguous when
+    /// its runner-up is within [`NEAREST_TIE`] of it.
+    Nearest(&'a (dyn Fn(Vec3, f32) -> f32 + Sync)),
 }
 
 /// Canonicalize posed points (with normals) of one frame. `posed_body` and `body_weights` are
@@ -209,4 +226,49 @@ pub fn forward_skin_mesh(field: &SkinningField, bones: &Bones, canonical: &TriMe
         .map(|&x| forward_point(field, &bones.transforms, x))
         .collect();
     TriMesh::new(positions, canonical.faces.clone())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Roots at these distances from a surface (the x coordinate is the distance).
+    fn roots_at(distances: &[f32]) -> Vec<Root> {
+        distances
+            .iter()
+            .map(|&d| Root {
+                canonical: Vec3::new(d, 0.0, 0.0),
+                start_bone: 0,
+                agreement: 0.0,
+                residual: 0.0,
+                steps: 0,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn capped_distances_pick_as_exact_ones_and_tell_the_same_ties() {
+        let exact = |x: Vec3, _: f32| x.x;
+        let capped = |x: Vec3, cap: f32| if x.x < cap { x.x } else { f32::INFINITY };
+        let cases: [&[f32]; 8] = [
+            &[0.3, 0.01],
+            &[0.01, 0.3],
+            &[0.2, 0.02, 0.06, 0.5],
+            &[0.02, 0.02, 0.5],
+            &[0.5, 0.4, 0.3, 0.2, 0.1],
+            &[0.1, 0.149, 0.9],
+            &[0.1, 0.151, 0.9],
+            &[0.9, 0.1, 0.159, 0.161],
+        ];
+        for d in cases {
+            let roots = roots_at(d);
+            let (best, gap) = nearest_with_gap(&roots, exact);
+            let (capped_best, capped_gap) = nearest_with_gap(&roots, capped);
+            assert_eq!(best, capped_best, "{d:?}");
+            assert_eq!(gap < NEAREST_TIE, capped_gap < NEAREST_TIE, "{d:?}: {gap} {capped_gap}");
+        }
+        // The tie itself: a runner-up within it is measured exactly.
+        let (_, gap) = nearest_with_gap(&roots_at(&[0.5, 0.1, 0.13]), capped);
+        assert!((gap - 0.03).abs() < 1e-6);
+    }
 }

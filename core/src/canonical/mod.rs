@@ -96,7 +96,7 @@ impl<'a> Canonicalizer<'a> {
         normals: &[Vec3],
     ) -> CanonicalFrame {
         let posed = self.body.pose(params);
-        let distance = |x: Vec3| self.distance_to_body(x);
+        let distance = |x: Vec3, cap: f32| self.distance_to_body(x, cap);
         canonicalize_points_from(
             &self.field,
             &posed.bones,
@@ -114,8 +114,9 @@ impl<'a> Canonicalizer<'a> {
     /// several, the nearest (PINA keeps the root of smallest SDF; before the avatar exists, the
     /// body's is the SDF there is). Where a squat or a bend presses the thigh to the belly, the
     /// other roots lie tens of centimetres off the body, and a fit grows sheets through them.
-    fn distance_to_body(&self, x: Vec3) -> f32 {
-        self.rest_surface.closest_point(x).map_or(f32::INFINITY, |h| h.distance)
+    /// Infinity when the point is not below `cap` from the body (a shorter search).
+    fn distance_to_body(&self, x: Vec3, cap: f32) -> f32 {
+        self.rest_surface.closest_point_within(x, cap).map_or(f32::INFINITY, |h| h.distance)
     }
 
     /// Canonical positions of free-space samples of one frame (posed, world space): the
@@ -123,7 +124,7 @@ impl<'a> Canonicalizer<'a> {
     pub fn free_space(&self, frame: &CaptureFrame, samples: &[Vec3]) -> Vec<Vec3> {
         let posed = self.body.pose(&frame.params);
         let no_normals = vec![Vec3::Z; samples.len()];
-        let distance = |x: Vec3| self.distance_to_body(x);
+        let distance = |x: Vec3, cap: f32| self.distance_to_body(x, cap);
         canonicalize_points_from(
             &self.field,
             &posed.bones,

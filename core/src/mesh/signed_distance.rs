@@ -33,6 +33,12 @@ impl SignedDistance {
         self.with_closest(p).map(|(d, _)| d)
     }
 
+    /// The distance to the surface (unsigned) where it is below `cap`, else `None`: a shorter
+    /// search than [`SignedDistance::at`]'s, the same distance.
+    pub fn distance_within(&self, p: Vec3, cap: f32) -> Option<f32> {
+        self.bvh.closest_point_within(p, cap).map(|h| h.distance)
+    }
+
     /// The signed distance and the nearest surface point.
     pub fn with_closest(&self, p: Vec3) -> Option<(f32, Vec3)> {
         let h = self.bvh.closest_point(p)?;

@@ -45,7 +45,8 @@ fn recanonicalise_fully(
     use avatar_core::canonical::{RootOptions, RootPick, canonicalize_points_from};
     let params = frame.correction.apply(&frame.given);
     let posed_body = capture.body.pose(&params);
-    let distance = |x: Vec3| capture.rest_sdf.at(x).map_or(f32::INFINITY, f32::abs);
+    let distance =
+        |x: Vec3, cap: f32| capture.rest_sdf.distance_within(x, cap).unwrap_or(f32::INFINITY);
     let warm: Vec<Option<Vec3>> = frame
         .canonical
         .iter()
