@@ -279,7 +279,8 @@ fn warm_started_roots_after_a_small_pose_change_are_the_full_search_roots() {
         Canonicalizer::new(body, &capture.frames[0].params.betas, &FieldOptions::default(), None)
             .unwrap();
     let rest_surface = Bvh::build(&body.mesh(c.rest.clone()));
-    let distance = |x: Vec3, _cap: f32| rest_surface.closest_point(x).map_or(f32::INFINITY, |h| h.distance);
+    let distance =
+        |x: Vec3, _cap: f32| rest_surface.closest_point(x).map_or(f32::INFINITY, |h| h.distance);
     for frame in &capture.frames {
         let given = c.frame(frame);
         assert_eq!(given.ambiguous.len(), given.points.len());

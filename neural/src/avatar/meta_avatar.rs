@@ -380,15 +380,16 @@ impl MetaAvatar {
 
     fn rest_surface_kind(&self) -> Result<SurfaceChoice> {
         let sdf = self.sdf_at(&self.rest_params());
-        let extracted = self.extracted_surface(&sdf, self.resolution.cells())?;
-        Ok(
-            if self.wrap.covers(&self.wrapped_surface(&sdf, self.wrap.options.outside), &extracted)
-            {
-                SurfaceChoice::WrappedBody
-            } else {
-                SurfaceChoice::WrappedWithLoose
-            },
-        )
+        // Two independent meshes of the same SDF: made side by side.
+        let (extracted, wrapped) = rayon::join(
+            || self.extracted_surface(&sdf, self.resolution.cells()),
+            || self.wrapped_surface(&sdf, self.wrap.options.outside),
+        );
+        Ok(if self.wrap.covers(&wrapped, &extracted?) {
+            SurfaceChoice::WrappedBody
+        } else {
+            SurfaceChoice::WrappedWithLoose
+        })
     }
 
     /// The resolution posing and export mesh it at ([`MeshResolution::OUTPUT`] unless set).
