@@ -37,6 +37,12 @@ fn fits_the_demo_from_the_shipped_meta_model_and_writes_a_loadable_avatar() {
         assert!(stdout.contains(row), "{row} in {stdout}");
     }
     assert!(stdout.contains("| training |") && stdout.contains("3 steps"), "{stdout}");
+    assert!(
+        ["kernels: AVX-512", "kernels: AVX2", "kernels: portable"]
+            .iter()
+            .any(|k| stdout.contains(k)),
+        "{stdout}"
+    );
     let avatar = avatar_neural::MetaAvatar::load(&out, &field_cache()).unwrap();
     assert_eq!(avatar.header.config, avatar_neural::HyperConfig::compact());
     assert_eq!(
@@ -59,9 +65,12 @@ fn fits_the_demo_from_the_shipped_meta_model_and_writes_a_loadable_avatar() {
         .arg("--out")
         .arg(&out_off)
         .args(["--steps", "3", "--frames", "2", "--refine-poses", "off"])
+        .args(["--kernels", "portable", "--timings"])
         .output()
         .unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    // --kernels: the plain loops, whatever the CPU has.
+    assert!(String::from_utf8_lossy(&run.stdout).contains("kernels: portable"));
     assert!(
         avatar_neural::MetaAvatar::load(&out_off, &field_cache())
             .unwrap()

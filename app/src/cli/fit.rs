@@ -65,6 +65,11 @@ pub struct Args {
     /// training, refinement rounds, the loose check, saving) at the end.
     #[arg(long)]
     timings: bool,
+    /// The training path's kernels: fastest (AVX-512 where the CPU has it, else AVX2 + FMA,
+    /// else plain loops), avx2 (what a CPU without AVX-512 runs) or portable; to time a fit as
+    /// another CPU runs it (the avatar differs by roundings only).
+    #[arg(long, default_value = "fastest", value_parser = ["fastest", "avx2", "portable"])]
+    kernels: String,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -90,6 +95,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         });
     }
+    use avatar_neural::training::step::{KernelPath, kernel_name, set_kernel_path};
+    set_kernel_path(match args.kernels.as_str() {
+        "avx2" => KernelPath::Avx2,
+        "portable" => KernelPath::Portable,
+        _ => KernelPath::Fastest,
+    });
     let t = Instant::now();
     let mut progress = super::fit_progress::FitProgress::new();
     // The hypernetwork from scratch needs no meta-model (its networks come from --preset).
@@ -184,6 +195,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     if args.timings {
         print!("\n{}", progress.table());
+        println!("kernels: {}", kernel_name());
     }
     Ok(())
 }
