@@ -12,12 +12,13 @@ use avatar_core::canonical::{
     shell_samples,
 };
 use avatar_core::capture::{
-    CaptureOptions, CaptureSource, FrameChoice, FreeSpaceOptions, free_space_samples,
+    CaptureFrame, CaptureOptions, CaptureSource, FrameChoice, FreeSpaceOptions, free_space_samples,
 };
 use avatar_core::mesh::TriMesh;
 use avatar_core::mesh::sdf_grid::{SdfGrid, SdfGridOptions};
 use avatar_core::mesh::signed_distance::SignedDistance;
 use glam::Vec3;
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -202,6 +203,23 @@ impl CapturePoints {
         let mut dropped = 0;
         // A frame skipped here is replaced by the next one of the choice.
         let (mut used, mut skipped, mut skip_warnings) = (Vec::new(), Vec::new(), Vec::new());
+        // A frame's canonical points and free-space samples (none for a frame to be skipped).
+        let canonicalize = |f: &CaptureFrame| {
+            let c = canon.frame(f);
+            if c.points.len() < MIN_FRAME_POINTS {
+                return (c, Vec::new());
+            }
+            let free = free_space_samples(
+                &f.points,
+                f.camera_center(),
+                &FreeSpaceOptions {
+                    seed: FreeSpaceOptions::default().seed ^ f.index as u64,
+                    ..FreeSpaceOptions::default()
+                },
+            );
+            let free_space = canon.free_space(f, &free).iter().map(|p| norm.to_unit(*p)).collect();
+            (c, free_space)
+        };
         let mut next = 0;
         loop {
             if out.len() >= frames {
@@ -214,40 +232,37 @@ impl CapturePoints {
                     break;
                 }
             }
-            let f = &capture.frames[next];
-            next += 1;
-            let c = canon.frame(f);
-            dropped += c.dropped + c.unsolved;
-            if c.points.len() < MIN_FRAME_POINTS {
-                skip_warnings.push(format!(
-                    "{}: frame {}: only {} canonical points survived; skipped",
-                    dir.display(),
-                    f.index,
-                    c.points.len()
-                ));
-                skipped
-                    .push((f.index, format!("only {} canonical points survived", c.points.len())));
-                continue;
+            // The frames still wanted, each canonicalized on its own (side by side), then
+            // taken in order: each adds at most one, so all of them are taken or skipped.
+            let batch = &capture.frames[next..capture.frames.len().min(next + frames - out.len())];
+            next += batch.len();
+            let done: Vec<_> = batch.par_iter().map(canonicalize).collect();
+            for (f, (c, free_space)) in batch.iter().zip(done) {
+                dropped += c.dropped + c.unsolved;
+                if c.points.len() < MIN_FRAME_POINTS {
+                    skip_warnings.push(format!(
+                        "{}: frame {}: only {} canonical points survived; skipped",
+                        dir.display(),
+                        f.index,
+                        c.points.len()
+                    ));
+                    skipped.push((
+                        f.index,
+                        format!("only {} canonical points survived", c.points.len()),
+                    ));
+                    continue;
+                }
+                used.push(f.index);
+                out.push(FramePoints {
+                    index: f.index,
+                    params: f.params.clone(),
+                    points: c.points.iter().map(|p| norm.to_unit(*p)).collect(),
+                    normals: c.normals,
+                    ambiguous: c.ambiguous,
+                    free_space,
+                    shells: Vec::new(),
+                });
             }
-            used.push(f.index);
-            let free = free_space_samples(
-                &f.points,
-                f.camera_center(),
-                &FreeSpaceOptions {
-                    seed: FreeSpaceOptions::default().seed ^ f.index as u64,
-                    ..FreeSpaceOptions::default()
-                },
-            );
-            let free_space = canon.free_space(f, &free).iter().map(|p| norm.to_unit(*p)).collect();
-            out.push(FramePoints {
-                index: f.index,
-                params: f.params.clone(),
-                points: c.points.iter().map(|p| norm.to_unit(*p)).collect(),
-                normals: c.normals,
-                ambiguous: c.ambiguous,
-                free_space,
-                shells: Vec::new(),
-            });
         }
         // In the take's order (with every frame chosen, the capture's own order).
         out.sort_by_key(|f| f.index);
