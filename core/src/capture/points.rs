@@ -131,9 +131,9 @@ pub fn crop_to_body(
 ) -> Result<(Vec<usize>, CropReport)> {
     let (lo, _) =
         body.bounds().ok_or_else(|| Error::invalid("cannot crop to an empty body mesh"))?;
-    // Whether a point is near the body, found by the first triangle within reach; its
-    // distance is measured only where the floor's test needs it.
-    // Neighbouring pixels are near the same triangles: each query first tries the last one.
+    // Whether a point is near the body, found by the first triangle within reach (neighbouring
+    // pixels are near the same triangles: each query first tries the last one); its distance
+    // is measured only where the floor's test needs it.
     let near_body: Vec<bool> = points
         .par_iter()
         .map_init(|| u32::MAX, |last, &p| body.any_within_from(p, options.max_distance, last))

@@ -400,12 +400,12 @@ pub fn fit_hyper(
             break;
         }
         let log = step % log_every == 0 || step + 1 == options.steps;
-        let mut draw = || {
-            let batch = next_batch(samples, per_step, &mut order, &mut rng);
-            sample_batch(&batch, options, &mut rng)
-        };
         match flat.as_mut() {
             Some(fit) => {
+                let mut draw = || {
+                    let batch = next_batch(samples, per_step, &mut order, &mut rng);
+                    sample_batch(&batch, options, &mut rng)
+                };
                 let drawn = next.take().unwrap_or_else(&mut draw);
                 // The next draw takes the same random numbers in the same order as one after
                 // another: only the time it runs changes, beside this step's sign queries.

@@ -192,15 +192,8 @@ fn a_hinted_query_answers_as_the_plain_one_whatever_the_hint() {
         .collect();
     let grid = Bvh::from_triangles(grid);
     for (bvh, extra) in [(&soup, Vec::new()), (&grid, grid_points)] {
-        let mut points: Vec<Vec3> = (0..300)
-            .map(|_| {
-                Vec3::new(
-                    rng.random_range(-1.5..1.5),
-                    rng.random_range(-1.5..1.5),
-                    rng.random_range(-1.5..1.5),
-                )
-            })
-            .collect();
+        let mut points: Vec<Vec3> =
+            (0..300).map(|_| random_point(&mut rng, Vec3::splat(-1.5), Vec3::splat(1.5))).collect();
         points.extend(extra);
         for p in points {
             let plain = bvh.closest_point(p).unwrap();
@@ -249,13 +242,7 @@ fn closest_points_are_the_brute_force_ones_ties_to_the_lowest_face() {
     let grid = bumpy_grid(20);
     // Above every corner (a tie of the faces around it), and anywhere.
     let mut points: Vec<Vec3> = grid.iter().flatten().map(|&p| p + Vec3::Y * 0.03).collect();
-    points.extend((0..400).map(|_| {
-        Vec3::new(
-            rng.random_range(-0.5..1.5),
-            rng.random_range(-0.5..0.5),
-            rng.random_range(-0.5..1.5),
-        )
-    }));
+    points.extend((0..400).map(|_| random_point(&mut rng, Vec3::splat(-0.5), SLAB_MAX)));
     let soup = random_soup(&mut rng, 400);
     for tris in [grid, soup] {
         let bvh = Bvh::from_triangles(tris.clone());
@@ -342,15 +329,8 @@ fn a_tree_the_heuristic_makes_deep_still_answers() {
 #[test]
 fn any_within_answers_as_the_closest_point_within() {
     let mut rng = ChaCha8Rng::seed_from_u64(9);
-    let points: Vec<Vec3> = (0..300)
-        .map(|_| {
-            Vec3::new(
-                rng.random_range(-0.5..1.5),
-                rng.random_range(-0.5..0.5),
-                rng.random_range(-0.5..1.5),
-            )
-        })
-        .collect();
+    let points: Vec<Vec3> =
+        (0..300).map(|_| random_point(&mut rng, Vec3::splat(-0.5), SLAB_MAX)).collect();
     let soup = random_soup(&mut rng, 400);
     let (mut inside, mut outside) = (0, 0);
     for tris in [bumpy_grid(20), soup] {
@@ -396,11 +376,7 @@ fn a_refitted_tree_answers_as_a_fresh_build() {
     let refitted = Bvh::build(&at_rest).refit(&moved);
     let fresh = Bvh::build(&moved);
     for _ in 0..500 {
-        let q = Vec3::new(
-            rng.random_range(-0.5..1.5),
-            rng.random_range(-0.5..1.0),
-            rng.random_range(-0.5..1.5),
-        );
+        let q = random_point(&mut rng, Vec3::splat(-0.5), Vec3::new(1.5, 1.0, 1.5));
         assert_eq!(refitted.closest_point(q), fresh.closest_point(q), "{q}");
         assert_eq!(refitted.any_within(q, 0.05), fresh.any_within(q, 0.05), "{q}");
         let dir = Vec3::new(rng.random_range(-1.0..1.0), -1.0, rng.random_range(-1.0..1.0));
@@ -421,3 +397,15 @@ fn a_refitted_tree_answers_as_a_fresh_build() {
 fn tri_faces(n: usize) -> Vec<[u32; 3]> {
     (0..n as u32).map(|f| [3 * f, 3 * f + 1, 3 * f + 2]).collect()
 }
+
+/// A point drawn evenly in the box from `lo` to `hi` (x, then y, then z).
+fn random_point(rng: &mut ChaCha8Rng, lo: Vec3, hi: Vec3) -> Vec3 {
+    Vec3::new(
+        rng.random_range(lo.x..hi.x),
+        rng.random_range(lo.y..hi.y),
+        rng.random_range(lo.z..hi.z),
+    )
+}
+
+/// The far corner of the box around `bumpy_grid`'s unit sheet that the queries come from.
+const SLAB_MAX: Vec3 = Vec3::new(1.5, 0.5, 1.5);

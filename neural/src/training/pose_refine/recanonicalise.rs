@@ -1,6 +1,6 @@
 //! A frame's canonical points again for its corrected pose: by root finding, as the capture's
-//! were, or by fixed-point iterations of the inverse skinning. Frames are independent: every
-//! frame's run in parallel.
+//! were, or by fixed-point iterations of the inverse skinning. Frames are independent and are
+//! redone in parallel.
 
 use super::{Frame, PoseRefiner};
 use crate::data::capture_points::CapturePoints;
