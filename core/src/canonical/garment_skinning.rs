@@ -322,4 +322,4 @@ pub fn forward_skin_with_weights(bones: &Bones, mesh: &TriMesh, weights: &[Weigh
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
