@@ -322,4 +322,4 @@ pub fn forward_skin_with_weights(bones: &Bones, mesh: &TriMesh, weights: &[Weigh
 }
 
 #[cfg(test)]
-pub(crate) mod tests;
+mod tests;

@@ -5,7 +5,6 @@
 pub mod body_wrap;
 pub mod cache;
 pub mod canonicalize;
-pub mod clothed_mesh;
 pub mod field;
 pub mod fold_guard;
 pub mod garment_sheet;
@@ -23,7 +22,6 @@ pub use canonicalize::{
     CanonicalFrame, NEAREST_TIE, REPROJECTION_THRESHOLD, RootPick, canonicalize_points,
     canonicalize_points_from, choose_by_agreement, choose_nearest, forward_skin_mesh,
 };
-pub use clothed_mesh::unpose_clothed_mesh;
 pub use field::{FIELD_CELLS, FieldOptions, SkinningField};
 pub use garment_sheet::{GarmentSheet, SheetGridOptions};
 pub use garment_skinning::{

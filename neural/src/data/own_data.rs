@@ -3,8 +3,7 @@
 //! every scan becomes one sample of its subject-outfit group, its oriented points canonicalized
 //! by inverse skinning as a fit's are. A capture's frames are its depth points (chosen over the
 //! take as `fit` chooses them, canonicalized with the 2 cm filter); a scan's are points sampled
-//! on the whole mesh unposed by its own skinning weights (`canonical::clothed_mesh`: the posed
-//! body's beneath each vertex, inpainted along loose cloth), with its face normals. Each sample
+//! on the whole mesh with its face normals, canonicalized with the scan's fitting. Each sample
 //! keeps `points_per_pose` of them, drawn with a seeded generator, in the group's normalised
 //! cube (the group's shape: its first item's fitting). An item that fails here (no usable
 //! frame, a scan whose points do not canonicalize) is skipped by name like a refused one.
@@ -15,7 +14,7 @@ use crate::data::meta_data::{
 };
 use crate::error::Result;
 use avatar_core::body::{BodyModel, BodyParams};
-use avatar_core::canonical::{FieldCache, GarmentSkinning, Normalisation, unpose_clothed_mesh};
+use avatar_core::canonical::{Canonicalizer, FieldCache, FieldOptions, Normalisation};
 use avatar_core::capture::open::load_body_model;
 use avatar_core::eval::sampling::sample_surface_with_normals;
 use avatar_core::own_data::check::load_scan_item;
@@ -187,18 +186,13 @@ pub fn prepare(
     Ok(OwnData { data: MetaData { manifest, poses, points, normals }, items_used, skipped })
 }
 
-/// How items become samples; a change makes a resumed run's saved samples again. 2: scans
-/// unposed by their own weights (1: their points canonicalized by root finding).
-const SAMPLING_VERSION: u32 = 2;
-
 /// What the samples are made from: every item's files (path, size, modification time), the
-/// refused ones too, the options and how samples are made, as a SHA-256. Prepared samples
-/// saved with it are reused while it is unchanged (a resumed run skips the canonicalization).
+/// refused ones too, and the options, as a SHA-256. Prepared samples saved with it are reused
+/// while it is unchanged (a resumed run skips the canonicalization).
 pub fn fingerprint(found: &Discovery, options: &OwnDataOptions) -> String {
     let mut text = format!(
-        "{} {} {} {} {}\n",
+        "{} {} {} {}\n",
         crate::data::meta_data::DATA_VERSION,
-        SAMPLING_VERSION,
         options.points_per_pose,
         options.frames_per_capture,
         options.seed
@@ -271,14 +265,21 @@ fn item_samples(item: &Item, options: &OwnDataOptions) -> Result<ItemSamples> {
             let body = load_body_model(item.body_file.as_deref(), "named in subject.json")?;
             let (mesh, params) =
                 load_scan_item(&item.path, fitting, &body, item.body_file.is_some())?;
-            // The whole mesh is unposed by its own weights (the cloth's inpainted along it), so
-            // a skirt comes back as one sheet; points are then drawn on the canonical mesh.
-            let canonical = unpose_clothed_mesh(&body, &params, &mesh, &GarmentSkinning::default());
+            let canon = Canonicalizer::new(
+                &body,
+                &params.betas,
+                &FieldOptions::default(),
+                options.field_cache.dir(),
+            )?;
+            // A quarter more than kept: the 2 cm filter drops points where the scan leaves the
+            // skinning's reach (hair, a loose hem).
             let mut rng = ChaCha8Rng::seed_from_u64(options.seed ^ 0x5ca7);
-            let (points, normals) =
-                sample_surface_with_normals(&canonical, options.points_per_pose, &mut rng)?;
+            let n = options.points_per_pose + options.points_per_pose / 4;
+            let (p, nrm) = sample_surface_with_normals(&mesh, n, &mut rng)?;
+            let c = canon.posed_points(&params, &p, &nrm);
             let betas = params.betas.clone();
-            Ok(ItemSamples { body, betas, frames: vec![(params, points, normals)] })
+            drop(canon);
+            Ok(ItemSamples { body, betas, frames: vec![(params, c.points, c.normals)] })
         }
     }
 }

@@ -5,7 +5,7 @@ use glam::Vec3;
 
 /// A skirt as a flared tube from the waist to below the knees, in rings of `segments`
 /// vertices, around the rest body's legs.
-pub(crate) fn skirt(rest: &[Vec3], waist_y: f32, length: f32, segments: usize) -> TriMesh {
+fn skirt(rest: &[Vec3], waist_y: f32, length: f32, segments: usize) -> TriMesh {
     let waist: Vec<Vec3> = rest.iter().copied().filter(|p| (p.y - waist_y).abs() < 0.02).collect();
     let centre = waist.iter().sum::<Vec3>() / waist.len() as f32;
     let (rx, rz) = waist.iter().fold((0f32, 0f32), |(x, z), p| {
