@@ -5,10 +5,10 @@
 //! pose. Hanging cloth is a surface round the body's vertical axis, so here it is sampled as
 //! one: rays run in toward the axis from every direction round the body and at every height,
 //! and where a ray first meets the outside of a loose piece, that is the cloth. The cells the
-//! rays hit make a grid whose holes (cells enclosed by cloth on every side) are filled: the
-//! radius there spans the hole as a membrane would, then moves onto the SDF's own surface
-//! where the SDF shows one along the ray (a slab thinner than the extraction's cells dips
-//! toward zero without crossing it). The sheet is triangulated on that grid: one piece with
+//! rays hit make a grid whose holes (cells enclosed by cloth on every side, and short tears
+//! that reach a border) are filled: the radius there spans the hole as a membrane would, then
+//! moves onto the SDF's own surface where the SDF shows one along the ray (a slab thinner than
+//! the extraction's cells dips toward zero without crossing it). The sheet is triangulated on that grid: one piece with
 //! real borders (the hem, the waist, a cape's sides), no hole, no edge of three faces, and
 //! evenly sized triangles whatever the extraction's cells were. What lies under the sheet (the
 //! slab's inner wall, the SDF's blob between the legs) goes.
@@ -63,6 +63,13 @@ pub struct SheetGridOptions {
     /// rim that zigzags.
     pub border_smoothing: usize,
     pub border_reach: f32,
+    /// Tears that reach a border (which `grid::fill_enclosed` cannot tell from open space)
+    /// close where they are short: a column's gap of at most `gap_rows` cells between cloth
+    /// above and below (cloth hangs from its top), a row's gap of at most `gap_columns` cells
+    /// between cloth either side (`grid::fill_short_gaps`). A cape's or an open coat's front
+    /// is wider and stays open.
+    pub gap_rows: usize,
+    pub gap_columns: usize,
     /// The hem is evened by a running median of the columns' lowest cells over this many
     /// columns either side (`grid::even_hem`; 0: as the rays found it).
     pub hem_window: usize,
@@ -83,6 +90,8 @@ impl Default for SheetGridOptions {
             border_smoothing: 10,
             border_reach: 0.01,
             hem_window: 7,
+            gap_rows: 20,
+            gap_columns: 20,
         }
     }
 }
@@ -162,6 +171,12 @@ impl GarmentSheet {
             })
             .collect();
         mask = grid::fill_enclosed(shape, &grid::close(shape, &mask));
+        // Hanging cloth is whole: short tears that reach a border close too (closing them
+        // can enclose more holes).
+        mask = grid::fill_enclosed(
+            shape,
+            &grid::fill_short_gaps(shape, &mask, self.options.gap_rows, self.options.gap_columns),
+        );
         mask = self.drop_small_islands(&mask, &known);
         let mut radius = grid::fill_values(shape, &mask, &known, 60);
         // The filled cells, at their membrane's radius.

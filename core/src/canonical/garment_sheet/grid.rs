@@ -84,6 +84,46 @@ pub fn fill_enclosed(shape: Shape, mask: &[bool]) -> Vec<bool> {
     (0..shape.len()).map(|i| mask[i] || !open[label[i] as usize]).collect()
 }
 
+/// `mask` with each column's gaps of at most `rows` cells between cloth above and cloth below
+/// filled (hanging cloth hangs from its top: a short gap in a column is a tear), and each
+/// row's gaps of at most `columns` cells between cloth either side (the columns wrap).
+pub fn fill_short_gaps(shape: Shape, mask: &[bool], rows: usize, columns: usize) -> Vec<bool> {
+    let mut out = mask.to_vec();
+    for c in 0..shape.columns {
+        let mut last: Option<usize> = None;
+        for r in 0..shape.rows {
+            if mask[shape.index(r, c)] {
+                if let Some(l) = last
+                    && r - l - 1 <= rows
+                {
+                    for k in l + 1..r {
+                        out[shape.index(k, c)] = true;
+                    }
+                }
+                last = Some(r);
+            }
+        }
+    }
+    let vertical = out.clone();
+    for r in 0..shape.rows {
+        let cloth: Vec<usize> =
+            (0..shape.columns).filter(|&c| vertical[shape.index(r, c)]).collect();
+        if cloth.len() < 2 {
+            continue;
+        }
+        for (k, &c) in cloth.iter().enumerate() {
+            let next = cloth[(k + 1) % cloth.len()];
+            let gap = (next + shape.columns - c - 1) % shape.columns;
+            if gap > 0 && gap <= columns {
+                for g in 1..=gap {
+                    out[shape.index(r, c + g)] = true;
+                }
+            }
+        }
+    }
+    out
+}
+
 /// Each cell of `mask` without a value in `known` takes the mean of its neighbours' (a
 /// discrete Laplace equation: the values fill a hole as a membrane spans a frame), by
 /// Gauss-Seidel sweeps from the neighbours' mean. Cells left without any known value in reach

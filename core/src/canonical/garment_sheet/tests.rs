@@ -158,6 +158,94 @@ fn the_grid_fills_holes_and_keeps_open_space() {
 }
 
 #[test]
+fn short_tears_close_in_columns_and_rows_and_wide_openings_stay() {
+    use grid::*;
+    let shape = Shape { rows: 12, columns: 8 };
+    let cloth = |cells: &[(usize, usize)]| {
+        let mut mask = vec![false; shape.len()];
+        for &(r, c) in cells {
+            mask[shape.index(r, c)] = true;
+        }
+        mask
+    };
+    // Column 2: cloth on rows 1-3 and 7-9, a gap of three rows between.
+    let column: Vec<(usize, usize)> = [1, 2, 3, 7, 8, 9].iter().map(|&r| (r, 2)).collect();
+    let mask = cloth(&column);
+    let filled = fill_short_gaps(shape, &mask, 3, 0);
+    assert!((4..7).all(|r| filled[shape.index(r, 2)]));
+    assert!(!filled[shape.index(0, 2)] && !filled[shape.index(10, 2)], "nothing past the ends");
+    assert_eq!(fill_short_gaps(shape, &mask, 2, 0), mask, "a longer gap stays");
+    // Row 5: cloth on columns 0-1 and 5-7: a gap of three columns, none across the wrap.
+    let row: Vec<(usize, usize)> = [0, 1, 5, 6, 7].iter().map(|&c| (5, c)).collect();
+    let mask = cloth(&row);
+    let filled = fill_short_gaps(shape, &mask, 0, 3);
+    assert!((0..8).all(|c| filled[shape.index(5, c)]));
+    assert_eq!(fill_short_gaps(shape, &mask, 0, 2), mask, "a wider gap stays");
+    // Row 6: cloth on columns 6, 7 and 0 (across the wrap): the five columns 1-5 are an
+    // opening wider than three.
+    let mask = cloth(&[(6, 6), (6, 7), (6, 0)]);
+    assert_eq!(fill_short_gaps(shape, &mask, 0, 3), mask);
+}
+
+/// The cone's skirt with a slit `width` radians wide through its front, from the hem up to
+/// `top` (y).
+fn slit_skirt_sdf(width: f32, top: f32) -> impl Fn(&Vec3) -> f32 + Copy {
+    let skirt = skirt_sdf(0.02, false);
+    move |p: &Vec3| {
+        // Angular distance from the front (+z), as an arc on the cone (metres).
+        let angle = p.x.atan2(p.z).abs();
+        let r = skirt_radius(p.y.clamp(-0.3, 0.2));
+        let slit = ((0.5 * width - angle) * r).min(top - p.y);
+        skirt(p).max(slit)
+    }
+}
+
+#[test]
+fn a_skirt_torn_up_from_its_hem_comes_out_whole_and_a_cape_stays_open() {
+    let sheet = GarmentSheet::around(&body(), SheetGridOptions::default());
+    let truth = TAU * (skirt_radius(0.2) + skirt_radius(-0.3));
+    let remade = |sheet: &GarmentSheet, sdf: &(dyn Fn(&Vec3) -> f32 + Sync)| {
+        let pieces = extracted(|p: &Vec3| sdf(p), 48);
+        sheet.remesh(&pieces, |ps| ps.iter().map(sdf).collect(), loose)
+    };
+    // A tear 20 degrees wide (7 cm at the hem) from the hem up 35 cm: the rays see open space
+    // that reaches the hem, which only the short-gap rule closes.
+    let slit = slit_skirt_sdf(20f32.to_radians(), 0.05);
+    let whole = integrity(&remade(&sheet, &slit));
+    assert_eq!(whole.pieces, 1, "{whole:?}");
+    assert!(
+        whole.boundary_length_m < 1.25 * truth,
+        "border {} m, the waist and the hem {truth} m",
+        whole.boundary_length_m
+    );
+    let mut as_seen = sheet.clone();
+    (as_seen.options.gap_rows, as_seen.options.gap_columns) = (0, 0);
+    let torn = integrity(&remade(&as_seen, &slit));
+    assert!(
+        torn.boundary_length_m > whole.boundary_length_m + 0.5,
+        "without the rule the tear's two edges stay borders: {} against {} m",
+        torn.boundary_length_m,
+        whole.boundary_length_m
+    );
+    // A cape: the front's 120 degrees open all the way up. Its two front edges stay borders.
+    let cape = remade(&sheet, &slit_skirt_sdf(120f32.to_radians(), 0.3));
+    let open = integrity(&cape);
+    let edges = 2.0 * 0.5;
+    let rim = (1.0 - 120.0 / 360.0) * truth;
+    assert!(
+        open.boundary_length_m > 0.9 * (rim + edges),
+        "cape border {} m, its waist, hem and front edges {} m",
+        open.boundary_length_m,
+        rim + edges
+    );
+    let front = Vec3::new(0.0, -0.1, skirt_radius(-0.1));
+    assert!(
+        cape.positions.iter().all(|p| p.distance(front) > 0.1),
+        "cloth across the cape's front"
+    );
+}
+
+#[test]
 fn a_slanted_hem_comes_out_a_smooth_curve_not_a_staircase() {
     // The skirt's hem slants 16 cm from back to front (as a hem does over a raised knee): on
     // the grid's 1 cm rows it is a staircase until the border is smoothed.
