@@ -8,9 +8,9 @@
 //! rays hit make a grid whose holes (cells enclosed by cloth on every side, and short tears
 //! that reach a border) are filled: the radius there spans the hole as a membrane would, then
 //! moves onto the SDF's own surface where the SDF shows one along the ray (a slab thinner than
-//! the extraction's cells dips toward zero without crossing it). The sheet is triangulated on that grid: one piece with
-//! real borders (the hem, the waist, a cape's sides), no hole, no edge of three faces, and
-//! evenly sized triangles whatever the extraction's cells were. What lies under the sheet (the
+//! the extraction's cells dips toward zero without crossing it). The sheet is triangulated on
+//! that grid: one piece with real borders (the hem, the waist, a cape's sides), no hole, no
+//! edge of three faces, and evenly sized triangles whatever the extraction's cells were. What lies under the sheet (the
 //! slab's inner wall, the SDF's blob between the legs) goes.
 //!
 //! Tried and not kept: growing the sheet cell by cell from what the extraction gave, wherever
