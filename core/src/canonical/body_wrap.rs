@@ -234,6 +234,17 @@ impl BodyWrap {
         }
     }
 
+    /// Removes the crossings of a wrapped surface (`mesh` has the body's faces; its vertices
+    /// moved by [`BodyWrap::wrap`] and smoothed after it), but for those of the bare body
+    /// (`FoldGuard::untangle`). Returns how many faces crossed before; a mesh of other faces
+    /// is left as it is.
+    pub fn untangle(&self, mesh: &mut TriMesh) -> usize {
+        if mesh.faces != self.rest.faces {
+            return 0;
+        }
+        self.guard.untangle(&self.rest, &self.normals, &mut mesh.positions)
+    }
+
     /// The share of `extracted`'s area farther than `options.far` from `wrapped`.
     pub fn uncovered_share(&self, wrapped: &TriMesh, extracted: &TriMesh) -> f32 {
         let far = faces_far_from(&Bvh::build(wrapped), extracted, self.options.far);

@@ -6,14 +6,22 @@
 //! shrink toward the body, round after round, until no face is turned over; a vertex still in a
 //! fold after that goes back onto the body, whose own detail is the better guess where the
 //! evidence is thin. Offsets away from folds are not touched.
+//!
+//! The same relaxation untangles faces that pass through other faces of the surface (the cloth
+//! that bridges the crotch from both thighs, an ear's rim through its neighbours), but for the
+//! faces that cross already on the bare body (the open body's toes): offsets cannot undo those.
 
 use crate::mesh::TriMesh;
+use crate::mesh::crossings::{CrossingTracker, flags, self_intersecting_faces};
 use glam::Vec3;
 
 /// Smoothing rounds before the vertices still in a fold go back onto the body.
 const MAX_ROUNDS: usize = 60;
 /// Each round, a folded vertex's offset also shrinks by this factor (toward the body).
 const SHRINK: f32 = 0.85;
+/// Rounds for crossing faces (each one tests the whole surface for crossings, so fewer; a
+/// crossing shrinks to under a fifth of its offsets' first size in them).
+const MAX_UNTANGLE_ROUNDS: usize = 10;
 
 /// The rest body's neighbourhoods and face normals, built once per body.
 #[derive(Debug, Clone)]
@@ -22,6 +30,8 @@ pub struct FoldGuard {
     start: Vec<u32>,
     neighbours: Vec<u32>,
     rest_normals: Vec<Vec3>,
+    /// Faces that cross another face on the bare body (its own mesh's flaws).
+    crossing_at_rest: Vec<bool>,
 }
 
 impl FoldGuard {
@@ -42,7 +52,12 @@ impl FoldGuard {
             neighbours.extend(list);
         }
         start.push(neighbours.len() as u32);
-        FoldGuard { start, neighbours, rest_normals: rest.face_normals() }
+        FoldGuard {
+            start,
+            neighbours,
+            rest_normals: rest.face_normals(),
+            crossing_at_rest: self_intersecting_faces(&rest.positions, &rest.faces),
+        }
     }
 
     fn neighbours_of(&self, v: usize) -> &[u32] {
@@ -62,41 +77,123 @@ impl FoldGuard {
             .collect()
     }
 
+    /// Faces of `faces` at `positions` that pass through another face, but for those that
+    /// cross on the bare body already.
+    pub fn crossing_faces(&self, faces: &[[u32; 3]], positions: &[Vec3]) -> Vec<bool> {
+        self.not_at_rest(self_intersecting_faces(positions, faces))
+    }
+
+    fn not_at_rest(&self, mut crossing: Vec<bool>) -> Vec<bool> {
+        for (c, &own) in crossing.iter_mut().zip(&self.crossing_at_rest) {
+            *c &= !own;
+        }
+        crossing
+    }
+
     /// Removes the folds of the surface `rest + offset * normal` (offsets along the rest
     /// body's vertex `normals`; `None`: left on the body). Returns how many faces were turned
     /// over before.
     pub fn unfold(&self, rest: &TriMesh, normals: &[Vec3], offsets: &mut [Option<f32>]) -> usize {
+        let place = |t: &[Option<f32>]| along_normals(rest, normals, t);
+        self.relax(&rest.faces, offsets, MAX_ROUNDS, place, |p| self.folded_faces(&rest.faces, p))
+    }
+
+    /// Removes the crossings ([`Self::crossing_faces`]) of a surface with the rest body's
+    /// faces, `positions` a vertex, as [`Self::unfold`] removes folds: each vertex's offset
+    /// along the body's normal is what shrinks, the rest of its move from the body shrinking
+    /// with it. Returns how many faces crossed before.
+    pub fn untangle(&self, rest: &TriMesh, normals: &[Vec3], positions: &mut [Vec3]) -> usize {
+        let start: Vec<f32> = positions
+            .iter()
+            .zip(&rest.positions)
+            .zip(normals)
+            .map(|((&p, &x), &n)| (p - x).dot(n))
+            .collect();
+        let aside: Vec<Vec3> = positions
+            .iter()
+            .zip(&rest.positions)
+            .zip(normals)
+            .zip(&start)
+            .map(|(((&p, &x), &n), &t)| p - x - t * n)
+            .collect();
         let place = |offsets: &[Option<f32>]| -> Vec<Vec3> {
-            rest.positions
-                .iter()
-                .zip(normals)
+            let along = along_normals(rest, normals, offsets);
+            along
+                .into_iter()
                 .zip(offsets)
-                .map(|((&x, &n), t)| x + t.unwrap_or(0.0) * n)
+                .zip(&start)
+                .zip(&aside)
+                .map(|(((p, t), &t0), &r)| match t {
+                    None => p,
+                    Some(t) if t0.abs() > 1e-6 => p + r * (t / t0).clamp(0.0, 1.0),
+                    Some(_) => p + r,
+                })
                 .collect()
         };
-        let mut folded = self.folded_faces(&rest.faces, &place(offsets));
+        let mut offsets: Vec<Option<f32>> = start.iter().map(|&t| Some(t)).collect();
+        let mut tracker: Option<CrossingTracker> = None;
+        let before = self.relax(&rest.faces, &mut offsets, MAX_UNTANGLE_ROUNDS, &place, |p| {
+            let pairs = match &mut tracker {
+                Some(t) => t.update(p),
+                None => tracker.insert(CrossingTracker::new(p, &rest.faces)).update(p),
+            };
+            self.not_at_rest(flags(rest.faces.len(), pairs))
+        });
+        if before > 0 {
+            // Only the vertices that moved: the rest keep their positions to the bit.
+            let placed = place(&offsets);
+            for (v, p) in positions.iter_mut().enumerate() {
+                if offsets[v] != Some(start[v]) {
+                    *p = placed[v];
+                }
+            }
+        }
+        before
+    }
+
+    /// Moves the vertices of the faces `bad` finds toward their neighbours and the body, round
+    /// after round, until none is bad; after `max_rounds` the vertices still in a bad face go
+    /// back onto the body, as many rounds as that takes. Returns the bad faces before.
+    fn relax(
+        &self,
+        faces: &[[u32; 3]],
+        offsets: &mut [Option<f32>],
+        max_rounds: usize,
+        place: impl Fn(&[Option<f32>]) -> Vec<Vec3>,
+        mut bad: impl FnMut(&[Vec3]) -> Vec<bool>,
+    ) -> usize {
+        let mut folded = bad(&place(offsets));
         let before = folded.iter().filter(|&&f| f).count();
         if before == 0 {
             return 0;
         }
-        let n = rest.positions.len();
+        let n = offsets.len();
         let mut round = 0;
         while folded.iter().any(|&f| f) {
-            // The folded faces' vertices move, toward their neighbours and toward the body:
+            // The bad faces' vertices move, toward their neighbours and toward the body:
             // never farther out, so a fold cannot spread what made it.
             let mut moving = vec![false; n];
-            for (f, _) in rest.faces.iter().zip(&folded).filter(|(_, f)| **f) {
+            for (f, _) in faces.iter().zip(&folded).filter(|(_, f)| **f) {
                 for &v in f {
                     moving[v as usize] = true;
                 }
             }
-            if round == MAX_ROUNDS {
+            if round >= max_rounds {
+                // Onto the body, round after round until no bad face is left or none of
+                // theirs has an offset to give up (a flaw of the bare body itself).
+                let mut changed = false;
                 for (v, t) in offsets.iter_mut().enumerate() {
-                    if moving[v] {
+                    if moving[v] && t.is_some() {
                         *t = None;
+                        changed = true;
                     }
                 }
-                break;
+                if !changed {
+                    break;
+                }
+                folded = bad(&place(offsets));
+                round += 1;
+                continue;
             }
             let current: Vec<Option<f32>> = offsets.to_vec();
             for (v, t) in offsets.iter_mut().enumerate().filter(|(v, _)| moving[*v]) {
@@ -107,11 +204,21 @@ impl FoldGuard {
                 let toward = if own.abs() < mean.abs() { own } else { 0.5 * (own + mean) };
                 *t = Some(SHRINK * toward);
             }
-            folded = self.folded_faces(&rest.faces, &place(offsets));
+            folded = bad(&place(offsets));
             round += 1;
         }
         before
     }
+}
+
+/// `rest`'s vertices moved along `normals` by `offsets` (`None`: not moved).
+fn along_normals(rest: &TriMesh, normals: &[Vec3], offsets: &[Option<f32>]) -> Vec<Vec3> {
+    rest.positions
+        .iter()
+        .zip(normals)
+        .zip(offsets)
+        .map(|((&x, &n), t)| x + t.unwrap_or(0.0) * n)
+        .collect()
 }
 
 #[cfg(test)]
@@ -233,5 +340,57 @@ mod tests {
             let bound = if out < 0.02 { 0.015 } else { 0.05 };
             assert!(share < bound, "{out} m out: {share} of the clothed vertices moved");
         }
+    }
+
+    /// Two spheres 2 cm apart, every vertex offset 3 cm out: the offset spheres pass through
+    /// each other where they face; untangled, no face crosses and the far sides keep their
+    /// offsets. Spheres that overlap on the bare body keep their crossing (no offset undoes it).
+    #[test]
+    fn offsets_that_pass_through_each_other_are_untangled_and_the_far_sides_kept() {
+        let sphere = |centre: Vec3| {
+            let mut s = inside_of_sphere(0.1, 24, 48);
+            s.faces.iter_mut().for_each(|f| f.swap(1, 2));
+            s.positions.iter_mut().for_each(|p| *p += centre);
+            s
+        };
+        let pair = |gap: f32| {
+            let (a, b) = (sphere(Vec3::ZERO), sphere(Vec3::X * (0.2 + gap)));
+            let k = a.positions.len() as u32;
+            let mut positions = a.positions;
+            positions.extend(b.positions);
+            let mut faces = a.faces;
+            faces.extend(b.faces.iter().map(|f| f.map(|v| v + k)));
+            TriMesh::new(positions, faces)
+        };
+        let body = pair(0.02);
+        let normals = body.vertex_normals();
+        let guard = FoldGuard::new(&body);
+        // 3 cm out along the normals and 2 mm aside (what smoothing adds), which shrinks with it.
+        let moved: Vec<Vec3> = body
+            .positions
+            .iter()
+            .zip(&normals)
+            .map(|(&x, &n)| x + 0.03 * n + 0.002 * n.cross(Vec3::Y).normalize_or_zero())
+            .collect();
+        let mut placed = moved.clone();
+        let before = guard.untangle(&body, &normals, &mut placed);
+        assert!(before >= 10, "the offset spheres should cross: {before} faces");
+        assert_eq!(guard.crossing_faces(&body.faces, &placed).iter().filter(|&&c| c).count(), 0);
+        // The sides facing away (x < 0 on the first sphere, beyond the second's centre) kept
+        // their place.
+        let centre_b = 0.22;
+        for (v, &p) in body.positions.iter().enumerate() {
+            if p.x < -0.02 || p.x > centre_b + 0.02 {
+                assert_eq!(placed[v], moved[v], "vertex {v} at {p} moved");
+            }
+        }
+        // Overlapping on the bare body: nothing to untangle by offsets.
+        let overlapping = pair(-0.02);
+        let guard = FoldGuard::new(&overlapping);
+        assert!(guard.crossing_at_rest.iter().any(|&c| c));
+        let normals = overlapping.vertex_normals();
+        let mut bare = overlapping.positions.clone();
+        assert_eq!(guard.untangle(&overlapping, &normals, &mut bare), 0);
+        assert_eq!(bare, overlapping.positions);
     }
 }

@@ -6,7 +6,6 @@
 //! (per-face normals, seams) is judged by its geometry, not by its indexing.
 
 use super::TriMesh;
-use super::bvh::ray_triangle;
 use super::topology::edge_use;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -128,76 +127,7 @@ fn pieces(w: &Welded) -> (usize, usize) {
     (count, area.iter().filter(|&&s| s < SMALL_PIECE_SHARE * total).count())
 }
 
-/// Per face: whether it crosses another face with which it shares no vertex (an edge of one
-/// passes through the interior of the other). Candidate pairs come from a uniform grid of
-/// cells about twice the mean edge long.
-pub fn self_intersecting_faces(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<bool> {
-    let mut crossing = vec![false; faces.len()];
-    if faces.len() < 2 {
-        return crossing;
-    }
-    let tri = |f: usize| faces[f].map(|v| positions[v as usize]);
-    let mean_edge = faces
-        .iter()
-        .enumerate()
-        .map(|(f, _)| {
-            let [a, b, c] = tri(f);
-            (a.distance(b) + b.distance(c) + c.distance(a)) as f64 / 3.0
-        })
-        .sum::<f64>()
-        / faces.len() as f64;
-    let cell = (2.0 * mean_edge as f32).max(1e-6);
-    let key = |p: Vec3| (p / cell).floor().as_ivec3();
-    let mut grid: HashMap<glam::IVec3, Vec<u32>> = HashMap::new();
-    for f in 0..faces.len() {
-        let [a, b, c] = tri(f);
-        let (lo, hi) = (key(a.min(b).min(c)), key(a.max(b).max(c)));
-        // A face far larger than the cells (a sliver across the body) would fill thousands of
-        // cells; such faces are rare and capped at 8^3 cells, which still holds its corners.
-        let hi = hi.min(lo + glam::IVec3::splat(7));
-        for x in lo.x..=hi.x {
-            for y in lo.y..=hi.y {
-                for z in lo.z..=hi.z {
-                    grid.entry(glam::IVec3::new(x, y, z)).or_default().push(f as u32);
-                }
-            }
-        }
-    }
-    let mut tested: std::collections::HashSet<(u32, u32)> = std::collections::HashSet::new();
-    for members in grid.values() {
-        for (i, &f) in members.iter().enumerate() {
-            for &g in &members[i + 1..] {
-                let (f, g) = (f.min(g), f.max(g));
-                if faces[f as usize].iter().any(|v| faces[g as usize].contains(v)) {
-                    continue;
-                }
-                if (crossing[f as usize] && crossing[g as usize]) || !tested.insert((f, g)) {
-                    continue;
-                }
-                if triangles_cross(tri(f as usize), tri(g as usize)) {
-                    crossing[f as usize] = true;
-                    crossing[g as usize] = true;
-                }
-            }
-        }
-    }
-    crossing
-}
-
-/// Whether two triangles cross: an edge of either passes through the other (coplanar
-/// touching, a set of measure zero on real meshes, is not counted).
-pub fn triangles_cross(t: [Vec3; 3], u: [Vec3; 3]) -> bool {
-    let (lo_t, hi_t) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
-    let (lo_u, hi_u) = (u[0].min(u[1]).min(u[2]), u[0].max(u[1]).max(u[2]));
-    if lo_t.cmpgt(hi_u).any() || lo_u.cmpgt(hi_t).any() {
-        return false;
-    }
-    let edge_through = |a: Vec3, b: Vec3, tri: [Vec3; 3]| {
-        ray_triangle(a, b - a, tri[0], tri[1], tri[2])
-            .is_some_and(|(s, _, _, _)| (0.0..=1.0).contains(&s))
-    };
-    (0..3).any(|i| edge_through(t[i], t[(i + 1) % 3], u) || edge_through(u[i], u[(i + 1) % 3], t))
-}
+pub use super::crossings::{self_intersecting_faces, triangles_cross};
 
 #[cfg(test)]
 mod tests {
@@ -306,17 +236,5 @@ mod tests {
         assert_eq!(i.non_manifold_edges, 1);
         assert_eq!(i.boundary_edges, 6);
         assert_eq!(i.pieces, 1);
-    }
-
-    #[test]
-    fn crossing_triangles_are_found_and_touching_ones_are_not() {
-        let t = [Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(0.0, 0.0, 1.0)];
-        let through =
-            [Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.2, 1.0, 0.1)];
-        assert!(triangles_cross(t, through));
-        let above = through.map(|p| p + Vec3::Y * 1.5);
-        assert!(!triangles_cross(t, above));
-        let beside = through.map(|p| p + Vec3::X * 3.0);
-        assert!(!triangles_cross(t, beside));
     }
 }

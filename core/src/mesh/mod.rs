@@ -1,6 +1,7 @@
 //! Triangle meshes and point clouds: the currency between stages.
 
 pub mod bvh;
+pub mod crossings;
 pub mod extract;
 pub mod holes;
 pub mod integrity;

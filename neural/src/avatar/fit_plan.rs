@@ -46,15 +46,16 @@ impl FitPhase {
     }
 
     /// The cost of one of this phase in training steps, until the fit has measured both.
-    /// Measured on the demo's default fit (CPU time, `fit --timings`, docs/performance.md): a
-    /// pre-alignment about 65 steps, a refinement round about 40, the loose check about 14; a
-    /// partial avatar (the studio's preview mesh) taken as 10.
+    /// Measured on the demo's default fit (wall time, `fit --timings`, docs/performance.md;
+    /// AMD Zen 5, AVX-512 kernels): a pre-alignment about 65 steps, a refinement round of its
+    /// 32 frames about 13 (10 on the AVX2 kernels), the loose check about 20; a partial avatar
+    /// (the studio's preview mesh) taken as 10.
     fn steps_equivalent(self) -> f64 {
         match self {
             FitPhase::PreAlignment => 65.0,
             FitPhase::Training => 1.0,
-            FitPhase::Refinement => 40.0,
-            FitPhase::LooseCheck => 14.0,
+            FitPhase::Refinement => 13.0,
+            FitPhase::LooseCheck => 20.0,
             FitPhase::Partial => 10.0,
         }
     }
@@ -150,11 +151,12 @@ impl TimeLeft {
         let mut left = 0.0;
         for p in FitPhase::ALL {
             let i = p.index();
-            let each = if self.done[i] > 0.0 {
-                self.spent[i] / self.done[i]
-            } else {
-                pace * p.steps_equivalent()
-            };
+            // The first steps pay for warming up (allocations, caches): training's own rate
+            // counts from the fourth step on.
+            let measured =
+                if p == FitPhase::Training { self.done[i] >= 4.0 } else { self.done[i] > 0.0 };
+            let each =
+                if measured { self.spent[i] / self.done[i] } else { pace * p.steps_equivalent() };
             let remaining = (self.plan.count(p) as f64 - self.done[i]).max(0.0);
             left += remaining * each;
         }
@@ -200,6 +202,26 @@ mod tests {
         assert_eq!(t.left(end + round), Some(0.0));
         let training = t.spent().find(|s| s.0 == FitPhase::Training).unwrap();
         assert!((training.1 - 20.0).abs() < 1e-9 && training.2 == 100);
+    }
+
+    /// A first step three times as slow as the rest (warming up) leaves the estimate where
+    /// the pre-alignment's pace put it; from the fourth step on the steps' own rate counts.
+    #[test]
+    fn the_first_steps_warm_up_does_not_inflate_the_estimate() {
+        let step = 0.1;
+        let pre = FitPhase::PreAlignment.steps_equivalent() * step;
+        let mut t = TimeLeft::default();
+        t.plan(FitPlan { prealignment: 1, steps: 100, ..FitPlan::default() });
+        t.phase(FitPhase::PreAlignment, 0.0);
+        t.phase(FitPhase::Training, pre);
+        t.steps(1, pre + 3.0 * step);
+        let left = t.left(pre + 3.0 * step).unwrap();
+        let truth = 99.0 * step;
+        assert!((left - truth).abs() / truth < 0.05, "{left} against {truth}");
+        t.steps(10, pre + 12.0 * step);
+        let left = t.left(pre + 12.0 * step).unwrap();
+        // 12 steps' time over 10 steps: the measured rate, slightly high, and no more.
+        assert!((left - 90.0 * 0.12).abs() < 1e-9, "{left}");
     }
 
     /// A revised plan (loose cloth: twice the steps) moves the estimate at once.
