@@ -132,7 +132,7 @@ impl FoldGuard {
         };
         let mut offsets: Vec<Option<f32>> = start.iter().map(|&t| Some(t)).collect();
         let mut tracker: Option<CrossingTracker> = None;
-        let before = self.relax(&rest.faces, &mut offsets, MAX_UNTANGLE_ROUNDS, &place, |p| {
+        let before = self.relax(&rest.faces, &mut offsets, MAX_UNTANGLE_ROUNDS, place, |p| {
             let pairs = match &mut tracker {
                 Some(t) => t.update(p),
                 None => tracker.insert(CrossingTracker::new(p, &rest.faces)).update(p),
