@@ -333,3 +333,35 @@ fn a_head_wrapped_a_few_millimetres_out_does_not_run_through_itself() {
         "{limited} of {head_faces} head faces cross others ({unlimited} without the limit)"
     );
 }
+
+#[test]
+fn untangling_takes_the_crossings_out_of_a_head_wrapped_past_its_creases() {
+    // The inflated head of the test above without the creases' limit: hundreds of faces pass
+    // through others. With `untangle` (off by default) none is left on the head.
+    let body = crate::body::open_body_ref();
+    let rest = body.mesh(body.shaped_vertices(&[]));
+    let head: Vec<bool> = body.weights.iter().map(|w| w[15] > 0.5).collect();
+    let inflated = crate::mesh::signed_distance::SignedDistance::new(&rest);
+    let sdf = |ps: &[Vec3]| -> Vec<f32> {
+        ps.iter().map(|&p| inflated.at(p).unwrap_or(1.0) - 0.004).collect()
+    };
+    let mut wrap = BodyWrap::of_mesh(rest.clone());
+    wrap.options.crease_share = f32::INFINITY;
+    let crossing_head_faces = |mesh: &TriMesh| {
+        crate::mesh::integrity::self_intersecting_faces(&mesh.positions, &mesh.faces)
+            .iter()
+            .zip(&mesh.faces)
+            .filter(|(crossing, f)| **crossing && f.iter().all(|&v| head[v as usize]))
+            .count()
+    };
+    let wrapped = wrap.wrap(sdf).mesh;
+    let before = crossing_head_faces(&wrapped);
+    assert!(before > 100, "{before} head faces cross");
+    let mut kept = wrapped.clone();
+    assert_eq!(wrap.untangle(&mut kept), 0, "off by default");
+    assert_eq!(kept.positions, wrapped.positions);
+    wrap.options.untangle = true;
+    let mut untangled = wrapped.clone();
+    assert!(wrap.untangle(&mut untangled) >= before);
+    assert_eq!(crossing_head_faces(&untangled), 0);
+}
