@@ -95,7 +95,9 @@ impl FoldGuard {
     /// over before.
     pub fn unfold(&self, rest: &TriMesh, normals: &[Vec3], offsets: &mut [Option<f32>]) -> usize {
         let place = |t: &[Option<f32>]| along_normals(rest, normals, t);
-        self.relax(&rest.faces, offsets, MAX_ROUNDS, place, |p| self.folded_faces(&rest.faces, p))
+        self.relax(&rest.faces, offsets, MAX_ROUNDS, false, place, |p| {
+            self.folded_faces(&rest.faces, p)
+        })
     }
 
     /// Removes the crossings ([`Self::crossing_faces`]) of a surface with the rest body's
@@ -132,7 +134,7 @@ impl FoldGuard {
         };
         let mut offsets: Vec<Option<f32>> = start.iter().map(|&t| Some(t)).collect();
         let mut tracker: Option<CrossingTracker> = None;
-        let before = self.relax(&rest.faces, &mut offsets, MAX_UNTANGLE_ROUNDS, place, |p| {
+        let before = self.relax(&rest.faces, &mut offsets, MAX_UNTANGLE_ROUNDS, true, place, |p| {
             let pairs = match &mut tracker {
                 Some(t) => t.update(p),
                 None => tracker.insert(CrossingTracker::new(p, &rest.faces)).update(p),
@@ -159,6 +161,7 @@ impl FoldGuard {
         faces: &[[u32; 3]],
         offsets: &mut [Option<f32>],
         max_rounds: usize,
+        until_clean: bool,
         place: impl Fn(&[Option<f32>]) -> Vec<Vec3>,
         mut bad: impl FnMut(&[Vec3]) -> Vec<bool>,
     ) -> usize {
@@ -179,8 +182,8 @@ impl FoldGuard {
                 }
             }
             if round >= max_rounds {
-                // Onto the body, round after round until no bad face is left or none of
-                // theirs has an offset to give up (a flaw of the bare body itself).
+                // Onto the body; with `until_clean`, round after round until no bad face is
+                // left or none of theirs has an offset to give up (a flaw of the bare body).
                 let mut changed = false;
                 for (v, t) in offsets.iter_mut().enumerate() {
                     if moving[v] && t.is_some() {
@@ -188,7 +191,7 @@ impl FoldGuard {
                         changed = true;
                     }
                 }
-                if !changed {
+                if !until_clean || !changed {
                     break;
                 }
                 folded = bad(&place(offsets));
