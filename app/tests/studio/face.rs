@@ -72,7 +72,8 @@ fn the_demo_default_fit_has_a_clean_face() {
     settle(&mut h, "the close-up");
     // The fit's last bits differ between CPUs even on the forced AVX2 path (the loss ends at
     // 21.74 on an AMD EPYC, 21.53 on an Intel Xeon, both faces clean): the close-up moves by
-    // 2,323 pixels between the two, so it allows 3,000; the face's properties are the asserts
-    // above.
-    snap(&mut h, "demo_face_closeup", &tolerant(3000));
+    // 2,323 pixels between those two and by 3,817 on an AMD Zen 5 (eyelids and lips shifted
+    // by a pixel, the loss's digits), so it allows 5,000; the face's properties are the
+    // asserts above.
+    snap(&mut h, "demo_face_closeup", &tolerant(5000));
 }
