@@ -22,7 +22,8 @@ command -v npm >/dev/null || missing+=(npm)
 command -v blender >/dev/null || missing+=(blender)
 [ -e /usr/lib/python3/dist-packages/numpy/__init__.py ] || missing+=(python3-numpy)
 command -v mpirun >/dev/null && command -v mpicc >/dev/null || missing+=(openmpi-bin libopenmpi-dev)
-[ -n "$(ls /usr/lib/llvm-*/lib/libclang.so* /usr/lib/x86_64-linux-gnu/libclang*.so* 2>/dev/null)" ] || missing+=(libclang-dev)
+# (libclang-cpp, which Mesa pulls in, is not what bindgen loads.)
+[ -n "$(ls /usr/lib/llvm-*/lib/libclang.so* /usr/lib/x86_64-linux-gnu/libclang.so* /usr/lib/x86_64-linux-gnu/libclang-[0-9]*.so* 2>/dev/null)" ] || missing+=(libclang-dev)
 if [ ${#missing[@]} -gt 0 ]; then
   echo "installing system packages: ${missing[*]}"
   SUDO=""; [ "$(id -u)" = 0 ] || SUDO="sudo"
