@@ -14,6 +14,7 @@
 use crate::mesh::TriMesh;
 use crate::mesh::crossings::{CrossingTracker, flags, self_intersecting_faces};
 use glam::Vec3;
+use std::sync::OnceLock;
 
 /// Smoothing rounds before the vertices still in a fold go back onto the body.
 const MAX_ROUNDS: usize = 60;
@@ -30,8 +31,9 @@ pub struct FoldGuard {
     start: Vec<u32>,
     neighbours: Vec<u32>,
     rest_normals: Vec<Vec3>,
-    /// Faces that cross another face on the bare body (its own mesh's flaws).
-    crossing_at_rest: Vec<bool>,
+    /// Faces that cross another face on the bare body (its own mesh's flaws), found the first
+    /// time a surface is untangled (off by default, so no avatar pays for it otherwise).
+    crossing_at_rest: OnceLock<Vec<bool>>,
 }
 
 impl FoldGuard {
@@ -56,7 +58,7 @@ impl FoldGuard {
             start,
             neighbours,
             rest_normals: rest.face_normals(),
-            crossing_at_rest: self_intersecting_faces(&rest.positions, &rest.faces),
+            crossing_at_rest: OnceLock::new(),
         }
     }
 
@@ -77,14 +79,17 @@ impl FoldGuard {
             .collect()
     }
 
-    /// Faces of `faces` at `positions` that pass through another face, but for those that
-    /// cross on the bare body already.
-    pub fn crossing_faces(&self, faces: &[[u32; 3]], positions: &[Vec3]) -> Vec<bool> {
-        self.not_at_rest(self_intersecting_faces(positions, faces))
+    /// Faces of the surface with `rest`'s faces at `positions` that pass through another
+    /// face, but for those that cross on the bare body already.
+    pub fn crossing_faces(&self, rest: &TriMesh, positions: &[Vec3]) -> Vec<bool> {
+        self.not_at_rest(rest, self_intersecting_faces(positions, &rest.faces))
     }
 
-    fn not_at_rest(&self, mut crossing: Vec<bool>) -> Vec<bool> {
-        for (c, &own) in crossing.iter_mut().zip(&self.crossing_at_rest) {
+    fn not_at_rest(&self, rest: &TriMesh, mut crossing: Vec<bool>) -> Vec<bool> {
+        let at_rest = self
+            .crossing_at_rest
+            .get_or_init(|| self_intersecting_faces(&rest.positions, &rest.faces));
+        for (c, &own) in crossing.iter_mut().zip(at_rest) {
             *c &= !own;
         }
         crossing
@@ -133,13 +138,9 @@ impl FoldGuard {
                 .collect()
         };
         let mut offsets: Vec<Option<f32>> = start.iter().map(|&t| Some(t)).collect();
-        let mut tracker: Option<CrossingTracker> = None;
+        let mut tracker = CrossingTracker::new(&place(&offsets), &rest.faces);
         let before = self.relax(&rest.faces, &mut offsets, MAX_UNTANGLE_ROUNDS, true, place, |p| {
-            let pairs = match &mut tracker {
-                Some(t) => t.update(p),
-                None => tracker.insert(CrossingTracker::new(p, &rest.faces)).update(p),
-            };
-            self.not_at_rest(flags(rest.faces.len(), pairs))
+            self.not_at_rest(rest, flags(rest.faces.len(), tracker.update(p)))
         });
         if before > 0 {
             // Only the vertices that moved: the rest keep their positions to the bit.
@@ -155,7 +156,8 @@ impl FoldGuard {
 
     /// Moves the vertices of the faces `bad` finds toward their neighbours and the body, round
     /// after round, until none is bad; after `max_rounds` the vertices still in a bad face go
-    /// back onto the body, as many rounds as that takes. Returns the bad faces before.
+    /// back onto the body (once, or with `until_clean` as many rounds as that takes). Returns
+    /// the bad faces before.
     fn relax(
         &self,
         faces: &[[u32; 3]],
@@ -378,7 +380,7 @@ mod tests {
         let mut placed = moved.clone();
         let before = guard.untangle(&body, &normals, &mut placed);
         assert!(before >= 10, "the offset spheres should cross: {before} faces");
-        assert_eq!(guard.crossing_faces(&body.faces, &placed).iter().filter(|&&c| c).count(), 0);
+        assert_eq!(guard.crossing_faces(&body, &placed).iter().filter(|&&c| c).count(), 0);
         // The sides facing away (x < 0 on the first sphere, beyond the second's centre) kept
         // their place.
         let centre_b = 0.22;
@@ -390,7 +392,8 @@ mod tests {
         // Overlapping on the bare body: nothing to untangle by offsets.
         let overlapping = pair(-0.02);
         let guard = FoldGuard::new(&overlapping);
-        assert!(guard.crossing_at_rest.iter().any(|&c| c));
+        assert!(guard.crossing_faces(&overlapping, &overlapping.positions).iter().all(|&c| !c));
+        assert!(guard.crossing_at_rest.get().is_some_and(|c| c.iter().any(|&c| c)));
         let normals = overlapping.vertex_normals();
         let mut bare = overlapping.positions.clone();
         assert_eq!(guard.untangle(&overlapping, &normals, &mut bare), 0);

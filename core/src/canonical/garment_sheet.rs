@@ -10,8 +10,8 @@
 //! moves onto the SDF's own surface where the SDF shows one along the ray (a slab thinner than
 //! the extraction's cells dips toward zero without crossing it). The sheet is triangulated on
 //! that grid: one piece with real borders (the hem, the waist, a cape's sides), no hole, no
-//! edge of three faces, and evenly sized triangles whatever the extraction's cells were. What lies under the sheet (the
-//! slab's inner wall, the SDF's blob between the legs) goes.
+//! edge of three faces, and evenly sized triangles whatever the extraction's cells were. What
+//! lies under the sheet (the slab's inner wall, the SDF's blob between the legs) goes.
 //!
 //! Tried and not kept: growing the sheet cell by cell from what the extraction gave, wherever
 //! the SDF crosses zero or dips under 4 mm along the next ray (to mend tears that reach the
