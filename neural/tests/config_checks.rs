@@ -33,7 +33,8 @@ fn defaults_and_presets_pass_their_checks() {
     HyperFitOptions::default().check().unwrap();
     HyperFitOptions::default().static_equivalent().check().unwrap();
     PoseRefineOptions::default().check().unwrap();
-    PoseRefineOptions::default().without_prealignment().check().unwrap();
+    PoseRefineOptions::default().without_prealignment(8, 8).check().unwrap();
+    PoseRefineOptions::default().without_prealignment(32, 8).check().unwrap();
     MetaOptions::default().check().unwrap();
 }
 

@@ -434,9 +434,18 @@ fn fits_prealign_then_refine_twice_and_not_at_all_when_off() {
     assert_eq!(rounds, [16, 48]);
     // Loose clothing that is still pre-aligned (a blazer's tails): the first round alone.
     assert_eq!(o.single_round().round_steps(256), [16]);
-    // Loose clothing (no pre-alignment): rounds after step 1 and every 3 steps to 64.
-    let loose = o.without_prealignment().round_steps(256);
+    // Loose clothing (no pre-alignment), every frame in every step: rounds after step 1 and
+    // every 3 steps to 64.
+    let loose = o.without_prealignment(8, 8).round_steps(256);
     assert_eq!((loose.first(), loose.last(), loose.len()), (Some(&1), Some(&61), 21));
+    assert_eq!(o.without_prealignment(5, 8), o.without_prealignment(8, 8));
+    // A quarter of the frames a step (the fit's 32) or fewer: after step 16, every 6 to 128.
+    let late = o.without_prealignment(32, 8).round_steps(256);
+    assert_eq!((late.first(), late.last(), late.len()), (Some(&16), Some(&124), 19));
+    assert_eq!(o.without_prealignment(200, 8), o.without_prealignment(32, 8));
+    // In between, in between.
+    let middle = o.without_prealignment(16, 8);
+    assert!(middle.first > 1 && middle.first < 16 && middle.until > 64 && middle.until < 128);
     // A short fit (the studio's quick fit, a 3-step test fit) is only pre-aligned.
     assert!(o.round_steps(3).is_empty());
     assert!(PoseRefineOptions::off().round_steps(256).is_empty());

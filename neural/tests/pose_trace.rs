@@ -51,9 +51,14 @@ fn the_truth_of_the_same_frames_is_matched_by_index() {
         .map(|k| BodyParams { trans: Vec3::new(k as f32, 0.0, 0.0), ..BodyParams::default() })
         .collect();
     let given: Vec<BodyParams> = frames.iter().rev().cloned().collect();
-    assert_eq!(match_truth(&given, &frames), frames);
-    // Fewer frames given: each matched to the nearest true one.
-    assert_eq!(match_truth(&given[..1], &frames), vec![frames[2].clone()]);
+    assert_eq!(match_truth(&given, &[0, 1, 2], 3, &frames), frames);
+    // Some frames of the capture chosen: by their manifest index, not the nearest pose.
+    assert_eq!(
+        match_truth(&given[..2], &[0, 2], 3, &frames),
+        vec![frames[0].clone(), frames[2].clone()]
+    );
+    // A truth of another length: each matched to the nearest true one.
+    assert_eq!(match_truth(&given[..1], &[0], 4, &frames), vec![frames[2].clone()]);
 }
 
 /// A fit traced against the demo capture's exact fittings writes its lines to the caller's

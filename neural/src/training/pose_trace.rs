@@ -136,13 +136,23 @@ impl PoseErrors {
     }
 }
 
-/// The true fitting of each given one: the record of `exact` with its index, or nearest to it
-/// when some frames were left out (the perturbation is a few degrees).
-pub fn match_truth(given: &[BodyParams], exact: &[BodyParams]) -> Vec<BodyParams> {
-    // The same frames in the same order (the evaluation's captures): by index. Matching by
-    // nearest pose mixed up two similar frames of one subject (a pelvis 25 deg "off").
-    if given.len() == exact.len() {
-        return exact.to_vec();
+/// The true fitting of each given one. `indices` are the given frames' indices in their
+/// capture's manifest and `capture_frames` its length: where the truth is a capture of as many
+/// frames (the evaluation's captures, a fit that chose some of their frames), by index;
+/// otherwise the nearest true fitting (the perturbation is a few degrees).
+pub fn match_truth(
+    given: &[BodyParams],
+    indices: &[usize],
+    capture_frames: usize,
+    exact: &[BodyParams],
+) -> Vec<BodyParams> {
+    // By index where it can: matching by nearest pose mixed up two similar frames of one
+    // subject (a pelvis 25 deg "off"; 7 deg on average over 32 frames chosen of 72).
+    if exact.len() == capture_frames
+        && indices.len() == given.len()
+        && let Some(matched) = indices.iter().map(|&i| exact.get(i).cloned()).collect()
+    {
+        return matched;
     }
     given
         .iter()

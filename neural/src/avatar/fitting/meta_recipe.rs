@@ -170,8 +170,8 @@ impl<'a> MetaFit<'a> {
     /// Step 2: pre-alignment against the subject's own body, before the SDF learns the
     /// misalignment. Only where the body explains most points (tight clothing): on a dress it
     /// pulled the legs toward the skirt (exact fittings: Chamfer 2.17 -> 2.55 cm,
-    /// docs/decisions.md); there the upper body alone, and rounds after step 1 and every 3
-    /// steps to 64.
+    /// docs/decisions.md); there the upper body alone, and rounds of the loose schedule
+    /// (`PoseRefineOptions::without_prealignment`).
     fn prealign(&mut self, on_event: &mut dyn FnMut(FitEvent)) {
         let Some(r) = self.refiner.as_mut().filter(|r| r.options.prealign_rounds > 0) else {
             return;
@@ -193,7 +193,8 @@ impl<'a> MetaFit<'a> {
                 .prealign_upper_body
                 .then(|| r.prealign_upper_body(&sdf))
                 .map(|_| "upper body only");
-            r.options = r.options.without_prealignment();
+            r.options =
+                r.options.without_prealignment(self.samples.len(), self.options.poses_per_step);
             upper
         };
         self.rounds = r.options.round_steps(self.options.steps);

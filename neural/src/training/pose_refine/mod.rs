@@ -182,7 +182,13 @@ impl<'a> PoseRefiner<'a> {
     /// ones by `pose_trace::match_truth`); writes the given fittings' errors.
     pub fn trace_against(&mut self, trace: &PoseTrace) {
         let given: Vec<BodyParams> = self.frames.iter().map(|f| f.given.clone()).collect();
-        self.truth = Some(crate::training::pose_trace::match_truth(&given, &trace.truth));
+        let indices: Vec<usize> = self.capture.frames.iter().map(|f| f.index).collect();
+        self.truth = Some(crate::training::pose_trace::match_truth(
+            &given,
+            &indices,
+            self.capture.capture_frames,
+            &trace.truth,
+        ));
         self.lines = Some(trace.lines.clone());
         self.trace_errors("given fittings");
     }
