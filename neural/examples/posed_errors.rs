@@ -15,7 +15,8 @@
 //! TEMPLATE_POSE=K the same from capture frame K's surface. PER_POSE=1 skins each pose's own
 //! canonical surface.
 //! AS_EXTRACTED=1 keeps the loose pieces as extracted; SHEET_THIN, SHEET_SEARCH, SHEET_BORDER_REACH (metres),
-//! SHEET_BORDER_ITERATIONS, SHEET_HEM_WINDOW set the garment sheet's options.
+//! SHEET_BORDER_ITERATIONS, SHEET_HEM_WINDOW, SHEET_GAP_ROWS, SHEET_GAP_COLUMNS set the garment
+//! sheet's options.
 //! A simulated outfit's truth at a library clip is its garment simulated through the clip, as
 //! the evaluation's; RIGID_TRUTH=1 scores the generator's rule-posed garment against it
 //! instead of the avatar (how far the cloth's own motion lies from any rule of the pose).
@@ -71,6 +72,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         sheet.border_smoothing =
             number("SHEET_BORDER_ITERATIONS").map_or(sheet.border_smoothing, |n| n as usize);
         sheet.hem_window = number("SHEET_HEM_WINDOW").map_or(sheet.hem_window, |n| n as usize);
+        sheet.gap_rows = number("SHEET_GAP_ROWS").map_or(sheet.gap_rows, |n| n as usize);
+        sheet.gap_columns = number("SHEET_GAP_COLUMNS").map_or(sheet.gap_columns, |n| n as usize);
     }
     // SKIN_LOOSE=a,b: where loose cloth's weights start to be inpainted, and are wholly.
     if let Ok(v) = std::env::var("SKIN_LOOSE") {

@@ -1,7 +1,8 @@
 //! `avatar-studio check`: whether an avatar's surface is whole, at the rest pose: its open
 //! border, non-manifold edges, pieces, faces that cut through others, and the share of its
 //! surface that faces against the naked body beneath it (inside-out patches, crumpled sheets),
-//! over the whole body and per part (head, hands, feet).
+//! over the whole body and per part (head, hands, feet); the crossing faces per part beside the
+//! naked body's own.
 
 use avatar_core::body::BodyParams;
 use avatar_core::eval::integrity::inside_out_shares;
@@ -9,7 +10,7 @@ use avatar_core::eval::metrics::Prepared;
 use avatar_core::io::Inputs;
 use avatar_core::mesh::TriMesh;
 use avatar_core::mesh::holes::{border_loops, loop_length};
-use avatar_core::mesh::integrity::integrity;
+use avatar_core::mesh::integrity::{integrity, self_intersecting_faces};
 use avatar_core::mesh::topology::compact;
 use avatar_core::synth::contact_sheet::write_view_sheet_from;
 use avatar_core::synth::outfit::{dominant, joint};
@@ -82,6 +83,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             loops.iter().filter(|&&l| l < 0.3).count()
         );
     }
+    // Where the crossing faces lie, beside the naked body's own (the open body's toes cross
+    // themselves).
+    let crossing = |m: &TriMesh, joints: &[usize]| {
+        let flags = self_intersecting_faces(&m.positions, &m.faces);
+        let (mut n, mut crossed) = (0usize, 0usize);
+        for (f, &x) in m.faces.iter().zip(&flags) {
+            let c = (m.positions[f[0] as usize]
+                + m.positions[f[1] as usize]
+                + m.positions[f[2] as usize])
+                / 3.0;
+            if joints.is_empty() || joints.contains(&part_of(c)) {
+                n += 1;
+                crossed += usize::from(x);
+            }
+        }
+        (crossed, n)
+    };
+    let parts: [(&str, &[usize]); 4] =
+        [("whole", &[]), ("head", &HEAD), ("hands", &HANDS), ("feet", &FEET)];
+    let mut line = Vec::new();
+    for (name, joints) in parts {
+        let (a, an) = crossing(&mesh, joints);
+        let (b, _) = crossing(&naked, joints);
+        line.push(format!("{name} {a} of {an} (naked body {b})"));
+    }
+    println!("  self-intersecting faces: {}", line.join(", "));
     let (whole, head) = share(&HEAD);
     println!(
         "  facing against the body beneath it: {:.2} % of the surface; head {:.2} %, hands {:.2} %, \

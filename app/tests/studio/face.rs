@@ -50,10 +50,16 @@ fn the_demo_default_fit_has_a_clean_face() {
     // Creases narrower than the cloth's offset (eyelids, nostrils, ears) fold the offset
     // surface through itself unless each offset stays inside the room the body leaves
     // (`WrapOptions::crease_share`): 3.6 % of the faces crossed others before, 0.7 % after; the
-    // naked body's own mesh has 0.3 %.
+    // naked body's own mesh has 0.3 % (its toes). What still crossed on the head (63 faces at
+    // the eyelids, lips and nostrils) is spanned as a membrane (`WrapOptions::span_crossings`):
+    // no face of the head crosses another.
     let crossing = self_intersecting_faces(&mesh.positions, &mesh.faces);
     let share = crossing.iter().filter(|&&c| c).count() as f32 / crossing.len() as f32;
-    assert!(share < 0.015, "{:.2} % of the faces cross others", 100.0 * share);
+    assert!(share < 0.006, "{:.2} % of the faces cross others", 100.0 * share);
+    let on_head_face = |f: &[u32; 3]| f.iter().all(|&v| on_head(mesh.positions[v as usize]));
+    let head_crossing =
+        mesh.faces.iter().zip(&crossing).filter(|(f, c)| **c && on_head_face(f)).count();
+    assert_eq!(head_crossing, 0, "faces of the head cross others");
 
     // The posed face, close up from the front.
     h.state_mut().set_mode(ViewMode::Posed);

@@ -2,7 +2,7 @@
 //! of one goes through the other). Candidate pairs come from a uniform grid of cells about twice
 //! the mean edge long; each pair is tested once, in the first cell both faces reach.
 //! [`CrossingTracker`] keeps the crossing pairs up to date while a few vertices move at a time
-//! (`FoldGuard::untangle`), testing again only the faces that moved.
+//! (`FoldGuard::span_crossings`), testing again only the faces that moved.
 
 use super::bvh::ray_triangle;
 use glam::{IVec3, Vec3};

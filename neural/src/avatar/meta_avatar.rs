@@ -362,9 +362,9 @@ impl MetaAvatar {
     fn wrapped_surface(&self, sdf: &MetricSdf, outside: f32) -> TriMesh {
         let mut mesh = self.wrap.wrap_within(|p| sdf.sdf(p), outside).mesh;
         self.skinner.smooth_surface(&mut mesh);
-        // Last: smoothing pulls neighbours together, which can push cloth through cloth
-        // (`WrapOptions::untangle`, off by default).
-        self.wrap.untangle(&mut mesh);
+        // Last: smoothing pulls neighbours together, which can push a crease's cloth through
+        // its neighbours (`WrapOptions::span_crossings`).
+        self.wrap.span_crossings(&mut mesh);
         mesh
     }
 

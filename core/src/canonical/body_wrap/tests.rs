@@ -342,23 +342,43 @@ fn a_head_wrapped_a_few_millimetres_out_does_not_run_through_itself() {
 }
 
 #[test]
-fn untangling_takes_the_crossings_out_of_a_head_wrapped_past_its_creases() {
+fn a_head_wrapped_past_its_creases_is_spanned_as_a_membrane() {
     // The inflated head of the test above without the creases' limit: hundreds of faces pass
-    // through others. With `untangle` (off by default) none is left on the head.
-    let (rest, head, inflated) = open_body_and_head();
+    // through others. Spanned on the head (the default), none is left there; the vertices off
+    // the head keep their places to the bit, and the moved ones stay near where they were.
+    let (_, head, inflated) = open_body_and_head();
     let sdf = |ps: &[Vec3]| -> Vec<f32> {
         ps.iter().map(|&p| inflated.at(p).unwrap_or(1.0) - 0.004).collect()
     };
-    let mut wrap = BodyWrap::of_mesh(rest);
+    let mut wrap = BodyWrap::new(crate::body::open_body_ref(), &[]);
     wrap.options.crease_share = f32::INFINITY;
     let wrapped = wrap.wrap(sdf).mesh;
     let before = crossing_faces_within(&wrapped, &head);
     assert!(before > 100, "{before} head faces cross");
+    wrap.options.span_crossings = SpanCrossings::Nowhere;
     let mut kept = wrapped.clone();
-    assert_eq!(wrap.untangle(&mut kept), 0, "off by default");
+    assert_eq!(wrap.span_crossings(&mut kept), 0);
     assert_eq!(kept.positions, wrapped.positions);
-    wrap.options.untangle = true;
-    let mut untangled = wrapped.clone();
-    assert!(wrap.untangle(&mut untangled) >= before);
-    assert_eq!(crossing_faces_within(&untangled, &head), 0);
+    wrap.options.span_crossings = WrapOptions::default().span_crossings;
+    let mut spanned = wrapped.clone();
+    assert!(wrap.span_crossings(&mut spanned) >= before);
+    assert_eq!(crossing_faces_within(&spanned, &head), 0);
+    for (v, (p, q)) in spanned.positions.iter().zip(&wrapped.positions).enumerate() {
+        assert!(wrap.head[v] || p == q, "vertex {v} off the head moved");
+    }
+    // Within the creases' limit (the default) a few faces still cross; spanned, they move a
+    // few millimetres at most.
+    wrap.options.crease_share = WrapOptions::default().crease_share;
+    let wrapped = wrap.wrap(sdf).mesh;
+    let mut spanned = wrapped.clone();
+    let before = wrap.span_crossings(&mut spanned);
+    assert!(before > 0, "no head face crosses within the creases' limit");
+    assert_eq!(crossing_faces_within(&spanned, &head), 0);
+    let farthest = spanned
+        .positions
+        .iter()
+        .zip(&wrapped.positions)
+        .map(|(p, q)| p.distance(*q))
+        .fold(0.0, f32::max);
+    assert!(farthest < 0.003, "a vertex moved {farthest} m");
 }
