@@ -34,7 +34,10 @@ pub unsafe fn gemm(
     // Row tiles outside, column tiles inside: consecutive tiles' epilogues touch consecutive
     // memory (the activations of a block of the paper's SIREN live in L3, and the prefetcher
     // follows rows). When m is at most two tiles (the heads' products: 8 poses times a
-    // 65,792-wide output), column panels outside instead, so b is read from memory once.
+    // 65,792-wide output), column panels outside instead, so b is read from memory once, and
+    // the first row tile prefetches the panel [`AHEAD`] floats on: its k rows are a page
+    // apart each, too many streams for the hardware prefetcher (10.5 -> 4.5 ms for the
+    // paper's head, 8 x 256 x 65,792).
     let (row_tiles, col_tiles) = (m.div_ceil(MR), n / NR);
     let wide = m <= 2 * MR;
     for t in 0..row_tiles * col_tiles {
@@ -45,22 +48,31 @@ pub unsafe fn gemm(
         // SAFETY: the tile lies inside the m x n result and reads rows i0..i0+rows of a and
         // columns j0..j0+16 of b (the caller's contract).
         unsafe {
-            match rows {
-                6 => tile::<6>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                5 => tile::<5>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                4 => tile::<4>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                3 => tile::<3>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                2 => tile::<2>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                _ => tile::<1>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            match (rows, wide && ti == 0) {
+                (6, true) => tile::<6, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (6, _) => tile::<6, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (5, true) => tile::<5, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (5, _) => tile::<5, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (4, true) => tile::<4, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (4, _) => tile::<4, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (3, true) => tile::<3, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (3, _) => tile::<3, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (2, true) => tile::<2, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (2, _) => tile::<2, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (_, true) => tile::<1, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+                (_, _) => tile::<1, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
             }
         }
     }
 }
 
+/// How far ahead of its panel (in floats: four panels) a wide product's tile prefetches b.
+const AHEAD: usize = 4 * NR;
+
 #[target_feature(enable = "avx2,fma")]
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-unsafe fn tile<const R: usize>(
+unsafe fn tile<const R: usize, const PREFETCH: bool>(
     k: usize,
     n: usize,
     a: *const f32,
@@ -82,6 +94,9 @@ unsafe fn tile<const R: usize>(
         let mut a_step: isize = 0;
         let mut bp = b.wrapping_add(j0);
         for _ in 0..k {
+            if PREFETCH {
+                _mm_prefetch::<_MM_HINT_T0>(bp.wrapping_add(AHEAD).cast());
+            }
             let b0 = load(bp);
             let b1 = load(bp.wrapping_add(8));
             for d in 0..R {
@@ -340,9 +355,14 @@ fn sum(v: __m256) -> f32 {
     _mm_cvtss_f32(s)
 }
 
-/// Elements of k per pass of [`dots_wide`]: a chunk of a's rows (8 KB each) stays in cache
-/// while every row of `rows` streams its chunk once.
-const KC: usize = 2048;
+/// Elements of k per pass of [`dots_wide`]: a chunk of a's rows (3 KB each, 24 KB for the
+/// heads' 8 poses) stays in L1 while every row of `rows` streams its chunk once.
+const KC: usize = 768;
+
+/// Rows of `rows` ahead whose chunk [`dots_wide`] prefetches while it reads a row's: each chunk
+/// lies a row (a page or more) from the last, where the hardware prefetcher starts cold
+/// (with KC 2,048 and no prefetch: 10 ms for the paper's head, 8 x 65,792 x 256; 3.7 ms now).
+const ROWS_AHEAD: usize = 2;
 
 /// [`dots`] for a long k (the heads' d_out W^T: a few poses times 65,792 outputs against
 /// hundreds of rows): k in chunks of [`KC`], every row of `rows` read once from memory (the
@@ -360,7 +380,8 @@ pub unsafe fn dots_wide(
     beta: f32,
     out: *mut f32,
 ) {
-    // SAFETY (whole body): every offset stays inside a (m x k), rows (r x k) and out (m x r).
+    // SAFETY (whole body): every offset stays inside a (m x k), rows (r x k) and out (m x r);
+    // the prefetched addresses are only hints (null when past the last row).
     unsafe {
         if beta == 0.0 {
             std::ptr::write_bytes(out, 0, m * r);
@@ -370,16 +391,19 @@ pub unsafe fn dots_wide(
             let len = KC.min(k - c0);
             for j in 0..r {
                 let bj = rows.add(j * k + c0);
+                let ahead = j + ROWS_AHEAD;
+                let mut next = if ahead < r { rows.add(ahead * k + c0) } else { std::ptr::null() };
                 let mut i = 0;
                 while i < m {
                     let at = |d: usize| a.add((i + d) * k + c0);
                     let o = out.add(i * r + j);
                     match m - i {
-                        1 => dots_block::<1>(len, [at(0)], bj, o, r),
-                        2 => dots_block::<2>(len, [at(0), at(1)], bj, o, r),
-                        3 => dots_block::<3>(len, [at(0), at(1), at(2)], bj, o, r),
-                        _ => dots_block::<4>(len, [at(0), at(1), at(2), at(3)], bj, o, r),
+                        1 => dots_block::<1>(len, [at(0)], bj, o, r, next),
+                        2 => dots_block::<2>(len, [at(0), at(1)], bj, o, r, next),
+                        3 => dots_block::<3>(len, [at(0), at(1), at(2)], bj, o, r, next),
+                        _ => dots_block::<4>(len, [at(0), at(1), at(2), at(3)], bj, o, r, next),
                     }
+                    next = std::ptr::null();
                     i += 4;
                 }
             }
@@ -388,7 +412,8 @@ pub unsafe fn dots_wide(
     }
 }
 
-/// out[d * r] += a_d . b over `len` elements for R rows a_d (a [`dots_wide`] block).
+/// out[d * r] += a_d . b over `len` elements for R rows a_d (a [`dots_wide`] block),
+/// prefetching `next`'s `len` elements unless null.
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
 unsafe fn dots_block<const R: usize>(
@@ -397,6 +422,7 @@ unsafe fn dots_block<const R: usize>(
     b: *const f32,
     out: *mut f32,
     r: usize,
+    next: *const f32,
 ) {
     let tail = (len % 8) as i32;
     let mask =
@@ -407,6 +433,9 @@ unsafe fn dots_block<const R: usize>(
         let mut acc = [[_mm256_setzero_ps(); 2]; R];
         let mut p = 0;
         while p + 16 <= full {
+            if !next.is_null() {
+                _mm_prefetch::<_MM_HINT_T0>(next.wrapping_add(p).cast());
+            }
             let (b0, b1) = (load(b.add(p)), load(b.add(p + 8)));
             for d in 0..R {
                 acc[d][0] = _mm256_fmadd_ps(load(a[d].add(p)), b0, acc[d][0]);
