@@ -208,13 +208,17 @@ pub fn head_forward(h: &HeadLayout, p: &[f32], cond: &[f32], rows: usize, pass: 
         pass.a[l] = a;
         pass.rstd[l] = rstd;
     }
+    // Kept across steps (2 MB a pose-batch for the paper's heads: a fresh one faulted its
+    // pages in every step).
     let outputs = h.w[2].cols;
-    pass.out = vec![0f32; rows * outputs];
+    pass.out.resize(rows * outputs, 0.0);
     linear(&pass.a[1], rows, p, &h.w[2], &h.b[2], &mut pass.out);
 }
 
-/// Reverse of [`head_forward`]: adds the head's gradient given d(loss)/d(out) and, if asked,
-/// adds d(loss)/d(condition) into `d_cond`.
+/// Reverse of [`head_forward`]: adds the head's gradient given d(loss)/d(out), but writes
+/// (not adds) the output layer's weight gradient (`grad[h.w[2]]`: most of the network's
+/// parameters, which the step therefore does not clear), and, if asked, adds d(loss)/d(condition)
+/// into `d_cond`.
 pub fn head_backward(
     h: &HeadLayout,
     p: &[f32],
@@ -227,7 +231,17 @@ pub fn head_backward(
     let rows = pass.rows;
     let width = h.w[0].cols;
     let mut d_a = vec![0f32; rows * width];
-    linear_back(&pass.a[1], rows, p, &h.w[2], &h.b[2], d_out, grad, Some(&mut d_a));
+    // The output layer's two products (each a pass over its weights) on both cores.
+    let (w, outputs) = (&h.w[2], h.w[2].cols);
+    let g_w = &mut grad[w.range()];
+    rayon::join(
+        || gemm(Mat::new(&pass.a[1], rows, w.rows).t(), Mat::new(d_out, rows, outputs), 0.0, g_w),
+        || {
+            let w = Mat::new(slice(p, w), w.rows, outputs).t();
+            gemm(Mat::new(d_out, rows, outputs), w, 0.0, &mut d_a)
+        },
+    );
+    add_column_sums(&d_out[..rows * outputs], &mut grad[h.b[2].range()]);
     let mut d_z = vec![0f32; rows * width];
     for l in (0..2).rev() {
         let gamma = slice(p, &h.gamma[l]);

@@ -103,7 +103,14 @@ impl HyperGradient {
         let input_len = lay.config.encoding.input_len();
         assert_eq!(batch.inputs.len(), poses * input_len, "one encoder input per pose");
         assert_eq!(params.len(), lay.len(), "parameters of another network");
-        grad.fill(0.0);
+        // Cleared but the heads' output weights, which `head_backward` writes whole.
+        let mut cleared = 0;
+        for h in &lay.heads {
+            let w = h.w[2].range();
+            grad[cleared..w.start].fill(0.0);
+            cleared = w.end;
+        }
+        grad[cleared..].fill(0.0);
 
         // Condition of every pose.
         let cond_len = lay.config.encoding.output_len();

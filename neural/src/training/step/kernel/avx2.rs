@@ -4,7 +4,8 @@
 //!
 //! A tile is 6 rows x 16 columns of the result in 12 registers: per step along k, two loads of
 //! the right operand and six broadcasts of the left one feed 12 fused multiply-adds (15
-//! registers live; the epilogue runs out of line so its constants do not take any).
+//! registers live; the epilogue runs out of line so its constants do not take any). The dot
+//! products (a b^T) are in `avx2_dots`.
 
 use super::Raw;
 use std::arch::x86_64::*;
@@ -34,33 +35,121 @@ pub unsafe fn gemm(
     // Row tiles outside, column tiles inside: consecutive tiles' epilogues touch consecutive
     // memory (the activations of a block of the paper's SIREN live in L3, and the prefetcher
     // follows rows). When m is at most two tiles (the heads' products: 8 poses times a
-    // 65,792-wide output), column panels outside instead, so b is read from memory once.
+    // 65,792-wide output), column panels outside instead, so b is read from memory once, and
+    // the first row tile prefetches the panel [`AHEAD`] floats on: its k rows are a page
+    // apart each, too many streams for the hardware prefetcher (10.5 -> 4.5 ms for the
+    // paper's head, 8 x 256 x 65,792).
     let (row_tiles, col_tiles) = (m.div_ceil(MR), n / NR);
     let wide = m <= 2 * MR;
+    // A transposed left operand (the weight gradients' h^T v) is read a column at a time,
+    // k rows a line apart each: a row tile's strip is copied into `strip` (k x 6, one line
+    // per step along k) once for all its column tiles (111 -> 116 GFLOP/s at 256 x 128 x 256).
+    let pack = csa != 1 && !wide && col_tiles >= 4;
+    let mut strip = if pack { vec![0f32; MR * k + 2] } else { Vec::new() };
+    let mut packed = usize::MAX;
     for t in 0..row_tiles * col_tiles {
         let (ti, tj) =
             if wide { (t % row_tiles, t / row_tiles) } else { (t / col_tiles, t % col_tiles) };
-        let (i0, j0) = (ti * MR, tj * NR);
-        let rows = MR.min(m - i0);
-        // SAFETY: the tile lies inside the m x n result and reads rows i0..i0+rows of a and
-        // columns j0..j0+16 of b (the caller's contract).
-        unsafe {
-            match rows {
-                6 => tile::<6>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                5 => tile::<5>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                4 => tile::<4>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                3 => tile::<3>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                2 => tile::<2>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                _ => tile::<1>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+        let (i0, rows) = row_tile(m, ti);
+        let j0 = tj * NR;
+        let (mut a, mut rsa, mut csa) = (a, rsa, csa);
+        if pack {
+            if packed != ti {
+                // SAFETY: rows i0..i0 + rows of a's k columns (masked lanes are not read), into
+                // a strip of 6 k + 2 floats.
+                unsafe { pack_strip(k, a.wrapping_add(i0), csa, rows, strip.as_mut_ptr()) };
+                packed = ti;
             }
+            // Row i0 + d of the tile at strip[d].
+            (a, rsa, csa) = (strip.as_ptr().wrapping_sub(i0), 1, MR as isize);
+        }
+        // SAFETY: the tile lies inside the m x n result and reads rows i0..i0+rows of a (or
+        // their strip) and columns j0..j0+16 of b (the caller's contract).
+        unsafe { tile_of(rows, wide && ti == 0, k, n, a, rsa, csa, b, out, ep, i0, j0) };
+    }
+}
+
+/// [`tile`] of `rows` rows, out of line: without target features of its own, so the kernel
+/// cannot be inlined into it nor it into `gemm` (rustc 1.95 drops `#[inline(never)]` on a
+/// function with target features, and `gemm` with its tiles inlined kept their accumulators
+/// on the stack: 120 -> 65 GFLOP/s).
+///
+/// # Safety
+/// As [`tile`]'s.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn tile_of(
+    rows: usize,
+    prefetch: bool,
+    k: usize,
+    n: usize,
+    a: *const f32,
+    rsa: isize,
+    csa: isize,
+    b: *const f32,
+    out: *mut f32,
+    ep: Raw,
+    i0: usize,
+    j0: usize,
+) {
+    // SAFETY: the caller's contract; it has checked AVX2 and FMA.
+    unsafe {
+        match (rows, prefetch) {
+            (6, true) => tile::<6, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (6, _) => tile::<6, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (5, true) => tile::<5, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (5, _) => tile::<5, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (4, true) => tile::<4, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (4, _) => tile::<4, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (3, true) => tile::<3, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (3, _) => tile::<3, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (2, true) => tile::<2, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (2, _) => tile::<2, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (_, true) => tile::<1, true>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            (_, _) => tile::<1, false>(k, n, a, rsa, csa, b, out, ep, i0, j0),
         }
     }
 }
 
+/// (first row, rows) of row tile `ti` of m rows: tiles of 6, but a last tile of one or two
+/// rows (4 or 2 chains of fused multiply-adds, too few to fill both FMA units) shares the
+/// rows of the tile before it as 4 + 3 or 4 + 4 (128 = 20 x 6 + 4 + 4). Each element's sum
+/// is the same whatever its tile's height.
+fn row_tile(m: usize, ti: usize) -> (usize, usize) {
+    let (full, rem) = (m / MR, m % MR);
+    if (rem == 1 || rem == 2) && full >= 1 && ti + 1 >= full {
+        let i0 = (full - 1) * MR;
+        return if ti + 1 == full { (i0, 4) } else { (i0 + 4, MR + rem - 4) };
+    }
+    (ti * MR, MR.min(m - ti * MR))
+}
+
+/// Copies `rows` (at most 6) rows of a's k columns, starting at `a` with row stride 1 and
+/// column stride `csa`, into `strip` as k steps of 6 floats.
+///
+/// # Safety
+/// The CPU has AVX2; a addresses those rows and columns; strip holds 6 k + 2 floats.
+#[target_feature(enable = "avx2")]
+unsafe fn pack_strip(k: usize, a: *const f32, csa: isize, rows: usize, strip: *mut f32) {
+    let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    let mask = _mm256_cmpgt_epi32(_mm256_set1_epi32(rows as i32), lanes);
+    // SAFETY: masked lanes are not read; the 8-float stores end within 6 k + 2.
+    unsafe {
+        for p in 0..k {
+            let v = _mm256_maskload_ps(a.wrapping_offset(csa.wrapping_mul(p as isize)), mask);
+            store(strip.add(MR * p), v);
+        }
+    }
+}
+
+/// How far ahead of its panel (in floats: four panels) a wide product's tile prefetches b.
+const AHEAD: usize = 4 * NR;
+
+/// Rows i0.. (R of them) and columns j0..j0 + 16 of the result.
 #[target_feature(enable = "avx2,fma")]
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-unsafe fn tile<const R: usize>(
+unsafe fn tile<const R: usize, const PREFETCH: bool>(
     k: usize,
     n: usize,
     a: *const f32,
@@ -82,6 +171,9 @@ unsafe fn tile<const R: usize>(
         let mut a_step: isize = 0;
         let mut bp = b.wrapping_add(j0);
         for _ in 0..k {
+            if PREFETCH {
+                _mm_prefetch::<_MM_HINT_T0>(bp.wrapping_add(AHEAD).cast());
+            }
             let b0 = load(bp);
             let b1 = load(bp.wrapping_add(8));
             for d in 0..R {
@@ -179,7 +271,7 @@ fn all_lanes() -> __m256i {
 /// checked copy there (through the stack), which halves the kernel; the same value either way.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn load(p: *const f32) -> __m256 {
+pub(super) unsafe fn load(p: *const f32) -> __m256 {
     // SAFETY: the caller's pointer addresses 8 floats.
     unsafe {
         #[cfg(debug_assertions)]
@@ -195,7 +287,7 @@ unsafe fn load(p: *const f32) -> __m256 {
 
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn store(p: *mut f32, v: __m256) {
+pub(super) unsafe fn store(p: *mut f32, v: __m256) {
     // SAFETY: the caller's pointer addresses 8 floats.
     unsafe {
         #[cfg(debug_assertions)]
@@ -234,202 +326,4 @@ pub fn sin_cos(x: __m256) -> (__m256, __m256) {
     }
     let odd = _mm256_castsi256_ps(odd);
     (_mm256_xor_ps(sin_r, odd), _mm256_xor_ps(c, odd))
-}
-
-/// out[i * r + j] = beta out[i * r + j] + a_i . rows_j for a [m x k] and rows [r x k], both
-/// row-major: products with a handful of columns (a layer of width 1 or 3), and the heads'
-/// a b^T.
-///
-/// # Safety
-/// The CPU has AVX2 and FMA; a holds m x k, rows r x k, out m x r.
-#[target_feature(enable = "avx2,fma")]
-pub unsafe fn dots(
-    m: usize,
-    k: usize,
-    r: usize,
-    a: *const f32,
-    rows: *const f32,
-    beta: f32,
-    out: *mut f32,
-) {
-    let mut i = 0;
-    // SAFETY (whole body): rows i.. of a and of out lie inside their buffers.
-    unsafe {
-        while i + DOT_ROWS <= m {
-            dots_rows::<DOT_ROWS>(k, r, a.add(i * k), rows, beta, out.add(i * r));
-            i += DOT_ROWS;
-        }
-        while i < m {
-            dots_rows::<1>(k, r, a.add(i * k), rows, beta, out.add(i * r));
-            i += 1;
-        }
-    }
-}
-
-/// Rows of a that [`dots`] takes together: each row's two accumulator chains wait on their
-/// last fused multiply-add, so four rows (eight chains, in 16 registers with the loads) keep
-/// both FMA ports busy.
-const DOT_ROWS: usize = 4;
-
-/// [`dots`] for R consecutive rows of a: each row's accumulators see the same sequence of
-/// fused multiply-adds and the same reduction as one row alone, so the result is the same to
-/// the bit whatever R.
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-unsafe fn dots_rows<const R: usize>(
-    k: usize,
-    r: usize,
-    a: *const f32,
-    rows: *const f32,
-    beta: f32,
-    out: *mut f32,
-) {
-    let tail = k % 8;
-    let full = k - tail;
-    // Lane l of the tail's mask is set when l < tail.
-    let mask = _mm256_cmpgt_epi32(
-        _mm256_set1_epi32(tail as i32),
-        _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
-    );
-    // SAFETY (whole body): the R rows of a, every row of `rows` and out's R rows lie inside
-    // their buffers (the caller's contract).
-    unsafe {
-        for j in 0..r {
-            let bj = rows.add(j * k);
-            let mut acc0 = [_mm256_setzero_ps(); R];
-            let mut acc1 = [_mm256_setzero_ps(); R];
-            let mut p = 0;
-            while p + 16 <= full {
-                let (b0, b1) = (load(bj.add(p)), load(bj.add(p + 8)));
-                for d in 0..R {
-                    let ad = a.add(d * k + p);
-                    acc0[d] = _mm256_fmadd_ps(load(ad), b0, acc0[d]);
-                    acc1[d] = _mm256_fmadd_ps(load(ad.add(8)), b1, acc1[d]);
-                }
-                p += 16;
-            }
-            if p < full {
-                let b0 = load(bj.add(p));
-                for (d, acc0) in acc0.iter_mut().enumerate() {
-                    *acc0 = _mm256_fmadd_ps(load(a.add(d * k + p)), b0, *acc0);
-                }
-            }
-            if tail > 0 {
-                let b1 = _mm256_maskload_ps(bj.add(full), mask);
-                for (d, acc1) in acc1.iter_mut().enumerate() {
-                    *acc1 =
-                        _mm256_fmadd_ps(_mm256_maskload_ps(a.add(d * k + full), mask), b1, *acc1);
-                }
-            }
-            for d in 0..R {
-                let o = out.add(d * r + j);
-                let s = sum(_mm256_add_ps(acc0[d], acc1[d]));
-                *o = if beta == 0.0 { s } else { *o + s };
-            }
-        }
-    }
-}
-
-/// The sum of 8 lanes.
-#[target_feature(enable = "avx2")]
-#[inline]
-fn sum(v: __m256) -> f32 {
-    let s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
-    let s = _mm_add_ps(s, _mm_movehl_ps(s, s));
-    let s = _mm_add_ss(s, _mm_shuffle_ps::<0b01>(s, s));
-    _mm_cvtss_f32(s)
-}
-
-/// Elements of k per pass of [`dots_wide`]: a chunk of a's rows (8 KB each) stays in cache
-/// while every row of `rows` streams its chunk once.
-const KC: usize = 2048;
-
-/// [`dots`] for a long k (the heads' d_out W^T: a few poses times 65,792 outputs against
-/// hundreds of rows): k in chunks of [`KC`], every row of `rows` read once from memory (the
-/// row-by-row loop reads it once per row of a), four rows of a at a time against it.
-///
-/// # Safety
-/// The CPU has AVX2 and FMA; a holds m x k, rows r x k, out m x r.
-#[target_feature(enable = "avx2,fma")]
-pub unsafe fn dots_wide(
-    m: usize,
-    k: usize,
-    r: usize,
-    a: *const f32,
-    rows: *const f32,
-    beta: f32,
-    out: *mut f32,
-) {
-    // SAFETY (whole body): every offset stays inside a (m x k), rows (r x k) and out (m x r).
-    unsafe {
-        if beta == 0.0 {
-            std::ptr::write_bytes(out, 0, m * r);
-        }
-        let mut c0 = 0;
-        while c0 < k {
-            let len = KC.min(k - c0);
-            for j in 0..r {
-                let bj = rows.add(j * k + c0);
-                let mut i = 0;
-                while i < m {
-                    let at = |d: usize| a.add((i + d) * k + c0);
-                    let o = out.add(i * r + j);
-                    match m - i {
-                        1 => dots_block::<1>(len, [at(0)], bj, o, r),
-                        2 => dots_block::<2>(len, [at(0), at(1)], bj, o, r),
-                        3 => dots_block::<3>(len, [at(0), at(1), at(2)], bj, o, r),
-                        _ => dots_block::<4>(len, [at(0), at(1), at(2), at(3)], bj, o, r),
-                    }
-                    i += 4;
-                }
-            }
-            c0 += len;
-        }
-    }
-}
-
-/// out[d * r] += a_d . b over `len` elements for R rows a_d (a [`dots_wide`] block).
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-unsafe fn dots_block<const R: usize>(
-    len: usize,
-    a: [*const f32; R],
-    b: *const f32,
-    out: *mut f32,
-    r: usize,
-) {
-    let tail = (len % 8) as i32;
-    let mask =
-        _mm256_cmpgt_epi32(_mm256_set1_epi32(tail), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-    let full = len - len % 8;
-    // SAFETY (whole body): a_d and b hold len elements, out[d * r] lies in the result.
-    unsafe {
-        let mut acc = [[_mm256_setzero_ps(); 2]; R];
-        let mut p = 0;
-        while p + 16 <= full {
-            let (b0, b1) = (load(b.add(p)), load(b.add(p + 8)));
-            for d in 0..R {
-                acc[d][0] = _mm256_fmadd_ps(load(a[d].add(p)), b0, acc[d][0]);
-                acc[d][1] = _mm256_fmadd_ps(load(a[d].add(p + 8)), b1, acc[d][1]);
-            }
-            p += 16;
-        }
-        if p < full {
-            let b0 = load(b.add(p));
-            for d in 0..R {
-                acc[d][0] = _mm256_fmadd_ps(load(a[d].add(p)), b0, acc[d][0]);
-            }
-        }
-        if tail > 0 {
-            let x = b.add(full);
-            let b1 = _mm256_maskload_ps(x, mask);
-            for d in 0..R {
-                let x = a[d].add(full);
-                acc[d][1] = _mm256_fmadd_ps(_mm256_maskload_ps(x, mask), b1, acc[d][1]);
-            }
-        }
-        for (d, acc) in acc.iter().enumerate() {
-            *out.add(d * r) += sum(_mm256_add_ps(acc[0], acc[1]));
-        }
-    }
 }

@@ -9,6 +9,8 @@ use super::KernelPath;
 #[cfg(target_arch = "x86_64")]
 pub mod avx2;
 #[cfg(target_arch = "x86_64")]
+pub mod avx2_dots;
+#[cfg(target_arch = "x86_64")]
 pub mod avx512;
 
 /// An instruction set with a kernel of its own.
@@ -133,8 +135,8 @@ pub unsafe fn dots(
         match isa {
             Isa::Avx512 if k >= WIDE => avx512::dots_wide(m, k, r, a, rows, beta, out),
             Isa::Avx512 => avx512::dots(m, k, r, a, rows, beta, out),
-            Isa::Avx2 if k >= WIDE => avx2::dots_wide(m, k, r, a, rows, beta, out),
-            Isa::Avx2 => avx2::dots(m, k, r, a, rows, beta, out),
+            Isa::Avx2 if k >= WIDE => avx2_dots::dots_wide(m, k, r, a, rows, beta, out),
+            Isa::Avx2 => avx2_dots::dots(m, k, r, a, rows, beta, out),
         }
     }
 }
