@@ -84,28 +84,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     // Where the crossing faces lie, beside the naked body's own (the open body's toes cross
-    // themselves).
-    let crossing = |m: &TriMesh, joints: &[usize]| {
+    // themselves): each face's crossing and part found once per mesh.
+    let crossing_by_part = |m: &TriMesh| -> Vec<(bool, usize)> {
         let flags = self_intersecting_faces(&m.positions, &m.faces);
-        let (mut n, mut crossed) = (0usize, 0usize);
-        for (f, &x) in m.faces.iter().zip(&flags) {
-            let c = (m.positions[f[0] as usize]
-                + m.positions[f[1] as usize]
-                + m.positions[f[2] as usize])
-                / 3.0;
-            if joints.is_empty() || joints.contains(&part_of(c)) {
-                n += 1;
-                crossed += usize::from(x);
-            }
-        }
-        (crossed, n)
+        m.faces
+            .iter()
+            .zip(flags)
+            .map(|(f, x)| {
+                (x, part_of(f.iter().map(|&v| m.positions[v as usize]).sum::<Vec3>() / 3.0))
+            })
+            .collect()
+    };
+    let (ours, bare) = (crossing_by_part(&mesh), crossing_by_part(&naked));
+    // (crossing, all) faces of the part (`joints` empty: the whole surface).
+    let count = |faces: &[(bool, usize)], joints: &[usize]| {
+        faces
+            .iter()
+            .filter(|(_, part)| joints.is_empty() || joints.contains(part))
+            .fold((0, 0), |(crossed, all), &(x, _)| (crossed + usize::from(x), all + 1))
     };
     let parts: [(&str, &[usize]); 4] =
         [("whole", &[]), ("head", &HEAD), ("hands", &HANDS), ("feet", &FEET)];
     let mut line = Vec::new();
     for (name, joints) in parts {
-        let (a, an) = crossing(&mesh, joints);
-        let (b, _) = crossing(&naked, joints);
+        let ((a, an), (b, _)) = (count(&ours, joints), count(&bare, joints));
         line.push(format!("{name} {a} of {an} (naked body {b})"));
     }
     println!("  self-intersecting faces: {}", line.join(", "));
