@@ -168,7 +168,8 @@ impl BodyWrap {
     /// Spans the crossing faces of a wrapped surface (`mesh` has the body's faces; its vertices
     /// moved by [`BodyWrap::wrap`] and smoothed after it) where [`WrapOptions::span_crossings`]
     /// says, but for the bare body's own crossings (`FoldGuard::span_crossings`). Returns how
-    /// many faces crossed before; a mesh of other faces is left as it is.
+    /// many faces crossed before in pairs with a face that may move; a mesh of other faces is
+    /// left as it is.
     pub fn span_crossings(&self, mesh: &mut TriMesh) -> usize {
         if mesh.faces != self.rest.faces {
             return 0;

@@ -108,7 +108,8 @@ impl FoldGuard {
     /// a membrane would: the `movable` vertices of each crossing face (but for the bare body's
     /// own crossings) move halfway to their neighbours' mean position, round after round, until
     /// no such face is left or [`MAX_SPAN_ROUNDS`] have run. A fold spans the crease it folded
-    /// into instead of being pulled onto the body. Returns how many faces crossed before.
+    /// into instead of being pulled onto the body. Returns how many faces crossed before in
+    /// pairs with a face that has a movable vertex (pairs of two others are not tested).
     pub fn span_crossings(
         &self,
         rest: &TriMesh,
@@ -116,7 +117,12 @@ impl FoldGuard {
         movable: &[bool],
     ) -> usize {
         let n_faces = rest.faces.len();
-        let mut tracker = CrossingTracker::new(positions, &rest.faces);
+        let can_move: Vec<bool> =
+            rest.faces.iter().map(|f| f.iter().any(|&v| movable[v as usize])).collect();
+        if !can_move.contains(&true) {
+            return 0;
+        }
+        let mut tracker = CrossingTracker::among(positions, &rest.faces, Some(&can_move));
         let mut crossing = self.not_at_rest(rest, flags(n_faces, tracker.update(positions)));
         let before = crossing.iter().filter(|&&c| c).count();
         for _ in 0..MAX_SPAN_ROUNDS {

@@ -129,10 +129,20 @@ pub struct CrossingTracker<'a> {
 
 impl<'a> CrossingTracker<'a> {
     pub fn new(positions: &[Vec3], faces: &'a [[u32; 3]]) -> CrossingTracker<'a> {
+        Self::among(positions, faces, None)
+    }
+
+    /// With `only`, just the pairs that hold at least one face it marks (the faces that may
+    /// move: the pairs of two others never change).
+    pub fn among(
+        positions: &[Vec3],
+        faces: &'a [[u32; 3]],
+        only: Option<&[bool]>,
+    ) -> CrossingTracker<'a> {
         CrossingTracker {
             faces,
             last: positions.to_vec(),
-            pairs: crossing_pairs(positions, faces, None),
+            pairs: crossing_pairs(positions, faces, only),
         }
     }
 
