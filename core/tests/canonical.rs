@@ -350,3 +350,43 @@ fn warm_started_roots_after_a_small_pose_change_are_the_full_search_roots() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A field diffused from any surface with weights (FITE's clothed template): on a square
+/// sheet whose left edge belongs to joint 1 and right edge to joint 2, the field on the sheet
+/// is the linear blend of the two, the same a little off the sheet along its normal, and a
+/// surface with the wrong number of weights is refused.
+#[test]
+fn a_field_built_around_a_weighted_sheet_blends_its_weights() {
+    use avatar_core::mesh::TriMesh;
+    let n = 11;
+    let mut positions = Vec::new();
+    let mut weights = Vec::new();
+    for row in 0..n {
+        for col in 0..n {
+            let t = col as f32 / (n - 1) as f32;
+            positions.push(Vec3::new(t - 0.5, row as f32 / (n - 1) as f32, 0.0));
+            let mut w = [0.0; NUM_JOINTS];
+            (w[1], w[2]) = (1.0 - t, t);
+            weights.push(w);
+        }
+    }
+    let mut faces = Vec::new();
+    for row in 0..n - 1 {
+        for col in 0..n - 1 {
+            let i = (row * n + col) as u32;
+            faces.push([i, i + 1, i + n as u32]);
+            faces.push([i + 1, i + n as u32 + 1, i + n as u32]);
+        }
+    }
+    let sheet = TriMesh::new(positions, faces);
+    let options = FieldOptions { cells_along_height: 40, margin: 0.2, ..FieldOptions::default() };
+    let field = SkinningField::build_around(&sheet, &weights, &options).unwrap();
+    for (x, off) in [(-0.3f32, 0.0f32), (0.0, 0.02), (0.25, -0.02), (0.4, 0.0)] {
+        let w = field.weights_at(Vec3::new(x, 0.5, off));
+        let t = x + 0.5;
+        assert!((w[1] - (1.0 - t)).abs() < 0.02 && (w[2] - t).abs() < 0.02, "at x = {x}: {w:?}");
+        assert!((w[1] + w[2] - 1.0).abs() < 1e-4);
+    }
+    let err = SkinningField::build_around(&sheet, &weights[1..], &options).unwrap_err();
+    assert!(err.to_string().contains("skinning weights"), "{err}");
+}

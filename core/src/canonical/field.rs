@@ -8,8 +8,8 @@
 
 use crate::body::{BodyModel, NUM_JOINTS, Weights, interpolate_weights};
 use crate::error::{Error, Result};
-use crate::mesh::barycentric;
 use crate::mesh::bvh::Bvh;
+use crate::mesh::{TriMesh, barycentric};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -76,12 +76,31 @@ pub struct SkinningField {
 impl SkinningField {
     /// Build around a body's rest surface (`rest` = shaped canonical vertices of `body`).
     pub fn build(body: &BodyModel, rest: &[Vec3], options: &FieldOptions) -> Result<SkinningField> {
-        options.validate()?;
         if rest.len() != body.weights.len() {
             return Err(Error::invalid(format!(
                 "{} rest vertices for {} skinning weights",
                 rest.len(),
                 body.weights.len()
+            )));
+        }
+        Self::build_around(&body.mesh(rest.to_vec()), &body.weights, options)
+    }
+
+    /// Build around any canonical surface with weights at its vertices (FITE builds it around
+    /// the clothed template, so loose cloth moves with the template's weights).
+    pub fn build_around(
+        mesh: &TriMesh,
+        vertex_weights: &[Weights],
+        options: &FieldOptions,
+    ) -> Result<SkinningField> {
+        options.validate()?;
+        let rest = &mesh.positions;
+        if rest.len() != vertex_weights.len() || mesh.faces.is_empty() {
+            return Err(Error::invalid(format!(
+                "{} surface vertices ({} faces) for {} skinning weights",
+                rest.len(),
+                mesh.faces.len(),
+                vertex_weights.len()
             )));
         }
         let (lo, hi) = crate::mesh::bounds(rest).ok_or_else(|| Error::invalid("empty body"))?;
@@ -94,8 +113,7 @@ impl SkinningField {
         let (lo, hi) = (lo - Vec3::splat(options.margin), hi + Vec3::splat(options.margin));
         let cell = (hi.y - lo.y) / options.cells_along_height.max(8) as f32;
         let dims = [0, 1, 2].map(|a| (((hi[a] - lo[a]) / cell).ceil() as usize + 1).max(2));
-        let mesh = body.mesh(rest.to_vec());
-        let bvh = Bvh::build(&mesh);
+        let bvh = Bvh::build(mesh);
         let n = dims[0] * dims[1] * dims[2];
         // 1. Nearest surface point of every node: barycentric blend of its triangle's weights
         //    (exactly the body's weights on the surface, constant along the normal).
@@ -108,7 +126,7 @@ impl SkinningField {
                 *d = hit.distance;
                 let f = mesh.faces[hit.face as usize].map(|k| k as usize);
                 let b = barycentric(hit.point, rest[f[0]], rest[f[1]], rest[f[2]]);
-                w.copy_from_slice(&interpolate_weights(&body.weights, f, b));
+                w.copy_from_slice(&interpolate_weights(vertex_weights, f, b));
             },
         );
         // 2. Diffuse away from the surface (6-neighbour Jacobi), near-surface nodes fixed.
