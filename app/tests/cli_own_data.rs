@@ -137,6 +137,30 @@ fn own_data_is_listed_trained_on_and_fitted_from() {
     assert!(out.contains("from the prior") && out.contains("meta-model.bin"), "{out}");
     names_the_prior(&avatar);
 
+    // Alg. 2 alone on the own data, from the static meta-SDF of the prior built into the
+    // program: the model says so, and so does an avatar fitted from it.
+    let from_shipped = dir.path().join("from-shipped");
+    let (_, err) = ok(&studio(&[
+        &"meta-train",
+        &"--data",
+        &data,
+        &"--out",
+        &from_shipped,
+        &"--sdf-from",
+        &"shipped",
+        &"--hyper-iterations",
+        &"2",
+    ]));
+    assert!(err.contains("Alg. 1 skipped, static meta-SDF from shipped"), "{err}");
+    let hybrid = dir.path().join("h.avatar");
+    ok(&fit(&from_shipped.join("meta-model.bin"), &hybrid, &["--refine-poses", "off"]));
+    let (out, _) = ok(&studio(&[&"check", &hybrid]));
+    assert!(
+        out.contains("meta-train seed 0 (static meta-SDF of the prior shipped (sha256 ")
+            && out.contains("), 2 iterations"),
+        "{out}"
+    );
+
     // The static SDF started from that prior's static SDF names it too.
     let fixed = dir.path().join("s.avatar");
     let (out, _) = ok(&fit(&model, &fixed, &["--static"]));

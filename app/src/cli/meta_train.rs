@@ -14,7 +14,7 @@ use avatar_neural::training::meta_training::{
     MetaOptions, meta_train_collective, start_from_static,
 };
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -55,7 +55,9 @@ pub struct Args {
     /// Alg. 1's outer Adam learning rate.
     #[arg(long, default_value_t = 1e-4)]
     sdf_outer_lr: f64,
-    /// Skip Alg. 1: start Alg. 2 from this meta-model's static meta-SDF (a fresh --out only).
+    /// Skip Alg. 1: start Alg. 2 from this meta-model's static meta-SDF (a fresh --out only):
+    /// a meta-model.bin, or `shipped` for the prior built into the program (own data's
+    /// recommended start: docs/own-data.md).
     #[arg(long)]
     sdf_from: Option<PathBuf>,
     /// Alg. 2's inner Adam rates (heads and low-rank bases; bone encoder; base SDF) and outer
@@ -119,7 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .file(args.data.join("meta-data.json"))
             .file(args.data.join("samples.bin"))
     }
-    .maybe_file(args.sdf_from.as_ref());
+    .maybe_file(args.sdf_from.as_ref().filter(|p| !is_shipped(p)));
     if let Some(out) = &args.out {
         inputs.check_folder(out)?;
         for (name, ext) in [
@@ -179,7 +181,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     outer.encoder = args.hyper_outer_lr_encoder.unwrap_or(outer.encoder);
     outer.sdf = args.hyper_outer_lr_sdf.unwrap_or(outer.sdf);
     if let Some(from) = args.sdf_from.as_ref().filter(|_| collective.is_root()) {
-        let model = or_abort(&collective, MetaModel::load(from))?;
+        let model = if is_shipped(from) {
+            MetaModel::shipped()
+        } else {
+            or_abort(&collective, MetaModel::load(from))?
+        };
         or_abort(&collective, start_from_static(out, &options, &model, from))?;
         eprintln!("meta-train: Alg. 1 skipped, static meta-SDF from {}", from.display());
     }
@@ -312,6 +318,12 @@ fn load_data(args: &Args, own: bool) -> anyhow::Result<Option<MetaData>> {
         MetaData::load_or_generate(&args.data, body, &data_config, &|m| eprintln!("{m}"))?
     };
     Ok(Some(data))
+}
+
+/// `--sdf-from shipped`: the prior built into the program (a file of that name, if there is
+/// one, is the file).
+fn is_shipped(path: &Path) -> bool {
+    path == Path::new("shipped") && !path.exists()
 }
 
 #[cfg(test)]

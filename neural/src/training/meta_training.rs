@@ -188,6 +188,7 @@ pub fn meta_train_collective(
     };
     let started = Instant::now();
     let prior_seconds = resume.as_ref().map_or(0.0, |r| r.seconds);
+    let static_from = resume.as_ref().and_then(|r| r.static_from.clone());
     let elapsed = |s: &Instant| prior_seconds + s.elapsed().as_secs_f64();
     let stop = || -> Result<()> {
         match collective.any(cancel.is_some_and(|c| c.load(Ordering::Relaxed)))? {
@@ -332,7 +333,8 @@ pub fn meta_train_collective(
         });
         if root && ((it + 1) % options.checkpoint_every == 0 || it + 1 == options.hyper_iterations)
         {
-            let ck = Checkpoint::new(options, "hyper", it + 1, elapsed(&started));
+            let ck = Checkpoint::new(options, "hyper", it + 1, elapsed(&started))
+                .with_static_from(static_from.clone());
             let mut w = flatten(&model);
             w.extend_from_slice(&static_flat);
             weights_file::write(&ckpt_path, &ck, &w)?;
@@ -344,13 +346,21 @@ pub fn meta_train_collective(
             options.config,
             &model,
             &meta_sdf,
-            format!(
-                "meta-train seed {} ({} + {} iterations, {:.0} s)",
-                options.seed,
-                options.sdf_iterations,
-                options.hyper_iterations,
-                elapsed(&started)
-            ),
+            match &static_from {
+                None => format!(
+                    "meta-train seed {} ({} + {} iterations, {:.0} s)",
+                    options.seed,
+                    options.sdf_iterations,
+                    options.hyper_iterations,
+                    elapsed(&started)
+                ),
+                Some(from) => format!(
+                    "meta-train seed {} (static meta-SDF of {from}, {} iterations, {:.0} s)",
+                    options.seed,
+                    options.hyper_iterations,
+                    elapsed(&started)
+                ),
+            },
         );
         meta.save(&path)?;
     }
@@ -423,7 +433,12 @@ pub fn start_from_static(
     }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     // Alg. 1 complete, as a finished Alg. 1 of this run would have left it.
-    let ck = Checkpoint::new(options, "sdf", options.sdf_iterations, 0.0);
+    let ck = Checkpoint::new(options, "sdf", options.sdf_iterations, 0.0).with_static_from(Some(
+        model.prior().map_or_else(
+            || model_path.display().to_string(),
+            |p| format!("the prior {} (sha256 {})", p.name, &p.sha256[..p.sha256.len().min(12)]),
+        ),
+    ));
     weights_file::write(&ckpt_path, &ck, &model.static_sdf)
 }
 

@@ -22,6 +22,10 @@ pub(super) struct Checkpoint {
     /// Iterations completed in that stage.
     pub iteration: usize,
     pub seconds: f64,
+    /// The meta-model whose static meta-SDF stands for Alg. 1 (`start_from_static`), named in
+    /// the finished model's provenance (absent: Alg. 1 ran here).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub static_from: Option<String>,
 }
 
 impl Checkpoint {
@@ -34,7 +38,13 @@ impl Checkpoint {
             stage: stage.into(),
             iteration,
             seconds,
+            static_from: None,
         }
+    }
+
+    /// The same, its static meta-SDF taken from the meta-model `from` names.
+    pub fn with_static_from(self, from: Option<String>) -> Checkpoint {
+        Checkpoint { static_from: from, ..self }
     }
 
     /// Check a checkpoint's header before its weights are read; the number of weights it needs.
@@ -68,6 +78,8 @@ pub(super) struct Resume {
     pub iteration: usize,
     pub seconds: f64,
     pub weights: Vec<f32>,
+    /// `Checkpoint::static_from` (rank 0's alone: only rank 0 writes files).
+    pub static_from: Option<String>,
 }
 
 /// Rank 0 reads the checkpoint (`read` on rank 0 only) and every rank gets the same resume
@@ -109,6 +121,7 @@ pub(super) fn share(
     }
     let sdf = options.config.siren.num_params();
     let count = if head[1] == 1.0 { sdf } else { options.config.num_params() + sdf };
+    let static_from = local.as_ref().ok().and_then(|r| r.as_ref()?.static_from.clone());
     let mut weights = match local {
         Ok(Some(r)) => r.weights,
         _ => vec![0.0; count],
@@ -119,6 +132,7 @@ pub(super) fn share(
         iteration: ((head[2] as usize) << 20) | head[3] as usize,
         seconds: f64::from(head[4]),
         weights,
+        static_from,
     }))
 }
 
@@ -140,7 +154,13 @@ pub(super) fn read(
         ));
     }
     let stage = if ck.stage == "sdf" { "sdf" } else { "hyper" };
-    Ok(Some(Resume { stage, iteration: ck.iteration, seconds: ck.seconds, weights }))
+    Ok(Some(Resume {
+        stage,
+        iteration: ck.iteration,
+        seconds: ck.seconds,
+        weights,
+        static_from: ck.static_from,
+    }))
 }
 
 /// Refuse to start unless every rank has the same options and data (a 64-bit fingerprint of
