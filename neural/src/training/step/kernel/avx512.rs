@@ -185,6 +185,7 @@ unsafe fn epilogue(acc: &[[__m512; 2]], n: usize, out: *mut f32, ep: Raw, i0: us
                     }
                 }
             }
+            Raw::Adam { .. } => unreachable!("weight_adam runs Adam's epilogue on the AVX2 kernel"),
         }
     }
 }
