@@ -235,7 +235,7 @@ fn fused_steps_match(
     let (mut adam_plain, mut adam_fused) = (Adam::default(), Adam::default());
     let (mut g_plain, mut g_fused) = (vec![0f32; flat.len()], vec![0f32; flat.len()]);
     let (mut gradient_plain, mut gradient_fused) =
-        (HyperGradient::new(config), HyperGradient::new(config));
+        (HyperGradient::new(config), HyperGradient::new(config).with_fused_adam(true));
     for step in 0..2 {
         let a = gradient_plain.compute(&plain, batch, train_encoder, &mut g_plain);
         adam_plain.step(&mut plain, &g_plain, &groups);

@@ -17,6 +17,13 @@ use crate::model::hyper::HyperConfig;
 use rayon::prelude::*;
 
 /// One step's data: B poses, each with `surface + off` rows of points.
+
+/// The heads' output weights (all heads) from which `HyperGradient::step` fuses Adam into their
+/// gradient's product: the paper preset's 84 M take it, the compact preset's do not. Small
+/// heads stay in the caches, where the two passes cost less than the fused product's many row
+/// streams (the compact step took 2-4 % more CPU fused).
+const FUSED_ADAM_MIN_WEIGHTS: usize = 8 << 20;
+
 pub struct HyperBatch<'a> {
     /// Encoder inputs [B, input_len].
     pub inputs: &'a [f32],
@@ -48,6 +55,9 @@ pub struct HyperGradient {
     d_outs: Vec<Vec<f32>>,
     encoder_pass: EncoderPass,
     cond: Vec<f32>,
+    /// Whether `step` fuses Adam into the heads' output weights' gradient (wide heads only:
+    /// [`FUSED_ADAM_MIN_WEIGHTS`]).
+    fused_adam: bool,
 }
 
 fn rebase(b: &Block, base: usize) -> Block {
@@ -71,7 +81,9 @@ impl HyperGradient {
             head_runs.push(start..end);
         }
         let heads = layout.heads.len();
+        let output_weights: usize = layout.heads.iter().map(|h| h.w[2].rows * h.w[2].cols).sum();
         HyperGradient {
+            fused_adam: output_weights >= FUSED_ADAM_MIN_WEIGHTS,
             runner: BlockRunner::new(layout.sdf_shape.clone()),
             layout,
             local_heads,
@@ -90,6 +102,12 @@ impl HyperGradient {
         &self.layout
     }
 
+    /// `step` with Adam fused into the heads' output weights' gradient or not, whatever their
+    /// size (the tests hold both ways to the same parameters on small networks).
+    pub fn with_fused_adam(self, fused: bool) -> HyperGradient {
+        HyperGradient { fused_adam: fused, ..self }
+    }
+
     /// Loss of `batch` under `params` and its gradient into `grad` (overwritten, the layout's
     /// length). The encoder's gradient is only computed when `train_encoder` (else zero).
     pub fn compute(
@@ -104,10 +122,11 @@ impl HyperGradient {
 
     /// One training step: the loss of `batch` under `params`, then Adam's update of `params`
     /// with `groups`' rates (parameter ranges of the layout, as [`Adam::step`] takes them).
-    /// The same parameters as [`Self::compute`] then [`Adam::step`], but the heads' output
+    /// The same parameters as [`Self::compute`] then [`Adam::step`], but wide heads' output
     /// weights (84 M of the paper preset's 85.6 M parameters) take Adam's update a tile at a
     /// time as their gradient is made, so that gradient is never stored, read back or
-    /// cleared. `grad` (the layout's length) holds every other parameter's gradient after it;
+    /// cleared (the compact preset's small heads run the two passes:
+    /// [`FUSED_ADAM_MIN_WEIGHTS`]). `grad` (the layout's length) holds every other parameter's gradient after it;
     /// the heads' output weights' part is left unspecified.
     pub fn step(
         &mut self,
@@ -118,6 +137,11 @@ impl HyperGradient {
         adam: &mut Adam,
         groups: &[(std::ops::Range<usize>, f64)],
     ) -> StepLoss {
+        if !self.fused_adam {
+            let loss = self.compute(params, batch, train_encoder, grad);
+            adam.step(params, grad, groups);
+            return loss;
+        }
         let loss = self.compute_but(params, batch, train_encoder, grad, false);
         let heads = &self.layout.heads;
         let fused: Vec<std::ops::Range<usize>> = heads.iter().map(|h| h.w[2].range()).collect();
