@@ -1,12 +1,16 @@
 //! One kernel path's products on one thread, at the paper preset's shapes: the SIREN's
 //! (a block of 128 points through a 128- or 256-wide layer: GFLOP/s) and the heads' output
-//! layer (8 poses x 256 -> 65,792: ms a product). `cargo run --release -p avatar-neural
+//! layer (8 poses x 256 -> 65,792: ms a product, and its weights' Adam step: the weight
+//! gradient then Adam's pass over it, as `HyperGradient::compute` and `Adam::step` do, or
+//! both in one pass, as `HyperGradient::step` does). `cargo run --release -p avatar-neural
 //! --example kernel_path_rate -- [avx2|fast|portable] [reps]`. Each figure is the median of 7
 //! rounds of `reps` products (default 2,000), timed by the thread's CPU time
 //! (/proc/thread-self/schedstat, which some virtual machines count in 4 ms ticks: a round of
 //! fewer than about 100 ms is then too coarse) or, with a third argument `wall`, the wall
 //! clock (steadier on an idle machine).
+use avatar_neural::training::step::adam::AdamStep;
 use avatar_neural::training::step::gemm::{Epilogue, Mat, dots_with, gemm_then_with};
+use avatar_neural::training::step::weight_adam::weight_grad_adam_with;
 use avatar_neural::training::step::{KernelPath, kernel_name_of};
 use std::time::Instant;
 
@@ -107,5 +111,21 @@ fn main() {
         fwd * 1e3,
         grad * 1e3,
         back * 1e3
+    );
+    // Its weights' Adam step: the gradient written, then Adam's pass over parameters,
+    // gradient and moments (one thread: `AdamStep::apply`), against both in one pass.
+    let (mut p, mut m, mut v) = (w.clone(), vec![0f32; w.len()], vec![0f32; w.len()]);
+    let step = AdamStep { first: false, lr: 1e-4, factor: 1.0, eps: 1e-5 };
+    let adam = time(heads, wall, &mut || step.apply(&mut p, &g, &mut m, &mut v));
+    let fused = time(heads, wall, &mut || {
+        let shape = (poses, hidden, outputs);
+        weight_grad_adam_with(path, &a, &d, shape, &mut p, &mut m, &mut v, &mut g, step)
+    });
+    println!(
+        "its Adam step: weight gradient then Adam {:.2} ms ({:.2} + {:.2}), fused {:.2} ms",
+        (grad + adam) * 1e3,
+        grad * 1e3,
+        adam * 1e3,
+        fused * 1e3
     );
 }

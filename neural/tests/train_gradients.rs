@@ -14,8 +14,8 @@ use avatar_neural::model::siren::W0;
 use avatar_neural::training::hyper_fit::{SampledBatch, batch_loss_of, sample_batch};
 use avatar_neural::training::loss::{IgrWeights, igr_loss, scalar};
 use avatar_neural::training::step::{
-    HyperGradient, IgrPoints, KernelPath, SirenGradient, SirenShape, kernel_name_of,
-    set_kernel_path,
+    Adam, HyperBatch, HyperGradient, HyperLayout, IgrPoints, KernelPath, SirenGradient, SirenShape,
+    kernel_name_of, set_kernel_path,
 };
 use avatar_neural::*;
 use burn::module::Module;
@@ -207,7 +207,52 @@ fn check_hyper(
             l.total
         );
         assert_tensors_agree(&net, &ours, &burn_grad, &what, train_encoder);
+        if with_prior {
+            fused_steps_match(&config, &flat, &batch, train_encoder, &what);
+        }
     });
+}
+
+/// Two steps of `HyperGradient::step` (Adam fused into the heads' output weights' gradient)
+/// give the parameters of two steps of `compute` then `Adam::step` to the bit, every
+/// parameter (both steps: the first starts the moments, the second decays them).
+fn fused_steps_match(
+    config: &HyperConfig,
+    flat: &[f32],
+    batch: &HyperBatch,
+    train_encoder: bool,
+    what: &str,
+) {
+    let layout = HyperLayout::new(config);
+    let rate = |r: f64| if train_encoder { r } else { 0.0 };
+    let groups = [
+        (layout.encoder_range.clone(), rate(1e-4)),
+        (layout.heads_range.clone(), 3e-5),
+        (layout.bases_range.clone(), 3e-5),
+        (layout.sdf_range.clone(), 1e-4),
+    ];
+    let (mut plain, mut fused) = (flat.to_vec(), flat.to_vec());
+    let (mut adam_plain, mut adam_fused) = (Adam::default(), Adam::default());
+    let (mut g_plain, mut g_fused) = (vec![0f32; flat.len()], vec![0f32; flat.len()]);
+    let (mut gradient_plain, mut gradient_fused) =
+        (HyperGradient::new(config), HyperGradient::new(config).with_fused_adam(true));
+    for step in 0..2 {
+        let a = gradient_plain.compute(&plain, batch, train_encoder, &mut g_plain);
+        adam_plain.step(&mut plain, &g_plain, &groups);
+        let b = gradient_fused.step(
+            &mut fused,
+            batch,
+            train_encoder,
+            &mut g_fused,
+            &mut adam_fused,
+            &groups,
+        );
+        assert_eq!(a, b, "{what}: the loss of step {step}");
+    }
+    let moved = plain.iter().zip(flat).filter(|(a, b)| a != b).count();
+    assert!(moved > flat.len() / 2, "{what}: {moved} of {} parameters moved", flat.len());
+    let differ = plain.iter().zip(&fused).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+    assert_eq!(differ, 0, "{what}: parameters after two fused steps differ from compute + Adam");
 }
 
 fn small_step(poses: usize) -> HyperFitOptions {

@@ -484,7 +484,6 @@ impl FlatFit {
         let (gradient, adam) = optimisers.flat.as_mut().expect("set up by FlatFit::new");
         let (points, normals) = drawn.arrays();
         let batch = drawn.flat_batch(&points, &normals, signs, options);
-        let loss = gradient.compute(&self.params, &batch, rates.encoder > 0.0, &mut self.grad);
         let lay = gradient.layout();
         let groups = [
             (lay.encoder_range.clone(), rates.encoder),
@@ -492,7 +491,7 @@ impl FlatFit {
             (lay.bases_range.clone(), rates.heads),
             (lay.sdf_range.clone(), rates.sdf),
         ];
-        adam.step(&mut self.params, &self.grad, &groups);
-        loss
+        let train_encoder = rates.encoder > 0.0;
+        gradient.step(&mut self.params, &batch, train_encoder, &mut self.grad, adam, &groups)
     }
 }

@@ -215,10 +215,19 @@ pub fn head_forward(h: &HeadLayout, p: &[f32], cond: &[f32], rows: usize, pass: 
     linear(&pass.a[1], rows, p, &h.w[2], &h.b[2], &mut pass.out);
 }
 
+impl HeadPass {
+    /// The output layer's input (the second hidden layer's activations) [rows, hidden].
+    pub fn hidden(&self) -> &[f32] {
+        &self.a[1]
+    }
+}
+
 /// Reverse of [`head_forward`]: adds the head's gradient given d(loss)/d(out), but writes
 /// (not adds) the output layer's weight gradient (`grad[h.w[2]]`: most of the network's
-/// parameters, which the step therefore does not clear), and, if asked, adds d(loss)/d(condition)
-/// into `d_cond`.
+/// parameters, which the step therefore does not clear), or leaves it alone when not
+/// `output_weights` (`HyperGradient::step` makes it inside Adam's update), and, if asked,
+/// adds d(loss)/d(condition) into `d_cond`.
+#[allow(clippy::too_many_arguments)]
 pub fn head_backward(
     h: &HeadLayout,
     p: &[f32],
@@ -227,20 +236,39 @@ pub fn head_backward(
     d_out: &[f32],
     grad: &mut [f32],
     mut d_cond: Option<&mut [f32]>,
+    output_weights: bool,
 ) {
     let rows = pass.rows;
     let width = h.w[0].cols;
     let mut d_a = vec![0f32; rows * width];
-    // The output layer's two products (each a pass over its weights) on both cores.
+    // The output layer's two products (each a pass over its weights) on both cores; without
+    // the weight gradient, d_out W^T's two halves of W (the same sums as one product).
     let (w, outputs) = (&h.w[2], h.w[2].cols);
-    let g_w = &mut grad[w.range()];
-    rayon::join(
-        || gemm(Mat::new(&pass.a[1], rows, w.rows).t(), Mat::new(d_out, rows, outputs), 0.0, g_w),
-        || {
-            let w = Mat::new(slice(p, w), w.rows, outputs).t();
-            gemm(Mat::new(d_out, rows, outputs), w, 0.0, &mut d_a)
-        },
-    );
+    let (weights, d_out_m) = (slice(p, w), Mat::new(d_out, rows, outputs));
+    if output_weights {
+        let g_w = &mut grad[w.range()];
+        rayon::join(
+            || gemm(Mat::new(&pass.a[1], rows, w.rows).t(), d_out_m, 0.0, g_w),
+            || gemm(d_out_m, Mat::new(weights, w.rows, outputs).t(), 0.0, &mut d_a),
+        );
+    } else {
+        let half = w.rows / 2;
+        let (top, bottom) = weights.split_at(half * outputs);
+        let (mut d_top, mut d_bottom) =
+            (vec![0f32; rows * half], vec![0f32; rows * (w.rows - half)]);
+        rayon::join(
+            || gemm(d_out_m, Mat::new(top, half, outputs).t(), 0.0, &mut d_top),
+            || gemm(d_out_m, Mat::new(bottom, w.rows - half, outputs).t(), 0.0, &mut d_bottom),
+        );
+        for ((row, t), b) in d_a
+            .chunks_exact_mut(width)
+            .zip(d_top.chunks_exact(half))
+            .zip(d_bottom.chunks_exact(w.rows - half))
+        {
+            row[..half].copy_from_slice(t);
+            row[half..].copy_from_slice(b);
+        }
+    }
     add_column_sums(&d_out[..rows * outputs], &mut grad[h.b[2].range()]);
     let mut d_z = vec![0f32; rows * width];
     for l in (0..2).rev() {

@@ -4,6 +4,7 @@
 //! every adjoint back to the base SDF, the low-rank bases, the heads and (when it trains)
 //! the encoder. `tests/train_gradients.rs` holds all of it to burn's autodiff.
 
+use super::adam::Adam;
 use super::blocks::BlockRunner;
 use super::gemm::{Mat, gemm};
 use super::heads::{
@@ -11,10 +12,18 @@ use super::heads::{
 };
 use super::igr::IgrPoints;
 use super::layout::{Block, HeadLayout, HyperLayout};
+use super::weight_adam::weight_grad_adam;
 use crate::model::hyper::HyperConfig;
 use rayon::prelude::*;
 
 /// One step's data: B poses, each with `surface + off` rows of points.
+
+/// The heads' output weights (all heads) from which `HyperGradient::step` fuses Adam into their
+/// gradient's product: the paper preset's 84 M take it, the compact preset's do not. Small
+/// heads stay in the caches, where the two passes cost less than the fused product's many row
+/// streams (the compact step took 2-4 % more CPU fused).
+const FUSED_ADAM_MIN_WEIGHTS: usize = 8 << 20;
+
 pub struct HyperBatch<'a> {
     /// Encoder inputs [B, input_len].
     pub inputs: &'a [f32],
@@ -46,6 +55,9 @@ pub struct HyperGradient {
     d_outs: Vec<Vec<f32>>,
     encoder_pass: EncoderPass,
     cond: Vec<f32>,
+    /// Whether `step` fuses Adam into the heads' output weights' gradient (wide heads only:
+    /// [`FUSED_ADAM_MIN_WEIGHTS`]).
+    fused_adam: bool,
 }
 
 fn rebase(b: &Block, base: usize) -> Block {
@@ -69,7 +81,9 @@ impl HyperGradient {
             head_runs.push(start..end);
         }
         let heads = layout.heads.len();
+        let output_weights: usize = layout.heads.iter().map(|h| h.w[2].rows * h.w[2].cols).sum();
         HyperGradient {
+            fused_adam: output_weights >= FUSED_ADAM_MIN_WEIGHTS,
             runner: BlockRunner::new(layout.sdf_shape.clone()),
             layout,
             local_heads,
@@ -88,6 +102,12 @@ impl HyperGradient {
         &self.layout
     }
 
+    /// `step` with Adam fused into the heads' output weights' gradient or not, whatever their
+    /// size (the tests hold both ways to the same parameters on small networks).
+    pub fn with_fused_adam(self, fused: bool) -> HyperGradient {
+        HyperGradient { fused_adam: fused, ..self }
+    }
+
     /// Loss of `batch` under `params` and its gradient into `grad` (overwritten, the layout's
     /// length). The encoder's gradient is only computed when `train_encoder` (else zero).
     pub fn compute(
@@ -97,13 +117,62 @@ impl HyperGradient {
         train_encoder: bool,
         grad: &mut [f32],
     ) -> StepLoss {
+        self.compute_but(params, batch, train_encoder, grad, true)
+    }
+
+    /// One training step: the loss of `batch` under `params`, then Adam's update of `params`
+    /// with `groups`' rates (parameter ranges of the layout, as [`Adam::step`] takes them).
+    /// The same parameters as [`Self::compute`] then [`Adam::step`], but wide heads' output
+    /// weights (84 M of the paper preset's 85.6 M parameters) take Adam's update a tile at a
+    /// time as their gradient is made, so that gradient is never stored, read back or
+    /// cleared (the compact preset's small heads run the two passes:
+    /// [`FUSED_ADAM_MIN_WEIGHTS`]). `grad` (the layout's length) holds every other parameter's gradient after it;
+    /// the heads' output weights' part is left unspecified.
+    pub fn step(
+        &mut self,
+        params: &mut [f32],
+        batch: &HyperBatch,
+        train_encoder: bool,
+        grad: &mut [f32],
+        adam: &mut Adam,
+        groups: &[(std::ops::Range<usize>, f64)],
+    ) -> StepLoss {
+        if !self.fused_adam {
+            let loss = self.compute(params, batch, train_encoder, grad);
+            adam.step(params, grad, groups);
+            return loss;
+        }
+        let loss = self.compute_but(params, batch, train_encoder, grad, false);
+        let heads = &self.layout.heads;
+        let fused: Vec<std::ops::Range<usize>> = heads.iter().map(|h| h.w[2].range()).collect();
+        let poses = batch.points.len();
+        let (passes, d_outs) = (&self.head_passes, &self.d_outs);
+        adam.step_fused(params, grad, groups, &fused, &mut |i, p, g, m, v, step| {
+            let w = &heads[i].w[2];
+            let (x, d) = (passes[i].hidden(), &d_outs[i]);
+            weight_grad_adam(x, d, (poses, w.rows, w.cols), p, m, v, g, step)
+        });
+        loss
+    }
+
+    /// [`Self::compute`], leaving the heads' output weights' gradient alone unless
+    /// `output_weights`.
+    fn compute_but(
+        &mut self,
+        params: &[f32],
+        batch: &HyperBatch,
+        train_encoder: bool,
+        grad: &mut [f32],
+        output_weights: bool,
+    ) -> StepLoss {
         let lay = &self.layout;
         let shape = &lay.sdf_shape;
         let poses = batch.points.len();
         let input_len = lay.config.encoding.input_len();
         assert_eq!(batch.inputs.len(), poses * input_len, "one encoder input per pose");
         assert_eq!(params.len(), lay.len(), "parameters of another network");
-        // Cleared but the heads' output weights, which `head_backward` writes whole.
+        // Cleared but the heads' output weights, which `head_backward` writes whole (or
+        // `step`'s Adam makes).
         let mut cleared = 0;
         for h in &lay.heads {
             let w = h.w[2].range();
@@ -262,7 +331,8 @@ impl HyperGradient {
                 .zip(&self.head_passes)
                 .zip(&self.d_outs)
                 .for_each(|(((((g, d_cond), h), run), pass), d_out)| {
-                    head_backward(h, &params[run.clone()], cond, pass, d_out, g, d_cond)
+                    let p = &params[run.clone()];
+                    head_backward(h, p, cond, pass, d_out, g, d_cond, output_weights)
                 });
         }
         if train_encoder && let Some(e) = &lay.encoder {

@@ -8,7 +8,7 @@
 //! - `blocks`: blocks of points spread over rayon's threads, buffers kept across steps.
 //! - `igr`: the IGR loss per point and its adjoints.
 //! - `heads`, `hyper_step`: the encoder and heads, and the whole hypernetwork step.
-//! - `adam`: Adam matching burn's.
+//! - `adam`: Adam matching burn's; `weight_adam`: Adam fused into a weight gradient's product.
 
 pub mod adam;
 pub mod blocks;
@@ -20,6 +20,7 @@ pub mod igr;
 mod kernel;
 pub mod layout;
 pub mod siren_grad;
+pub mod weight_adam;
 
 /// Which kernels the training path's products and element-wise passes run. A test and
 /// benchmark choice, never read from the environment: every path gives the same gradients to

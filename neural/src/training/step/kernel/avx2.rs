@@ -255,9 +255,45 @@ unsafe fn epilogue<const R: usize>(
                     }
                 }
             }
+            Raw::Adam { m, v: vm, step } => {
+                let ([b1, b2], ahead) = (super::super::adam::BETAS, ADAM_AHEAD);
+                for (d, acc) in acc.iter().enumerate() {
+                    for (v, &g) in acc.iter().enumerate() {
+                        let at = tile_at(d, v);
+                        let (po, mo, vo) = (out.add(at), m.add(at), vm.add(at));
+                        if v == 0 {
+                            for x in [po, mo, vo] {
+                                _mm_prefetch::<_MM_HINT_T0>(x.wrapping_add(ahead).cast());
+                            }
+                        }
+                        // adam_update's operations in its order, unfused: the same bits.
+                        let gm = _mm256_mul_ps(g, set(1.0 - b1));
+                        let gv = _mm256_mul_ps(_mm256_mul_ps(g, g), set(1.0 - b2));
+                        let (m1, v1) = if step.first {
+                            (gm, gv)
+                        } else {
+                            let m0 = _mm256_mul_ps(load(mo), set(b1));
+                            (
+                                _mm256_add_ps(m0, gm),
+                                _mm256_add_ps(_mm256_mul_ps(load(vo), set(b2)), gv),
+                            )
+                        };
+                        store(mo, m1);
+                        store(vo, v1);
+                        let den = _mm256_add_ps(_mm256_sqrt_ps(v1), set(step.eps));
+                        let q = _mm256_div_ps(_mm256_mul_ps(m1, set(step.factor)), den);
+                        store(po, _mm256_sub_ps(load(po), _mm256_mul_ps(set(step.lr), q)));
+                    }
+                }
+            }
         }
     }
 }
+
+/// How far ahead (in floats) the Adam epilogue prefetches its rows of parameters and moments:
+/// the row tiles' next tiles along the row (18 streams for a 6-row tile, more than the
+/// hardware prefetcher follows).
+const ADAM_AHEAD: usize = 8 * NR;
 
 /// All eight lanes of a masked move.
 #[cfg(debug_assertions)]

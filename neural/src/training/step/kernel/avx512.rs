@@ -38,25 +38,50 @@ pub unsafe fn gemm(
         while j0 < n {
             // SAFETY: the tile lies inside the m x n result and reads rows i0..i0+rows of a and
             // columns j0..j0+32 of b (the caller's contract).
-            unsafe {
-                match rows {
-                    12 => tile::<12>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    11 => tile::<11>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    10 => tile::<10>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    9 => tile::<9>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    8 => tile::<8>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    7 => tile::<7>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    6 => tile::<6>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    5 => tile::<5>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    4 => tile::<4>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    3 => tile::<3>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    2 => tile::<2>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                    _ => tile::<1>(k, n, a, rsa, csa, b, out, ep, i0, j0),
-                }
-            }
+            unsafe { tile_of(rows, k, n, a, rsa, csa, b, out, ep, i0, j0) };
             j0 += NR;
         }
         i0 += MR;
+    }
+}
+
+/// [`tile`] of `rows` rows, out of line: without target features of its own, so the kernel
+/// cannot be inlined into it nor it into `gemm` (rustc 1.95 drops `#[inline(never)]` on a
+/// function with target features; `avx2::tile_of` is the same shim).
+///
+/// # Safety
+/// As [`tile`]'s.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn tile_of(
+    rows: usize,
+    k: usize,
+    n: usize,
+    a: *const f32,
+    rsa: isize,
+    csa: isize,
+    b: *const f32,
+    out: *mut f32,
+    ep: Raw,
+    i0: usize,
+    j0: usize,
+) {
+    // SAFETY: the caller's contract; it has checked AVX-512F.
+    unsafe {
+        match rows {
+            12 => tile::<12>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            11 => tile::<11>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            10 => tile::<10>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            9 => tile::<9>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            8 => tile::<8>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            7 => tile::<7>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            6 => tile::<6>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            5 => tile::<5>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            4 => tile::<4>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            3 => tile::<3>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            2 => tile::<2>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+            _ => tile::<1>(k, n, a, rsa, csa, b, out, ep, i0, j0),
+        }
     }
 }
 
@@ -160,6 +185,7 @@ unsafe fn epilogue(acc: &[[__m512; 2]], n: usize, out: *mut f32, ep: Raw, i0: us
                     }
                 }
             }
+            Raw::Adam { .. } => unreachable!("weight_adam runs Adam's epilogue on the AVX2 kernel"),
         }
     }
 }

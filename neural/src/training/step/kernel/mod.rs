@@ -59,7 +59,9 @@ pub fn current() -> Option<Isa> {
 }
 
 /// An epilogue over raw pointers: every pointer addresses a buffer laid out like the result
-/// (`bias` is one row). See `gemm::Epilogue` for the meaning of each.
+/// (`bias` is one row). See `gemm::Epilogue` for the meaning of each; `Adam` (no `Epilogue`
+/// of its own: `weight_adam`) applies Adam's `step` to a weight gradient that is never
+/// stored, `out` holding the parameters and `m`, `v` the moments.
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 pub enum Raw {
@@ -68,6 +70,7 @@ pub enum Raw {
     AlsoTimes { factor: *const f32, times: *mut f32 },
     GradChain { scale: f32, v: *mut f32, h: *const f32, c: *const f32 },
     AddTimes { factor: *const f32 },
+    Adam { m: *mut f32, v: *mut f32, step: super::adam::AdamStep },
 }
 
 /// The columns of the result a kernel's tile spans: `gemm` runs on `isa` when n is a
