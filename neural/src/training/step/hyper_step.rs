@@ -16,14 +16,13 @@ use super::weight_adam::weight_grad_adam;
 use crate::model::hyper::HyperConfig;
 use rayon::prelude::*;
 
-/// One step's data: B poses, each with `surface + off` rows of points.
-
 /// The heads' output weights (all heads) from which `HyperGradient::step` fuses Adam into their
 /// gradient's product: the paper preset's 84 M take it, the compact preset's do not. Small
 /// heads stay in the caches, where the two passes cost less than the fused product's many row
 /// streams (the compact step took 2-4 % more CPU fused).
 const FUSED_ADAM_MIN_WEIGHTS: usize = 8 << 20;
 
+/// One step's data: B poses, each with `surface + off` rows of points.
 pub struct HyperBatch<'a> {
     /// Encoder inputs [B, input_len].
     pub inputs: &'a [f32],
