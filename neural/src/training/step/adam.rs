@@ -6,25 +6,10 @@
 use rayon::prelude::*;
 use std::ops::Range;
 
-const BETA1: f32 = 0.9;
-const BETA2: f32 = 0.999;
 const EPSILON: f32 = 1e-5;
 
-/// Adam's decay rates of the first and second moments.
-pub const BETAS: [f32; 2] = [BETA1, BETA2];
-
-/// One group's step of Adam: what the update of a parameter needs besides its gradient and
-/// moments.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AdamStep {
-    /// The group's first step: the moments start from this gradient (as burn's do).
-    pub first: bool,
-    pub lr: f32,
-    /// sqrt(1 - beta2^t) / (1 - beta1^t).
-    pub factor: f32,
-    /// epsilon sqrt(1 - beta2^t).
-    pub eps: f32,
-}
+pub use super::adam_step::{AdamStep, BETAS};
+use super::adam_step::{BETA1, BETA2};
 
 impl AdamStep {
     /// Parameters `p` and moments `m`, `v` updated from the gradient `g`, element by element

@@ -11,6 +11,7 @@
 //! - `adam`: Adam matching burn's; `weight_adam`: Adam fused into a weight gradient's product.
 
 pub mod adam;
+mod adam_step;
 pub mod blocks;
 mod elementwise;
 pub mod gemm;

@@ -256,7 +256,7 @@ unsafe fn epilogue<const R: usize>(
                 }
             }
             Raw::Adam { m, v: vm, step } => {
-                let ([b1, b2], ahead) = (super::super::adam::BETAS, ADAM_AHEAD);
+                let ([b1, b2], ahead) = (super::super::adam_step::BETAS, ADAM_AHEAD);
                 for (d, acc) in acc.iter().enumerate() {
                     for (v, &g) in acc.iter().enumerate() {
                         let at = tile_at(d, v);

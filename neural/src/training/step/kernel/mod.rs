@@ -70,7 +70,7 @@ pub enum Raw {
     AlsoTimes { factor: *const f32, times: *mut f32 },
     GradChain { scale: f32, v: *mut f32, h: *const f32, c: *const f32 },
     AddTimes { factor: *const f32 },
-    Adam { m: *mut f32, v: *mut f32, step: super::adam::AdamStep },
+    Adam { m: *mut f32, v: *mut f32, step: super::adam_step::AdamStep },
 }
 
 /// The columns of the result a kernel's tile spans: `gemm` runs on `isa` when n is a
