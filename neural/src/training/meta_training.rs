@@ -436,7 +436,7 @@ pub fn start_from_static(
     let ck = Checkpoint::new(options, "sdf", options.sdf_iterations, 0.0).with_static_from(Some(
         model.prior().map_or_else(
             || model_path.display().to_string(),
-            |p| format!("the prior {} (sha256 {})", p.name, &p.sha256[..p.sha256.len().min(12)]),
+            |p| format!("the prior {}", p.label()),
         ),
     ));
     weights_file::write(&ckpt_path, &ck, &model.static_sdf)

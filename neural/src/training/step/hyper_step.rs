@@ -125,8 +125,8 @@ impl HyperGradient {
     /// weights (84 M of the paper preset's 85.6 M parameters) take Adam's update a tile at a
     /// time as their gradient is made, so that gradient is never stored, read back or
     /// cleared (the compact preset's small heads run the two passes:
-    /// [`FUSED_ADAM_MIN_WEIGHTS`]). `grad` (the layout's length) holds every other parameter's gradient after it;
-    /// the heads' output weights' part is left unspecified.
+    /// [`FUSED_ADAM_MIN_WEIGHTS`]). `grad` (the layout's length) holds every other
+    /// parameter's gradient after it; the heads' output weights' part is left unspecified.
     pub fn step(
         &mut self,
         params: &mut [f32],
