@@ -1,6 +1,7 @@
 //! A vertical slice of an avatar's canonical SDF (zero pose) as a PNG: inside dark, outside
 //! light, the zero level black, 1 pixel = 5 mm. Shows how thick a garment's walls are.
-//!   cargo run --example sdf_slice -- AVATAR OUT.png [z|x] [OFFSET_M] [CAPTURE FRAME]
+//!   cargo run --example sdf_slice -- AVATAR OUT.png [z|x|y] [OFFSET_M] [CAPTURE FRAME]
+//! (y: a horizontal slice seen from above, the body's front down the image).
 //! With CAPTURE and FRAME: the SDF conditioned on that frame's pose (a training pose) instead.
 use avatar_core::body::BodyParams;
 use avatar_core::canonical::FieldCache;
@@ -38,6 +39,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let v = (h as f32 / 2.0 - r as f32) * px;
             if axis == "x" {
                 centre + Vec3::new(offset, v, u)
+            } else if axis == "y" {
+                // Seen from above: front (+z) down the image.
+                centre + Vec3::new(u, offset, -v)
             } else {
                 centre + Vec3::new(u, v, offset)
             }

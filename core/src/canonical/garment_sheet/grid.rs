@@ -175,6 +175,49 @@ pub fn fill_values(
     value
 }
 
+/// `value` on the cells of `mask` smoothed by `sweeps` Jacobi sweeps: each cell moves half
+/// way toward the mean of its neighbours along the grid's axes (round the body, up it) where
+/// it has cloth on both sides along that axis. Lumps a few cells across (the fitted SDF's
+/// specks, the depth's noise) flatten, while a radius that changes linearly along a row or a
+/// column (a cone, the slope of a flare) stays exactly, at the borders too: a waist or a hem
+/// cell has no second neighbour up or down, so it is smoothed only along the row.
+pub fn smooth_values(shape: Shape, mask: &[bool], value: &mut [Option<f32>], sweeps: usize) {
+    let columns = shape.columns;
+    let cloth = |value: &[Option<f32>], r: usize, c: usize| {
+        let i = shape.index(r, c);
+        if mask[i] { value[i] } else { None }
+    };
+    for _ in 0..sweeps {
+        let next: Vec<Option<f32>> = (0..shape.len())
+            .map(|i| {
+                let v = value[i]?;
+                if !mask[i] {
+                    return Some(v);
+                }
+                let (r, c) = (i / columns, i % columns);
+                let round = (cloth(value, r, c + columns - 1), cloth(value, r, c + 1));
+                let up = (
+                    r.checked_sub(1).and_then(|d| cloth(value, d, c)),
+                    (r + 1 < shape.rows).then(|| cloth(value, r + 1, c)).flatten(),
+                );
+                let means: Vec<f32> = [round, up]
+                    .into_iter()
+                    .filter_map(|pair| match pair {
+                        (Some(a), Some(b)) => Some(0.5 * (a + b)),
+                        _ => None,
+                    })
+                    .collect();
+                if means.is_empty() {
+                    return Some(v);
+                }
+                let mean = means.iter().sum::<f32>() / means.len() as f32;
+                Some(v + 0.5 * (mean - v))
+            })
+            .collect();
+        value.copy_from_slice(&next);
+    }
+}
+
 /// The median of the known values among a cell's eight neighbours (the columns wrapping).
 pub fn neighbour_median(shape: Shape, known: &[Option<f32>], cell: usize) -> Option<f32> {
     let (r, c) = ((cell / shape.columns) as isize, cell % shape.columns);
