@@ -75,8 +75,8 @@ pub struct SheetGridOptions {
     pub hem_window: usize,
     /// Sweeps of the radius's smoothing over the sheet (`grid::smooth_values`; 0: none): the
     /// rays' hits carry the fitted SDF's specks and the depth's noise as lumps a few
-    /// centimetres across, which cost the sheet's normals (on subject 1001's loose outfits 30
-    /// sweeps raised NC by 0.003-0.015 at an unchanged Chamfer-L2, docs/integrity.md).
+    /// centimetres across, which cost the sheet's normals (on four subjects' loose outfits 30
+    /// sweeps raised NC by 0.004-0.019 at an unchanged Chamfer-L2, docs/integrity.md).
     pub radius_smoothing: usize,
 }
 
