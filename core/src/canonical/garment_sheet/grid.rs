@@ -200,17 +200,17 @@ pub fn smooth_values(shape: Shape, mask: &[bool], value: &mut [Option<f32>], swe
                     r.checked_sub(1).and_then(|d| cloth(value, d, c)),
                     (r + 1 < shape.rows).then(|| cloth(value, r + 1, c)).flatten(),
                 );
-                let means: Vec<f32> = [round, up]
+                let (sum, axes) = [round, up]
                     .into_iter()
                     .filter_map(|pair| match pair {
                         (Some(a), Some(b)) => Some(0.5 * (a + b)),
                         _ => None,
                     })
-                    .collect();
-                if means.is_empty() {
+                    .fold((0.0, 0), |(sum, axes), m| (sum + m, axes + 1));
+                if axes == 0 {
                     return Some(v);
                 }
-                let mean = means.iter().sum::<f32>() / means.len() as f32;
+                let mean = sum / axes as f32;
                 Some(v + 0.5 * (mean - v))
             })
             .collect();
